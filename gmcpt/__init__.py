@@ -1,0 +1,35 @@
+"""gmcpt: sparse path tracing in Mitsuba 3 with image completion.
+
+Importing the package finds an LLVM for Dr.Jit (see :mod:`gmcpt._llvm`),
+selects a Mitsuba variant when none is set (``$GMCPT_VARIANT``, else
+``cuda_ad_rgb`` where CUDA works, else ``llvm_ad_rgb``) and registers the
+``masked_path`` integrator with Mitsuba, so scene files that name it load with
+``mi.load_file``.
+
+The pipeline, one plain function per stage::
+
+    render_sparse_frame(scene, ...)      -> SparseFrame   (gmcpt.render)
+    complete(frame, method)              -> Completion    (gmcpt.completion)
+    write_outputs(path, frame, result)                     (gmcpt.outputs)
+"""
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+from ._llvm import configure_llvm as _configure_llvm
+from .errors import GmcptError
+
+_configure_llvm()
+
+from .variant import ensure_variant  # noqa: E402
+
+ensure_variant()
+
+import mitsuba_plugins  # noqa: E402,F401  (registers masked_path)
+
+from .frame import SparseFrame  # noqa: E402
+from .completion import Completion, complete, methods  # noqa: E402
+from .render import render_sparse_frame  # noqa: E402
+
+__all__ = ["GmcptError", "SparseFrame", "Completion", "complete", "methods",
+           "render_sparse_frame", "ensure_variant", "__version__"]

@@ -1,0 +1,162 @@
+"""Command line: render a scene sparsely, complete it, write EXR + PNG + JSON.
+
+    python render_and_complete.py SCENE.xml --out OUT.exr [options]
+    python -m gmcpt SCENE.xml --out OUT.exr [options]
+
+Bad input ends with one ``error: ...`` line on stderr and exit status 2; no
+output file is written or replaced.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+from .errors import GmcptError
+
+EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 1
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, our exit code
+        raise GmcptError(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="render_and_complete.py",
+                     description="Path trace a random subset of pixels of a Mitsuba 3 scene and complete the image.")
+    parser.add_argument("scene", help="Mitsuba 3 scene XML (any integrator; it is wrapped by masked_path)")
+    parser.add_argument("--out", required=True, help="output EXR; OUT.png and OUT.json are written beside it")
+    parser.add_argument("--rate", type=float, help="fraction of pixels to path trace, in (0, 1] (default: scene's, else 0.3)")
+    parser.add_argument("--spp", type=int, help="samples per traced pixel (default: the scene's sampler)")
+    parser.add_argument("--seed", type=int, help="seed of mask and samplers (default: scene's, else 0)")
+    parser.add_argument("--mask", help="sampling pattern: random, stratified, blue_noise (default: random)")
+    parser.add_argument("--method", help="completion method (default: the scene's, else interp); see --list-methods")
+    parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="override the film resolution")
+    parser.add_argument("--feature-spp", type=int, help="primary samples per pixel of the feature pass (default 1)")
+    parser.add_argument("--reference", help="reference EXR: adds MSE/PSNR/SSIM (tonemapped sRGB) and relMSE to the JSON")
+    parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
+                        help="set a scene parameter ($NAME in the XML); repeatable")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    return parser
+
+
+def _validate(args) -> None:
+    from .completion import get_method
+    from .imageio import check_writable
+    from .masks import PATTERNS, check_rate
+
+    if not args.out.lower().endswith(".exr"):
+        raise GmcptError(f"--out must name an .exr file, got {args.out}")
+    for path in _outputs(args.out):
+        check_writable(path)
+    if args.rate is not None:
+        check_rate(args.rate)
+    if args.spp is not None and args.spp < 1:
+        raise GmcptError(f"--spp must be >= 1, got {args.spp}")
+    if args.feature_spp is not None and args.feature_spp < 1:
+        raise GmcptError(f"--feature-spp must be >= 1, got {args.feature_spp}")
+    if args.mask is not None and args.mask not in PATTERNS:
+        raise GmcptError(f"unknown mask pattern {args.mask!r}; choose from {', '.join(PATTERNS)}")
+    if args.method is not None:
+        get_method(args.method)
+    if args.res is not None and min(args.res) < 1:
+        raise GmcptError(f"--res must be positive, got {args.res[0]} {args.res[1]}")
+    for define in args.defines:
+        if "=" not in define:
+            raise GmcptError(f"-D expects NAME=VALUE, got {define!r}")
+
+
+def _outputs(out: str):
+    from .outputs import sidecar_paths
+    return sidecar_paths(out)
+
+
+def run(args, say=lambda message: None) -> dict:
+    """Render, complete and write; returns the JSON record."""
+    from .completion import complete
+    from .imageio import read_rgb_exr
+    from .metrics import all_metrics
+    from .outputs import library_versions, write_outputs
+    from .render import render_sparse_frame
+    from .scene import load_scene, masked_integrator
+
+    started = time.perf_counter()
+    _validate(args)
+    reference = read_rgb_exr(args.reference) if args.reference else None
+    say(f"loading {args.scene}")
+    parameters = dict(define.split("=", 1) for define in args.defines)
+    scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
+    integrator = masked_integrator(scene, rate=args.rate, mask=args.mask, seed=args.seed,
+                                   feature_spp=args.feature_spp, completion=args.method)
+    settings = integrator.settings(spp=args.spp or 0)
+    frame, timings = render_sparse_frame(scene, integrator.integrator, None, settings, progress=say)
+    height, width = frame.shape
+    if reference is not None and reference.shape != (height, width, 3):
+        raise GmcptError(f"reference {args.reference} is {reference.shape[1]}x{reference.shape[0]}, "
+                         f"the render is {width}x{height}")
+    say(f"completing with {integrator.completion!r}")
+    result = complete(frame, integrator.completion)
+    timings.update(result.timings)
+    record = {
+        "scene": str(Path(args.scene).resolve()),
+        "output": str(Path(args.out).resolve()),
+        "parameters": {"rate": settings.rate, "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
+                       "feature_spp": settings.feature_spp, "method": integrator.completion,
+                       "resolution": [width, height], "scene_parameters": parameters,
+                       "integrator": " ".join(str(integrator.integrator).split())},
+        "versions": library_versions(),
+        "rendered_fraction": frame.rendered_fraction,
+        "traced_pixels": frame.info["traced_pixels"],
+        "nonfinite_samples": frame.info["nonfinite_samples"],
+        "timings": timings,
+    }
+    if reference is not None:
+        say("computing metrics against the reference")
+        record["reference"] = str(Path(args.reference).resolve())
+        record["metrics"] = all_metrics(result.image, reference)
+    timings["total_s"] = time.perf_counter() - started
+    written = write_outputs(args.out, frame, result.image, record)
+    say("wrote " + ", ".join(str(p) for p in written))
+    return record
+
+
+def main(argv: list[str] | None = None) -> int:
+    start = time.perf_counter()
+    quiet = False
+
+    def say(message: str) -> None:
+        if not quiet:
+            print(f"[gmcpt {time.perf_counter() - start:6.1f}s] {message}", file=sys.stderr, flush=True)
+
+    try:
+        args = build_parser().parse_args(argv)
+        quiet = args.quiet
+        import gmcpt  # noqa: F401  (LLVM, variant, plugin registration)
+        import mitsuba as mi
+        mi.set_log_level(mi.LogLevel.Error)
+        record = run(args, say)
+        if "metrics" in record:
+            m = record["metrics"]
+            say(f"PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  MSE {m['mse']:.3e}  relMSE {m['relmse']:.3e}")
+        return 0
+    except GmcptError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except Exception as error:  # an internal error is still one line, unless debugging
+        if os.environ.get("GMCPT_DEBUG"):
+            raise
+        message = " ".join(str(error).split()) or type(error).__name__
+        print(f"error: internal error ({type(error).__name__}): {message} (set GMCPT_DEBUG=1 for a traceback)",
+              file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,94 @@
+"""Image files: multi-layer EXR in and out, sRGB PNG previews, atomic writes.
+
+Writers write where they are told; callers wrap them in :func:`atomic_output`
+(the data lands in a temporary file beside the target and is renamed over it
+only when complete), so an error never leaves a half-written or clobbered file.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import GmcptError
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | os.PathLike):
+    """Yield a temporary path next to ``path``; rename it over ``path`` on success."""
+    path = Path(path)
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    os.close(handle)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the usual mode
+    try:
+        yield temporary
+        os.replace(temporary, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(temporary)
+
+
+def check_writable(path: str | os.PathLike) -> Path:
+    """Fail early, with one line, if ``path`` cannot be created or replaced."""
+    path = Path(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise GmcptError(f"output path {path} is a directory")
+    if not parent.is_dir():
+        raise GmcptError(f"output directory {parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise GmcptError(f"output directory {parent} is not writable")
+    return path
+
+
+def write_exr(path: str | os.PathLike, channels: dict[str, np.ndarray], attributes: dict | None = None) -> None:
+    """Write float32 ``channels`` (name -> (H, W) array) as one ZIP-compressed EXR."""
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    header.update({key: str(value) for key, value in (attributes or {}).items()})
+    pixels = {name: np.ascontiguousarray(array, dtype=np.float32) for name, array in channels.items()}
+    with OpenEXR.File(header, pixels) as exr:
+        exr.write(str(path))
+
+
+def read_exr(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Read every channel of an EXR file as float32 (H, W) arrays."""
+    import OpenEXR
+
+    if not Path(path).is_file():
+        raise GmcptError(f"EXR file not found: {path}")
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as exr:
+            return {name: np.asarray(channel.pixels, dtype=np.float32)
+                    for name, channel in exr.channels().items()}
+    except GmcptError:
+        raise
+    except Exception as error:
+        raise GmcptError(f"cannot read EXR {path}: {error}") from None
+
+
+def read_rgb_exr(path: str | os.PathLike) -> np.ndarray:
+    """The top-level R, G, B channels of an EXR file as (H, W, 3) float32."""
+    channels = read_exr(path)
+    if not {"R", "G", "B"} <= channels.keys():
+        raise GmcptError(f"EXR {path} has no R, G, B channels")
+    return np.stack([channels[c] for c in "RGB"], axis=-1)
+
+
+def write_png(path: str | os.PathLike, linear: np.ndarray) -> None:
+    """Write linear (H, W, 3) radiance as an 8-bit sRGB PNG preview.
+
+    Uses Mitsuba's own conversion (clamp to [0, 1], sRGB transfer function), as
+    ``mi.util.write_bitmap`` does; it matches :func:`gmcpt.metrics.tonemap`.
+    """
+    import mitsuba as mi
+
+    bitmap = mi.Bitmap(np.ascontiguousarray(linear, dtype=np.float32), mi.Bitmap.PixelFormat.RGB)
+    bitmap = bitmap.convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, True)
+    bitmap.write(str(path))

@@ -1,0 +1,54 @@
+"""Image metrics, as METHOD.md section 6 defines them.
+
+MSE, PSNR and SSIM are computed on the tonemapped sRGB image in [0, 1]
+(:func:`tonemap`: clamp linear radiance to [0, 1], then the sRGB transfer
+function, which is what tev and most viewers display); relMSE on linear
+radiance, ``mean((x - r)^2 / (r^2 + 0.01))``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def tonemap(linear: np.ndarray) -> np.ndarray:
+    """Linear radiance -> display sRGB in [0, 1] (clamp, then sRGB OETF)."""
+    import colour
+
+    return np.asarray(colour.cctf_encoding(np.clip(linear, 0.0, 1.0), function="sRGB"), dtype=np.float32)
+
+
+def _check(image: np.ndarray, reference: np.ndarray) -> None:
+    if image.shape != reference.shape:
+        raise ValueError(f"image shape {image.shape} differs from reference shape {reference.shape}")
+
+
+def mse(image: np.ndarray, reference: np.ndarray) -> float:
+    """Mean squared error of the tonemapped images."""
+    _check(image, reference)
+    return float(np.mean((tonemap(image).astype(np.float64) - tonemap(reference)) ** 2))
+
+
+def psnr(image: np.ndarray, reference: np.ndarray) -> float:
+    """Peak signal-to-noise ratio (dB) of the tonemapped images (peak 1); inf if identical."""
+    error = mse(image, reference)
+    return float("inf") if error == 0 else float(10.0 * np.log10(1.0 / error))
+
+
+def ssim(image: np.ndarray, reference: np.ndarray) -> float:
+    """Structural similarity of the tonemapped images (scikit-image, 7x7 window)."""
+    from skimage.metrics import structural_similarity
+
+    _check(image, reference)
+    return float(structural_similarity(tonemap(image), tonemap(reference), channel_axis=-1, data_range=1.0))
+
+
+def relmse(image: np.ndarray, reference: np.ndarray) -> float:
+    """Relative MSE on linear radiance: mean((x - r)^2 / (r^2 + 0.01))."""
+    _check(image, reference)
+    x, r = image.astype(np.float64), reference.astype(np.float64)
+    return float(np.mean((x - r) ** 2 / (r ** 2 + 0.01)))
+
+
+def all_metrics(image: np.ndarray, reference: np.ndarray) -> dict[str, float]:
+    return {"mse": mse(image, reference), "psnr": psnr(image, reference),
+            "ssim": ssim(image, reference), "relmse": relmse(image, reference)}

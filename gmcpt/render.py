@@ -1,0 +1,198 @@
+"""Render a sparse frame: dense feature buffers + path tracing of masked pixels.
+
+The radiance pass builds its ray batch from the *compacted* list of traced
+pixels (``n_traced * spp`` lanes), so its cost scales with the sampling rate.
+Lane ``k * spp + s`` is sample ``s`` of the ``k``-th traced pixel, and the
+sampler is seeded for exactly that many lanes, drawing in the same order as
+Mitsuba's own ``SamplingIntegrator``: at rate 1 the samples, and so the image,
+equal the stock integrator's for the same seed.
+
+Each pixel's value is the box-filter estimate (plain mean of its samples);
+non-finite samples are left out of the mean and counted. The variance of the
+mean is kept alongside.
+
+The feature pass traces ``feature_spp`` primary rays per pixel, all pixels,
+and records albedo, shading normal, depth and light visibility (one shadow ray
+towards a sampled emitter point per primary ray).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from .frame import SparseFrame
+from .masks import make_mask
+
+MAX_LANES = 1 << 24  # split the radiance pass into several when larger
+FEATURE_SEED_OFFSET = 0x5EED_F00D
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """What to trace. ``spp=0`` keeps the sensor's sample count."""
+
+    rate: float = 0.3
+    pattern: str = "random"
+    seed: int = 0
+    spp: int = 0
+    feature_spp: int = 1
+
+
+def _sensor_film_size(sensor: mi.Sensor) -> tuple[int, int]:
+    size = sensor.film().crop_size()
+    return int(size[1]), int(size[0])
+
+
+def _primary_rays(sensor: mi.Sensor, sampler: mi.Sampler, pixel: mi.UInt32, width: int,
+                  spp: int) -> tuple[mi.RayDifferential3f, mi.Color3f]:
+    """Rays through ``pixel`` (flat index per lane), drawn as Mitsuba's integrators do."""
+    film = sensor.film()
+    pos = mi.Vector2u(pixel % width, pixel // width) + mi.Vector2u(film.crop_offset())
+    pos_f = mi.Vector2f(pos) + sampler.next_2d()
+    scale = dr.rcp(mi.ScalarVector2f(film.crop_size()))
+    offset = -mi.ScalarVector2f(film.crop_offset()) * scale
+    aperture = sampler.next_2d() if sensor.needs_aperture_sample() else mi.Point2f(0.5)
+    ray_time = mi.Float(sensor.shutter_open())
+    if sensor.shutter_open_time() > 0:
+        ray_time += sampler.next_1d() * sensor.shutter_open_time()
+    ray, weight = sensor.sample_ray_differential(time=ray_time, sample1=0.0,
+                                                 sample2=dr.fma(pos_f, scale, offset), sample3=aperture)
+    ray.scale_differential(dr.rsqrt(float(spp)))
+    return ray, weight
+
+
+def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int, lanes: int) -> mi.Sampler:
+    sampler = sensor.sampler().clone()
+    sampler.set_sample_count(spp)
+    sampler.set_samples_per_wavefront(spp)
+    sampler.seed(seed, lanes)
+    return sampler
+
+
+def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = 1, seed: int = 0) -> dict:
+    """Albedo, shading normal, depth and visibility for every pixel.
+
+    Returns a dict of float32 arrays: ``albedo`` and ``normal`` (H, W, 3),
+    ``depth`` and ``visibility`` (H, W).
+    """
+    height, width = _sensor_film_size(sensor)
+    lanes = height * width * feature_spp
+    sampler = _seeded_sampler(sensor, feature_spp, seed + FEATURE_SEED_OFFSET, lanes)
+    pixel = dr.arange(mi.UInt32, lanes) // feature_spp
+    ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
+    si = scene.ray_intersect(ray)
+    hit = si.is_valid()
+    bsdf = si.bsdf(ray)
+    albedo = dr.select(hit, bsdf.eval_diffuse_reflectance(si, hit), 0.0)
+    normal = dr.select(hit, si.sh_frame.n, 0.0)
+    distance = dr.select(hit, si.t, 0.0)
+    _, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, hit)
+    visible = dr.select(hit & ((emitter_weight[0] + emitter_weight[1] + emitter_weight[2]) > 0), 1.0, 0.0)
+    dr.eval(albedo, normal, distance, visible)
+
+    def per_pixel(values, channels):
+        array = np.asarray(values, dtype=np.float32)
+        array = array.T if channels > 1 else array
+        return array.reshape(height, width, feature_spp, *(() if channels == 1 else (channels,))).mean(axis=2)
+
+    hit_fraction = per_pixel(mi.Float(dr.select(hit, 1.0, 0.0)), 1)
+    distance = per_pixel(distance, 1) / np.maximum(hit_fraction, 1e-6)
+    max_distance = float(distance.max()) if (hit_fraction > 0).any() else 1.0
+    depth = np.where(hit_fraction > 0, distance / max(max_distance, 1e-12), 1.0)
+    normal = per_pixel(normal, 3)
+    normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-6)
+    return {"albedo": per_pixel(albedo, 3), "normal": normal.astype(np.float32),
+            "depth": depth.astype(np.float32), "visibility": per_pixel(visible, 1)}
+
+
+def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
+                 pixels: np.ndarray, spp: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Path trace ``spp`` samples for each flat pixel index in ``pixels``.
+
+    Returns ``(sum, sum_of_squares, count)`` over the finite samples, shapes
+    (n, 3), (n, 3) and (n,).
+    """
+    _, width = _sensor_film_size(sensor)
+    lanes = pixels.size * spp
+    sampler = _seeded_sampler(sensor, spp, seed, lanes)
+    pixel = dr.gather(mi.UInt32, mi.UInt32(pixels.astype(np.uint32)), dr.arange(mi.UInt32, lanes) // spp)
+    ray, weight = _primary_rays(sensor, sampler, pixel, width, spp)
+    radiance, _, _ = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
+    radiance = weight * radiance
+    finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
+    radiance = dr.select(finite, radiance, 0.0)
+    total = mi.Color3f(*(dr.block_sum(radiance[c], spp) for c in range(3)))
+    squares = mi.Color3f(*(dr.block_sum(dr.square(radiance[c]), spp) for c in range(3)))
+    count = dr.block_sum(dr.select(finite, 1.0, 0.0), spp)
+    dr.eval(total, squares, count)
+    return (np.asarray(total, dtype=np.float64).T, np.asarray(squares, dtype=np.float64).T,
+            np.asarray(count, dtype=np.float64))
+
+
+def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,
+                        settings: RenderSettings = RenderSettings(), mask: np.ndarray | None = None,
+                        progress: Callable[[str], None] | None = None) -> tuple[SparseFrame, dict]:
+    """Render features for all pixels and radiance for the masked ones.
+
+    Parameters
+    ----------
+    scene : a loaded Mitsuba scene.
+    integrator : the integrator that computes radiance per ray (e.g. ``path``).
+    sensor : defaults to the scene's first sensor.
+    settings : rate, mask pattern, seed, spp, feature spp.
+    mask : an explicit (H, W) bool mask; overrides ``settings.rate/pattern``.
+    progress : called with a one-line status message before each pass.
+
+    Returns
+    -------
+    (frame, timings) with timings ``features_s`` and ``render_s`` in seconds.
+    """
+    say = progress or (lambda message: None)
+    sensor = sensor if sensor is not None else scene.sensors()[0]
+    height, width = _sensor_film_size(sensor)
+    spp = settings.spp or sensor.sampler().sample_count()
+    if mask is None:
+        mask = make_mask(height, width, settings.rate, settings.pattern, settings.seed)
+    timings = {}
+
+    start = time.perf_counter()
+    say(f"features: {width}x{height} px x {settings.feature_spp} spp")
+    features = render_features(scene, sensor, settings.feature_spp, settings.seed)
+    timings["features_s"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    pixels = np.flatnonzero(mask)
+    passes = max(1, -(-pixels.size * spp // MAX_LANES))
+    pass_spp = -(-spp // passes)
+    total = np.zeros((pixels.size, 3)); squares = np.zeros((pixels.size, 3)); count = np.zeros(pixels.size)
+    done = 0
+    for index in range(passes):
+        this_spp = min(pass_spp, spp - done)
+        if this_spp <= 0:
+            break
+        say(f"path tracing: {pixels.size} px x {spp} spp"
+            + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
+        s, q, n = trace_pixels(scene, sensor, integrator, pixels, this_spp,
+                               settings.seed if passes == 1 else settings.seed * passes + index)
+        total += s; squares += q; count += n; done += this_spp
+    timings["render_s"] = time.perf_counter() - start
+
+    mean = total / np.maximum(count, 1)[:, None]
+    sample_variance = (squares - count[:, None] * mean ** 2) / np.maximum(count - 1, 1)[:, None]
+    variance_of_mean = np.maximum(sample_variance, 0.0).mean(axis=1) / np.maximum(count, 1)
+    traced = mask.copy().ravel()
+    traced[pixels[count == 0]] = False  # every sample was NaN/Inf
+    radiance = np.zeros((height * width, 3), np.float32); radiance[pixels] = mean
+    variance = np.zeros(height * width, np.float32); variance[pixels] = variance_of_mean
+    radiance[~traced] = 0.0; variance[~traced] = 0.0
+    info = {"mask": settings.pattern, "seed": settings.seed, "feature_spp": settings.feature_spp,
+            "traced_pixels": int(traced.sum()), "nonfinite_samples": int(pixels.size * spp - count.sum()),
+            "passes": passes}
+    frame = SparseFrame(radiance=radiance.reshape(height, width, 3), mask=traced.reshape(height, width),
+                        variance=variance.reshape(height, width), spp=spp, info=info, **features)
+    return frame, timings

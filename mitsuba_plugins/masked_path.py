@@ -1,0 +1,123 @@
+"""The ``masked_path`` integrator: sparse path tracing + completion in one call."""
+from __future__ import annotations
+
+import mitsuba as mi
+
+from gmcpt.completion import complete, get_method
+from gmcpt.errors import GmcptError
+from gmcpt.layers import channel_names, pack
+from gmcpt.masks import PATTERNS, check_rate
+from gmcpt.render import RenderSettings, render_sparse_frame
+
+DEFAULT_COMPLETION = "interp"
+
+
+class MaskedPathIntegrator(mi.SamplingIntegrator):
+    r"""
+    .. _integrator-masked_path:
+
+    Masked path tracer (:monosp:`masked_path`)
+    ------------------------------------------
+
+    .. pluginparameters::
+
+     * - rate
+       - |float|
+       - Fraction of pixels that are path traced, in (0, 1]. (Default: 0.3)
+     * - mask
+       - |string|
+       - Sampling pattern: ``random``, ``stratified`` or ``blue_noise``. (Default: ``random``)
+     * - seed
+       - |int|
+       - Seed of the mask and of the samplers; added to the seed given to ``mi.render``. (Default: 0)
+     * - max_depth
+       - |int|
+       - Longest path of the default nested ``path`` integrator (-1: unbounded). (Default: 8)
+     * - rr_depth
+       - |int|
+       - Depth at which Russian roulette starts, for the default nested ``path``. (Default: 5)
+     * - feature_spp
+       - |int|
+       - Primary samples per pixel of the feature pass (albedo, normal, depth, visibility). (Default: 1)
+     * - completion
+       - |string|
+       - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``interp``)
+     * - (Nested plugin)
+       - :paramtype:`integrator`
+       - The integrator that computes radiance along each traced ray. (Default: ``path``)
+
+    Only the pixels the mask selects are traced, from a compacted pixel list
+    (``round(rate * W * H) * spp`` lanes), with the scene's spp per traced
+    pixel and a box estimate per pixel; feature buffers are computed for every
+    pixel in the same call. The completion method then fills the rest.
+
+    ``mi.render`` returns an ``(H, W, 16)`` tensor: the completed RGB first,
+    then the layers named by :meth:`aov_names` (sparse RGB, mask, albedo,
+    normal, depth, visibility, variance); see :mod:`gmcpt.layers`.
+
+    .. code-block:: xml
+
+        <integrator type="masked_path">
+            <float name="rate" value="0.3"/>
+            <string name="completion" value="interp"/>
+            <integrator type="path">
+                <integer name="max_depth" value="8"/>
+            </integrator>
+        </integrator>
+    """
+
+    def __init__(self, props: mi.Properties):
+        super().__init__(props)
+        self.rate = check_rate(props.get("rate", 0.3))
+        self.mask_pattern = props.get("mask", "random")
+        if self.mask_pattern not in PATTERNS:
+            raise GmcptError(f"unknown mask pattern {self.mask_pattern!r}; choose from {', '.join(PATTERNS)}")
+        self.seed = int(props.get("seed", 0))
+        self.feature_spp = int(props.get("feature_spp", 1))
+        if self.feature_spp < 1:
+            raise GmcptError(f"feature_spp must be >= 1, got {self.feature_spp}")
+        self.completion = props.get("completion", DEFAULT_COMPLETION)
+        get_method(self.completion)  # fail at load time on an unknown name
+        nested = [props[name] for name in props.keys() if isinstance(props[name], mi.Integrator)]
+        if len(nested) > 1:
+            raise GmcptError("masked_path takes at most one nested integrator")
+        depth_settings = {key: int(props.get(key)) for key in ("max_depth", "rr_depth") if key in props}
+        if nested and depth_settings:
+            raise GmcptError("set max_depth/rr_depth on the nested integrator, not on masked_path")
+        self.integrator = nested[0] if nested else mi.load_dict(
+            {"type": "path", "max_depth": depth_settings.get("max_depth", 8),
+             "rr_depth": depth_settings.get("rr_depth", 5)})
+        self.last_frame = None
+        self.last_timings = {}
+
+    def settings(self, seed: int = 0, spp: int = 0) -> RenderSettings:
+        return RenderSettings(rate=self.rate, pattern=self.mask_pattern, seed=self.seed + int(seed),
+                              spp=int(spp), feature_spp=self.feature_spp)
+
+    def render(self, scene: mi.Scene, sensor: int | mi.Sensor = 0, seed: int = 0, spp: int = 0,
+               develop: bool = True, evaluate: bool = True) -> mi.TensorXf:
+        if not develop:
+            raise GmcptError("masked_path only renders developed images (develop=True)")
+        if isinstance(sensor, int):
+            sensor = scene.sensors()[sensor]
+        frame, timings = render_sparse_frame(scene, self.integrator, sensor, self.settings(seed, spp))
+        result = complete(frame, self.completion)
+        self.last_frame, self.last_timings = frame, {**timings, **result.timings}
+        return mi.TensorXf(pack(frame, result.image))
+
+    def sample(self, scene, sampler, ray, medium=None, active=True):
+        return self.integrator.sample(scene, sampler, ray, medium, active)
+
+    def aov_names(self) -> list[str]:
+        return channel_names()[3:]
+
+    def to_string(self) -> str:
+        return (f"MaskedPathIntegrator[rate={self.rate}, mask={self.mask_pattern!r}, seed={self.seed}, "
+                f"feature_spp={self.feature_spp}, completion={self.completion!r},\n"
+                f"  integrator={self.integrator}]")
+
+
+def register() -> None:
+    """Register ``masked_path`` with Mitsuba for the active variant."""
+    mi.register_integrator("masked_path", lambda props: MaskedPathIntegrator(props))
+
