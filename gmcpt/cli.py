@@ -40,6 +40,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--reference", help="reference EXR: adds MSE/PSNR/SSIM (tonemapped sRGB) and relMSE to the JSON")
     parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                         help="set a scene parameter ($NAME in the XML); repeatable")
+    parser.add_argument("--allow-nonfinite", action="store_true",
+                        help="drop NaN/Inf radiance samples with a warning instead of failing")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     return parser
 
@@ -77,7 +79,7 @@ def _outputs(out: str):
 
 def run(args, say=lambda message: None) -> dict:
     """Render, complete and write; returns the JSON record."""
-    from .completion import complete
+    from .completion import check_size, complete
     from .imageio import read_rgb_exr
     from .metrics import all_metrics
     from .outputs import library_versions, write_outputs
@@ -87,17 +89,25 @@ def run(args, say=lambda message: None) -> dict:
     started = time.perf_counter()
     _validate(args)
     reference = read_rgb_exr(args.reference) if args.reference else None
-    say(f"loading {args.scene}")
     parameters = dict(define.split("=", 1) for define in args.defines)
     scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
     integrator = masked_integrator(scene, rate=args.rate, mask=args.mask, seed=args.seed,
                                    feature_spp=args.feature_spp, completion=args.method)
-    settings = integrator.settings(spp=args.spp or 0)
-    frame, timings = render_sparse_frame(scene, integrator.integrator, None, settings, progress=say)
-    height, width = frame.shape
+    # every check on the input happens before the first progress line
+    size = scene.sensors()[0].film().crop_size()
+    width, height = int(size[0]), int(size[1])
+    check_size(integrator.completion, height, width)
     if reference is not None and reference.shape != (height, width, 3):
         raise GmcptError(f"reference {args.reference} is {reference.shape[1]}x{reference.shape[0]}, "
                          f"the render is {width}x{height}")
+    settings = integrator.settings(spp=args.spp or 0)
+    frame, timings = render_sparse_frame(scene, integrator.integrator, None, settings, progress=say)
+    dropped = frame.info["nonfinite_samples"]
+    if dropped:
+        message = f"{dropped} radiance samples were NaN/Inf"
+        if not args.allow_nonfinite:
+            raise GmcptError(message + " (broken scene data?); --allow-nonfinite drops them and goes on")
+        print(f"warning: {message}; dropped them", file=sys.stderr)
     say(f"completing with {integrator.completion!r}")
     result = complete(frame, integrator.completion)
     timings.update(result.timings)

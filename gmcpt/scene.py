@@ -13,14 +13,15 @@ from .errors import GmcptError
 @contextlib.contextmanager
 def _resolving_from(folder: Path):
     """Let Mitsuba resolve relative paths (meshes, textures) from ``folder``."""
-    thread = mi.Thread.thread()
-    saved = mi.FileResolver(thread.file_resolver())
-    resolver = thread.file_resolver()
+    resolver = mi.file_resolver()
+    saved = [str(entry) for entry in resolver]
     resolver.prepend(str(folder))
     try:
         yield
     finally:
-        thread.set_file_resolver(saved)
+        resolver.clear()
+        for entry in saved:
+            resolver.append(entry)
 
 
 def _set_film_size(root: ET.Element, width: int, height: int) -> None:

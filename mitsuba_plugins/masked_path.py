@@ -84,6 +84,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         depth_settings = {key: int(props.get(key)) for key in ("max_depth", "rr_depth") if key in props}
         if nested and depth_settings:
             raise GmcptError("set max_depth/rr_depth on the nested integrator, not on masked_path")
+        if nested and not isinstance(nested[0], mi.SamplingIntegrator):
+            raise GmcptError(f"the nested integrator must be a sampling integrator, got {nested[0].class_name()}")
         self.integrator = nested[0] if nested else mi.load_dict(
             {"type": "path", "max_depth": depth_settings.get("max_depth", 8),
              "rr_depth": depth_settings.get("rr_depth", 5)})

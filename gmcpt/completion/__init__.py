@@ -70,6 +70,14 @@ def get_method(name: str) -> Method:
     return _REGISTRY[name]
 
 
+def check_size(method: str, height: int, width: int) -> None:
+    """Raise if an image of this size is too small for ``method`` (e.g. its patch)."""
+    needed = get_method(method).min_size
+    if min(height, width) < needed:
+        raise GmcptError(f"image {width}x{height} is smaller than method {method!r} needs "
+                         f"(at least {needed}x{needed}, its patch size)")
+
+
 def sanitize(frame: SparseFrame) -> SparseFrame:
     """Drop non-finite samples from the mask and zero non-finite features."""
     buffers = (frame.radiance, frame.variance, frame.albedo, frame.normal, frame.depth, frame.visibility)
@@ -89,9 +97,7 @@ def complete(frame: SparseFrame, method: str = "interp", **options) -> Completio
     """Run completion ``method`` on ``frame`` and return the completed image."""
     entry = get_method(method)
     height, width = frame.shape
-    if min(height, width) < entry.min_size:
-        raise GmcptError(f"image {width}x{height} is smaller than method {method!r} needs "
-                         f"(at least {entry.min_size}x{entry.min_size})")
+    check_size(method, height, width)
     frame = sanitize(frame)
     if not frame.mask.any():
         raise GmcptError("no finite rendered samples to complete from")

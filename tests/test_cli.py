@@ -1,0 +1,148 @@
+"""render_and_complete.py end to end, and every bad input it must refuse cleanly."""
+import json
+
+import numpy as np
+import pytest
+
+from conftest import CORNELL, ROOT, run_cli
+
+NAN_SCENE = ROOT / "tests" / "data" / "nan_emitter.xml"
+SMALL = ("--res", "32", "24", "--spp", "2")
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cli") / "cb.exr"
+    result = run_cli(CORNELL, *SMALL, "--rate", "0.4", "--seed", "3", "--out", out)
+    assert result.returncode == 0, result.stderr
+    return out, result
+
+
+def test_writes_exr_png_json(rendered):
+    from gmcpt.imageio import read_exr
+    from gmcpt.layers import channel_names
+
+    out, result = rendered
+    channels = read_exr(out)
+    assert set(channels) == set(channel_names())
+    assert channels["R"].shape == (24, 32)
+    assert channels["mask.Y"].sum() == round(0.4 * 32 * 24)
+    assert out.with_suffix(".png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["parameters"]["rate"] == 0.4 and record["parameters"]["spp"] == 2
+    assert record["parameters"]["method"] == "interp"
+    assert record["rendered_fraction"] == pytest.approx(0.4, abs=1e-3)
+    assert {"features_s", "render_s", "completion_s", "total_s"} <= record["timings"].keys()
+    assert {"mitsuba", "drjit", "torch", "numpy", "gmcpt"} <= record["versions"].keys()
+    assert "path tracing" in result.stderr  # progress
+
+
+def test_same_seed_same_output(rendered, tmp_path):
+    from gmcpt.imageio import read_exr
+
+    out, _ = rendered
+    again = tmp_path / "again.exr"
+    assert run_cli(CORNELL, *SMALL, "--rate", "0.4", "--seed", "3", "--out", again, "-q").returncode == 0
+    first, second = read_exr(out), read_exr(again)
+    assert all(np.array_equal(first[name], second[name]) for name in first)
+
+
+def test_reference_metrics(rendered, tmp_path):
+    out, _ = rendered
+    target = tmp_path / "self.exr"
+    result = run_cli(CORNELL, *SMALL, "--rate", "0.4", "--seed", "3", "--reference", out, "--out", target, "-q")
+    assert result.returncode == 0, result.stderr
+    metrics = json.loads(target.with_suffix(".json").read_text())["metrics"]
+    assert metrics["mse"] == 0 and metrics["relmse"] == 0 and metrics["ssim"] == pytest.approx(1)
+    worse = tmp_path / "other.exr"
+    assert run_cli(CORNELL, *SMALL, "--rate", "0.2", "--seed", "4", "--reference", out, "--out", worse,
+                   "-q").returncode == 0
+    metrics = json.loads(worse.with_suffix(".json").read_text())["metrics"]
+    assert metrics["mse"] > 0 and 5 < metrics["psnr"] < 60 and metrics["ssim"] < 1
+
+
+def test_scene_with_plain_path_integrator_is_wrapped(tmp_path):
+    out = tmp_path / "nan.exr"
+    result = run_cli(NAN_SCENE, "--allow-nonfinite", "--rate", "0.5", "--out", out, "-q")
+    assert result.returncode == 0, result.stderr
+    assert "warning:" in result.stderr and "NaN/Inf" in result.stderr
+    from gmcpt.imageio import read_rgb_exr
+    assert np.isfinite(read_rgb_exr(out)).all()
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["nonfinite_samples"] > 0 and "PathIntegrator" in record["parameters"]["integrator"]
+
+
+def _bad_input_cases(tmp_path):
+    malformed = tmp_path / "malformed.xml"
+    malformed.write_text('<scene version="3.0.0"><shape type="sphere"')
+    unknown_plugin = tmp_path / "unknown.xml"
+    unknown_plugin.write_text('<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"/></sensor>'
+                              '<shape type="no_such_shape"/></scene>')
+    corrupt = tmp_path / "corrupt.exr"
+    corrupt.write_bytes(b"not an exr file")
+    a_directory = tmp_path / "adir.exr"
+    a_directory.mkdir()
+    return {
+        "rate zero": ([CORNELL, "--rate", "0"], "rate must be in (0, 1]"),
+        "rate negative": ([CORNELL, "--rate", "-0.5"], "rate must be in (0, 1]"),
+        "rate above one": ([CORNELL, "--rate", "1.5"], "rate must be in (0, 1]"),
+        "rate nan": ([CORNELL, "--rate", "nan"], "rate must be in (0, 1]"),
+        "spp zero": ([CORNELL, "--spp", "0"], "--spp must be >= 1"),
+        "spp not a number": ([CORNELL, "--spp", "many"], "invalid int value"),
+        "missing scene": ([tmp_path / "nope.xml"], "scene file not found"),
+        "malformed scene": ([malformed], "malformed scene XML"),
+        "scene Mitsuba rejects": ([unknown_plugin], "cannot load scene"),
+        "unknown method": ([CORNELL, "--method", "magic"], "unknown completion method 'magic'"),
+        "unknown mask": ([CORNELL, "--mask", "poisson"], "unknown mask pattern 'poisson'"),
+        "missing output dir": ([CORNELL], "does not exist", tmp_path / "no" / "such" / "out.exr"),
+        "output is a directory": ([CORNELL], "is a directory", a_directory),
+        "output not exr": ([CORNELL], "must name an .exr file", tmp_path / "out.png"),
+        "corrupt reference": ([CORNELL, "--reference", corrupt], "cannot read EXR"),
+        "bad resolution": ([CORNELL, "--res", "0", "10"], "--res must be positive"),
+    }
+
+
+CASES = ["rate zero", "rate negative", "rate above one", "rate nan", "spp zero", "spp not a number",
+         "missing scene", "malformed scene", "scene Mitsuba rejects", "unknown method", "unknown mask",
+         "missing output dir", "output is a directory", "output not exr", "corrupt reference", "bad resolution"]
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_bad_input_one_line_error_no_file(case, tmp_path):
+    arguments, message, *target = _bad_input_cases(tmp_path)[case]
+    out = target[0] if target else tmp_path / "out.exr"
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    result = run_cli(*SMALL, *arguments, "--out", out)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith("error: ") and message in lines[0]
+    assert "Traceback" not in result.stderr + result.stdout
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before  # nothing written, not even temporaries
+
+
+def test_nonfinite_samples_fail_without_clobbering(tmp_path):
+    out = tmp_path / "keep.exr"
+    for path in (out, out.with_suffix(".png"), out.with_suffix(".json")):
+        path.write_bytes(b"previous result")
+    result = run_cli(NAN_SCENE, "--rate", "0.5", "--out", out)
+    assert result.returncode == 2
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error: ")]
+    assert len(errors) == 1 and "NaN/Inf" in errors[0] and result.stderr.strip().endswith(errors[0])
+    assert "Traceback" not in result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.exr", "keep.json", "keep.png"]
+    assert all(p.read_bytes() == b"previous result" for p in tmp_path.iterdir())
+
+
+def test_reference_of_wrong_size(rendered, tmp_path):
+    out, _ = rendered
+    result = run_cli(CORNELL, "--res", "16", "16", "--spp", "1", "--reference", out, "--out", tmp_path / "x.exr")
+    assert result.returncode == 2 and "reference" in result.stderr and "32x24" in result.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_python_m_gmcpt_is_the_same_cli():
+    import subprocess
+    import sys
+    result = subprocess.run([sys.executable, "-m", "gmcpt", "--help"], capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0 and "--rate" in result.stdout and "--method" in result.stdout

@@ -1,0 +1,50 @@
+"""masked_path as a Mitsuba plugin: XML scenes, mi.load_file + mi.render."""
+import numpy as np
+import pytest
+
+from conftest import CORNELL, STILL_LIFE
+
+
+@pytest.mark.parametrize("scene_file", [CORNELL, STILL_LIFE], ids=["cornell-box", "still-life"])
+def test_bundled_scene_renders_through_mi_render(mi, scene_file):
+    from gmcpt.layers import channel_names, unpack
+    from mitsuba_plugins import MaskedPathIntegrator
+
+    scene = mi.load_file(str(scene_file), res=40, spp=4, rate=0.25)
+    integrator = scene.integrator()
+    assert isinstance(integrator, MaskedPathIntegrator)
+    tensor = np.asarray(mi.render(scene))
+    assert tensor.shape == (40, 40, len(channel_names()))
+    frame, image = unpack(tensor)
+    assert frame.mask.sum() == round(0.25 * 1600)
+    assert np.isfinite(image).all() and image.mean() > 0.01
+    # the completion keeps traced pixels and fills the others
+    np.testing.assert_allclose(image[frame.mask], frame.radiance[frame.mask], rtol=1e-6)
+    assert (image[~frame.mask].sum(axis=-1) > 0).mean() > 0.5
+    assert integrator.aov_names() == channel_names()[3:]
+    assert {"features_s", "render_s", "completion_s"} <= integrator.last_timings.keys()
+
+
+def test_same_seed_same_image(mi):
+    scene = mi.load_file(str(CORNELL), res=24, spp=2)
+    first, second = np.asarray(mi.render(scene, seed=5)), np.asarray(mi.render(scene, seed=5))
+    other = np.asarray(mi.render(scene, seed=6))
+    assert np.array_equal(first, second)
+    assert not np.array_equal(first, other)
+
+
+def test_properties_are_validated(mi):
+    from gmcpt.errors import GmcptError
+
+    base = {"type": "masked_path"}
+    for bad, message in [({"rate": 1.5}, "rate"), ({"mask": "grid"}, "mask pattern"),
+                         ({"completion": "magic"}, "completion method"), ({"feature_spp": 0}, "feature_spp")]:
+        with pytest.raises((GmcptError, RuntimeError), match=message):
+            mi.load_dict({**base, **bad})
+
+
+def test_default_nested_integrator_takes_depth_settings(mi):
+    integrator = mi.load_dict({"type": "masked_path", "max_depth": 3, "rr_depth": 2})
+    assert "max_depth = 3" in str(integrator.integrator)
+    with pytest.raises((RuntimeError, Exception), match="nested integrator"):
+        mi.load_dict({"type": "masked_path", "max_depth": 3, "inner": {"type": "path"}})

@@ -1,0 +1,86 @@
+"""The masked render against Mitsuba's own path tracer, on the bundled Cornell box."""
+import numpy as np
+import pytest
+
+from conftest import CORNELL
+
+
+@pytest.fixture(scope="module")
+def cornell(mi):
+    from gmcpt.scene import load_scene
+    return load_scene(CORNELL, resolution=(48, 40))
+
+
+@pytest.fixture(scope="module")
+def path_tracer(mi):
+    return mi.load_dict({"type": "path", "max_depth": 8})
+
+
+def test_rate_one_equals_stock_path(mi, cornell, path_tracer):
+    from gmcpt.render import RenderSettings, render_sparse_frame
+
+    frame, timings = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=1.0, spp=8, seed=7))
+    stock = np.asarray(mi.render(cornell, integrator=path_tracer, spp=8, seed=7))[..., :3]
+    assert frame.mask.all()
+    assert frame.radiance.mean() > 0.01
+    np.testing.assert_allclose(frame.radiance, stock, rtol=1e-4, atol=1e-5)
+    assert {"features_s", "render_s"} <= timings.keys()
+
+
+def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
+    from gmcpt.render import RenderSettings, render_sparse_frame
+
+    frame, _ = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=0.3, spp=16, seed=3))
+    reference = np.asarray(mi.render(cornell, integrator=path_tracer, spp=1024, seed=99))[..., :3]
+    traced = frame.mask
+    assert traced.sum() == round(0.3 * traced.size)
+    assert np.all(frame.radiance[~traced] == 0)
+    difference = frame.radiance[traced].mean() - reference[traced].mean()
+    # standard error of the traced mean from the recorded per-pixel variances
+    standard_error = np.sqrt(frame.variance[traced].sum()) / traced.sum()
+    assert abs(difference) < 4 * standard_error + 2e-3
+    assert standard_error > 0
+
+
+def test_feature_buffers(mi, cornell, path_tracer):
+    from gmcpt.render import RenderSettings, render_sparse_frame
+
+    frame, _ = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=0.2, spp=1, seed=0))
+    hits = frame.depth < 1
+    assert hits.mean() > 0.9  # the box fills the view
+    assert np.allclose(np.linalg.norm(frame.normal[hits], axis=-1), 1, atol=1e-3)
+    assert 0 < frame.depth[hits].min() and frame.depth.max() == pytest.approx(1.0)
+    assert 0 <= frame.visibility.min() and frame.visibility.max() <= 1
+    assert 0.05 < frame.visibility.mean() < 1  # some shadowed first hits, most lit
+    # left wall is red: red albedo dominates in the left tenth of the image
+    left = frame.albedo[:, :3][hits[:, :3]]
+    assert np.median(left[:, 0]) > 2 * np.median(left[:, 1])
+
+
+def test_nonfinite_samples_do_not_spread(mi, cornell):
+    """A nested integrator that returns NaN/Inf for some rays: those samples are dropped."""
+    import drjit as dr
+    from gmcpt.completion import complete
+    from gmcpt.render import RenderSettings, render_sparse_frame
+
+    class Poisoned(mi.SamplingIntegrator):
+        def __init__(self, props):
+            super().__init__(props)
+            self.inner = mi.load_dict({"type": "path", "max_depth": 4})
+
+        def sample(self, scene, sampler, ray, medium=None, active=True):
+            value, valid, aovs = self.inner.sample(scene, sampler, ray, medium, active)
+            poison = sampler.next_1d() < 0.05
+            value = dr.select(poison, mi.Color3f(dr.nan, dr.inf, 1.0), value)
+            return value, valid, aovs
+
+        def to_string(self):
+            return "Poisoned[]"
+
+    mi.register_integrator("poisoned", lambda props: Poisoned(props))
+    poisoned = mi.load_dict({"type": "poisoned"})
+    frame, _ = render_sparse_frame(cornell, poisoned, settings=RenderSettings(rate=0.5, spp=4, seed=1))
+    assert frame.info["nonfinite_samples"] > 0
+    assert np.isfinite(frame.radiance).all() and np.isfinite(frame.variance).all()
+    result = complete(frame, "interp")
+    assert np.isfinite(result.image).all()
