@@ -9,7 +9,8 @@ equal the stock integrator's for the same seed.
 
 Each pixel's value is the box-filter estimate (plain mean of its samples);
 non-finite samples are left out of the mean and counted. The variance of the
-mean is kept alongside.
+mean is kept alongside. Sums are accumulated inside the one path tracing
+kernel (``scatter_reduce``), so no per-sample buffer is written.
 
 The feature pass traces ``feature_spp`` primary rays per pixel, all pixels,
 and records albedo, shading normal, depth and light visibility (one shadow ray
@@ -93,14 +94,15 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = 1, se
     distance = dr.select(hit, si.t, 0.0)
     _, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, hit)
     visible = dr.select(hit & ((emitter_weight[0] + emitter_weight[1] + emitter_weight[2]) > 0), 1.0, 0.0)
-    dr.eval(albedo, normal, distance, visible)
+    hit_weight = dr.select(hit, 1.0, 0.0)
+    dr.eval(albedo, normal, distance, visible, hit_weight)  # one kernel for all buffers
 
     def per_pixel(values, channels):
         array = np.asarray(values, dtype=np.float32)
         array = array.T if channels > 1 else array
         return array.reshape(height, width, feature_spp, *(() if channels == 1 else (channels,))).mean(axis=2)
 
-    hit_fraction = per_pixel(mi.Float(dr.select(hit, 1.0, 0.0)), 1)
+    hit_fraction = per_pixel(hit_weight, 1)
     distance = per_pixel(distance, 1) / np.maximum(hit_fraction, 1e-6)
     max_distance = float(distance.max()) if (hit_fraction > 0).any() else 1.0
     depth = np.where(hit_fraction > 0, distance / max(max_distance, 1e-12), 1.0)
@@ -126,12 +128,17 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     radiance = weight * radiance
     finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
     radiance = dr.select(finite, radiance, 0.0)
-    total = mi.Color3f(*(dr.block_sum(radiance[c], spp) for c in range(3)))
-    squares = mi.Color3f(*(dr.block_sum(dr.square(radiance[c]), spp) for c in range(3)))
-    count = dr.block_sum(dr.select(finite, 1.0, 0.0), spp)
-    dr.eval(total, squares, count)
-    return (np.asarray(total, dtype=np.float64).T, np.asarray(squares, dtype=np.float64).T,
-            np.asarray(count, dtype=np.float64))
+    # Accumulate per pixel inside the path tracing kernel (as the film does):
+    # sum, sum of squares and count of finite samples, all in one launch.
+    lane_pixel = dr.arange(mi.UInt32, lanes) // spp
+    values = [radiance[0], radiance[1], radiance[2], dr.square(radiance[0]), dr.square(radiance[1]),
+              dr.square(radiance[2]), dr.select(finite, 1.0, 0.0)]
+    sums = [dr.zeros(mi.Float, pixels.size) for _ in values]
+    for target, value in zip(sums, values):
+        dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel)
+    dr.eval(sums)
+    columns = np.stack([np.asarray(column, dtype=np.float64) for column in sums], axis=1)
+    return columns[:, 0:3], columns[:, 3:6], columns[:, 6]
 
 
 def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,

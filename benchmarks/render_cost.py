@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""Cost of the masked render against Mitsuba's stock ``path`` at the same spp.
+
+For each scene and spp, the stock full-frame render and the masked render
+(feature pass + compacted path tracing, no completion) at each rate run
+interleaved, ``--repeats`` rounds after one warm-up round (kernel
+compilation); the table shows medians and the ratio masked / full beside the
+target ``rate + 0.05``.
+
+    python benchmarks/render_cost.py [--res 256] [--spp 16 64] [--repeats 3]
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED_BREAKFAST = ROOT.parent / "shared" / "scenes" / "breakfast-room" / "scene.xml"
+BUNDLED = ROOT / "scenes" / "still-life" / "scene.xml"
+RATES = (0.2, 0.3, 0.5, 1.0)
+
+
+def timed(function) -> float:
+    start = time.perf_counter()
+    function()
+    return time.perf_counter() - start
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--res", type=int, default=256)
+    parser.add_argument("--spp", type=int, nargs="+", default=[16, 64])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--scenes", nargs="+", default=[str(BUNDLED), str(SHARED_BREAKFAST)])
+    args = parser.parse_args()
+
+    import drjit as dr
+    import gmcpt  # noqa: F401
+    import mitsuba as mi
+    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.scene import load_scene
+
+    mi.set_log_level(mi.LogLevel.Error)
+    rows = []
+    for scene_path in map(Path, args.scenes):
+        if not scene_path.is_file():
+            print(f"skipping {scene_path}: not found (the shared scenes are absent)", flush=True)
+            continue
+        scene = load_scene(scene_path, resolution=(args.res, args.res))
+        masked = scene.integrator()
+        nested = masked.integrator if hasattr(masked, "integrator") else masked
+        for spp in args.spp:
+            def full():
+                image = mi.render(scene, integrator=nested, spp=spp, seed=1)
+                dr.eval(image)
+                dr.sync_thread()
+
+            def sparse(rate):
+                return lambda: render_sparse_frame(scene, nested, settings=RenderSettings(rate=rate, spp=spp, seed=1))
+
+            jobs = [("full", full)] + [(rate, sparse(rate)) for rate in RATES]
+            for _, job in jobs:  # warm-up: kernel compilation
+                job()
+            samples = {name: [] for name, _ in jobs}
+            for round_index in range(args.repeats):
+                for name, job in jobs:
+                    samples[name].append(timed(job))
+                print(f"  {scene_path.parent.name} spp={spp}: round {round_index + 1}/{args.repeats} done", flush=True)
+            full_s = statistics.median(samples["full"])
+            for rate in RATES:
+                masked_s = statistics.median(samples[rate])
+                rows.append((scene_path.parent.name, spp, rate, full_s, masked_s, masked_s / full_s, rate + 0.05))
+
+    print(f"\nmasked render (features + traced pixels) vs stock path, {args.res}x{args.res}, "
+          f"median of {args.repeats}")
+    header = f"{'scene':<16}{'spp':>5}{'rate':>6}{'full s':>9}{'masked s':>10}{'ratio':>8}{'target':>8}  ok"
+    print(header)
+    print("-" * len(header))
+    for scene_name, spp, rate, full_s, masked_s, ratio, target in rows:
+        print(f"{scene_name:<16}{spp:>5}{rate:>6.2f}{full_s:>9.3f}{masked_s:>10.3f}{ratio:>8.3f}{target:>8.2f}  "
+              f"{'yes' if ratio <= target else 'NO'}")
+    return 0 if all(row[5] <= row[6] for row in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
