@@ -54,7 +54,8 @@ def register_method(name: str, *, min_size: int = 1, summary: str = ""):
     size, for patch-based methods).
     """
     def decorator(function):
-        _REGISTRY[name] = Method(name, function, min_size, summary or (function.__doc__ or "").strip().splitlines()[0])
+        first_doc_line = (function.__doc__ or name).strip().splitlines()[0]
+        _REGISTRY[name] = Method(name, function, min_size, summary or first_doc_line)
         return function
     return decorator
 

@@ -1,0 +1,46 @@
+import numpy as np
+import pytest
+
+from gmcpt import metrics
+
+
+@pytest.fixture
+def image():
+    rng = np.random.default_rng(0)
+    return rng.uniform(0.05, 0.8, size=(32, 40, 3)).astype(np.float32)
+
+
+def test_identical_images(image):
+    assert metrics.mse(image, image) == 0
+    assert metrics.psnr(image, image) == float("inf")
+    assert metrics.ssim(image, image) == pytest.approx(1.0)
+    assert metrics.relmse(image, image) == 0
+
+
+def test_known_constant_offset_in_display_space():
+    reference = np.full((16, 16, 3), 0.2, np.float32)
+    shifted = np.full((16, 16, 3), 0.4, np.float32)
+    def srgb(v):  # IEC 61966-2-1
+        return 1.055 * v ** (1 / 2.4) - 0.055
+    expected = (srgb(0.4) - srgb(0.2)) ** 2
+    assert metrics.mse(shifted, reference) == pytest.approx(expected, rel=1e-5)
+    assert metrics.psnr(shifted, reference) == pytest.approx(10 * np.log10(1 / expected), rel=1e-5)
+
+
+def test_relmse_known_value():
+    reference = np.full((4, 4, 3), 0.5, np.float32)
+    assert metrics.relmse(reference + 0.1, reference) == pytest.approx(0.01 / (0.25 + 0.01), rel=1e-5)
+
+
+def test_tonemap_clamps_and_matches_mitsuba_png_conversion(image):
+    import gmcpt  # noqa: F401
+    import mitsuba as mi
+    hdr = image * 3
+    bitmap = mi.Bitmap(hdr).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, True)
+    assert np.abs(np.round(metrics.tonemap(hdr) * 255) - np.asarray(bitmap)).max() <= 1
+    assert metrics.tonemap(hdr).max() <= 1
+
+
+def test_shape_mismatch(image):
+    with pytest.raises(ValueError, match="shape"):
+        metrics.mse(image, image[:-1])
