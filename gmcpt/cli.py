@@ -2,6 +2,8 @@
 
     python render_and_complete.py SCENE.xml --out OUT.exr [options]
     python -m gmcpt SCENE.xml --out OUT.exr [options]
+    python -m gmcpt dataset ...   (procedural training data, see gmcpt.dataset.cli)
+    python -m gmcpt train ...     (GAN training, see gmcpt.gan.cli)
 
 Bad input ends with one ``error: ...`` line on stderr and exit status 2; no
 output file is written or replaced.
@@ -134,7 +136,14 @@ def run(args, say=lambda message: None) -> dict:
     return record
 
 
+SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli"}
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in SUBCOMMANDS:
+        import importlib
+        return importlib.import_module(SUBCOMMANDS[argv[0]]).main(argv[1:])
     start = time.perf_counter()
     quiet = False
 

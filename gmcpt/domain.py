@@ -44,6 +44,11 @@ class WorkingDomain:
         """Working domain -> linear HDR radiance."""
         return (np.expm1(np.maximum(working, 0.0) / self.scale) * factor).astype(np.float32)
 
+    def encode(self, frame) -> tuple[np.ndarray, np.ndarray]:
+        """A SparseFrame's samples in the working domain: ``(working, factor)``."""
+        factor = self.factor(frame.albedo)
+        return self.forward(frame.radiance, factor), factor
+
     def variance(self, radiance: np.ndarray, variance: np.ndarray, factor: np.ndarray) -> np.ndarray:
         """First-order (delta method) variance in the working domain, (H, W)."""
         slope = self.scale / (factor + np.maximum(radiance, 0.0))  # dy/dx, (H, W, 3)

@@ -110,4 +110,4 @@ def complete(frame: SparseFrame, method: str = "interp", **options) -> Completio
     return result
 
 
-from . import classical  # noqa: E402,F401  (registers none, interp)
+from . import classical, lowrank  # noqa: E402,F401  (registers none, interp, pawnnm, nnm)

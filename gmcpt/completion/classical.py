@@ -129,8 +129,7 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
 def complete_interp(frame: SparseFrame, *, domain: WorkingDomain = WorkingDomain(),
                     params: GuidedFillParams = GuidedFillParams()) -> Completion:
     """Feature-guided interpolation on demodulated, log-compressed radiance."""
-    factor = domain.factor(frame.albedo)
-    working = domain.forward(frame.radiance, factor)
+    working, factor = domain.encode(frame)
     filled = guided_fill(working, frame.mask, frame.features(), params)
     image = domain.inverse(filled, factor)
     # traced pixels keep their exact samples (no round-off from the transform)

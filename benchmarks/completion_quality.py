@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""Quality of the completion methods against cached high-spp references.
+
+For each scene and rate, one sparse frame is rendered (256x256, 16 spp,
+seeded) and every method completes it; PSNR / SSIM / MSE on tonemapped sRGB
+and relMSE on linear radiance are printed per scene and rate, beside the
+noisy full-frame render at the same spp for scale.
+
+    python benchmarks/completion_quality.py [--methods interp nnm pawnnm] [--rates 0.2 0.3 0.4]
+
+References come from gmcpt.reference (cached; rendered on a miss, which is slow:
+run scripts/make_references.py first). ``--save-frames DIR`` also writes each
+sparse frame with its reference as .npz for parameter sweeps.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = [ROOT / "scenes" / "cornell-box" / "scene.xml", ROOT / "scenes" / "still-life" / "scene.xml",
+          ROOT.parent / "shared" / "scenes" / "breakfast-room" / "scene.xml"]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--methods", nargs="+", default=["interp", "nnm", "pawnnm"])
+    parser.add_argument("--rates", type=float, nargs="+", default=[0.2, 0.3, 0.4])
+    parser.add_argument("--res", type=int, default=256)
+    parser.add_argument("--spp", type=int, default=16)
+    parser.add_argument("--ref-spp", type=int, default=4096)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--scenes", nargs="+", default=[str(s) for s in SCENES])
+    parser.add_argument("--save-frames", metavar="DIR")
+    args = parser.parse_args()
+
+    import gmcpt  # noqa: F401
+    import mitsuba as mi
+    from gmcpt.completion import complete
+    from gmcpt.metrics import all_metrics
+    from gmcpt.reference import render_reference
+    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.scene import load_scene
+
+    mi.set_log_level(mi.LogLevel.Error)
+    rows = []
+    for scene_path in map(Path, args.scenes):
+        if not scene_path.is_file():
+            print(f"skipping {scene_path}: not found", flush=True)
+            continue
+        name = scene_path.parent.name
+        reference = render_reference(scene_path, args.res, args.ref_spp,
+                                     progress=lambda m: print(m, flush=True))
+        scene = load_scene(scene_path, (args.res, args.res))
+        nested = getattr(scene.integrator(), "integrator", scene.integrator())
+        noisy = np.asarray(mi.render(scene, integrator=nested, spp=args.spp, seed=args.seed + 17))[..., :3]
+        rows.append((name, 1.0, f"path {args.spp}spp", all_metrics(noisy, reference), 0.0))
+        for rate in args.rates:
+            frame, _ = render_sparse_frame(scene, nested, settings=RenderSettings(rate=rate, spp=args.spp,
+                                                                                   seed=args.seed))
+            if args.save_frames:
+                out = Path(args.save_frames) / f"{name}-r{rate:.2f}.npz"
+                out.parent.mkdir(parents=True, exist_ok=True)
+                np.savez_compressed(out, reference=reference, **{k: getattr(frame, k) for k in (
+                    "radiance", "mask", "variance", "albedo", "normal", "depth", "visibility")})
+            for method in args.methods:
+                start = time.perf_counter()
+                result = complete(frame, method)
+                rows.append((name, rate, method, all_metrics(result.image, reference),
+                             time.perf_counter() - start))
+                m = rows[-1][3]
+                print(f"  {name} rate {rate:.2f} {method:<12} PSNR {m['psnr']:6.2f}  SSIM {m['ssim']:.4f}  "
+                      f"({rows[-1][4]:.2f} s)", flush=True)
+
+    print(f"\n{args.res}x{args.res}, {args.spp} spp per traced pixel, reference {args.ref_spp} spp, seed {args.seed}")
+    header = "| scene | rate | method | PSNR dB | SSIM | MSE | relMSE | time s |"
+    print(header + "\n|---|---|---|---|---|---|---|---|")
+    for name, rate, method, m, seconds in rows:
+        print(f"| {name} | {rate:.2f} | {method} | {m['psnr']:.2f} | {m['ssim']:.4f} | {m['mse']:.2e} | "
+              f"{m['relmse']:.2e} | {seconds:.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,11 @@
+"""Patch-group low-rank completion (block matching + PAWNNM).
+
+Depends only on numpy and torch.  See :func:`complete_low_rank`.
+"""
+from .matching import block_match
+from .patches import reference_positions
+from .pawnnm import (DEFAULT, NNM_PRESET, PAPER_PRESET, LowRankParams, complete_low_rank,
+                     complete_matrix, low_rank_estimate)
+
+__all__ = ["LowRankParams", "DEFAULT", "PAPER_PRESET", "NNM_PRESET", "complete_low_rank",
+           "complete_matrix", "low_rank_estimate", "block_match", "reference_positions"]

@@ -1,0 +1,62 @@
+"""High-spp reference renders, cached on disk.
+
+A reference is the scene's own integrator (the nested one, for scenes that name
+``masked_path``) run full frame at many spp, in passes of ``pass_spp`` with
+independent seeds, averaged. The cache key covers the scene file's bytes, the
+resolution, spp, seed and scene parameters, so an edited scene is re-rendered.
+Cache folder: ``$GMCPT_CACHE`` or ``~/.cache/gmcpt/references``.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from .imageio import atomic_output, read_rgb_exr, write_exr
+
+
+def cache_dir() -> Path:
+    root = Path(os.environ.get("GMCPT_CACHE", Path.home() / ".cache" / "gmcpt"))
+    return root / "references"
+
+
+def reference_key(scene_path: str | Path, resolution: int, spp: int, seed: int,
+                  parameters: dict | None = None) -> str:
+    digest = hashlib.sha256(Path(scene_path).read_bytes())
+    digest.update(json.dumps([resolution, spp, seed, sorted((parameters or {}).items())]).encode())
+    return f"{Path(scene_path).parent.name}-{resolution}px-{spp}spp-s{seed}-{digest.hexdigest()[:12]}"
+
+
+def render_reference(scene_path: str | Path, resolution: int = 256, spp: int = 4096, seed: int = 1_000_003,
+                     parameters: dict | None = None, pass_spp: int = 256,
+                     progress: Callable[[str], None] | None = None) -> np.ndarray:
+    """Return a cached (H, W, 3) reference, rendering it on a miss."""
+    import drjit as dr
+    import mitsuba as mi
+
+    from .scene import load_scene
+
+    path = cache_dir() / (reference_key(scene_path, resolution, spp, seed, parameters) + ".exr")
+    if path.is_file():
+        return read_rgb_exr(path)
+    scene = load_scene(scene_path, (resolution, resolution), parameters)
+    integrator = scene.integrator()
+    integrator = getattr(integrator, "integrator", integrator)  # unwrap masked_path
+    passes = max(1, spp // pass_spp)
+    total = np.zeros((resolution, resolution, 3))
+    for index in range(passes):
+        if progress:
+            progress(f"reference {Path(scene_path).parent.name}: pass {index + 1}/{passes}")
+        image = mi.render(scene, integrator=integrator, spp=min(pass_spp, spp), seed=seed + index)
+        dr.eval(image)
+        total += np.asarray(image, dtype=np.float64)[..., :3]
+    reference = (total / passes).astype(np.float32)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(path) as temporary:
+        write_exr(temporary, {c: reference[..., i] for i, c in enumerate("RGB")},
+                  {"spp": passes * min(pass_spp, spp), "scene": str(scene_path)})
+    return reference
