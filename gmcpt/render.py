@@ -31,6 +31,8 @@ from .masks import make_mask
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
 FEATURE_SEED_OFFSET = 0x5EED_F00D
+# the features need UVs (textured albedo) and the shading frame, no surface derivatives
+FEATURE_RAY_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFrame
 
 
 @dataclass(frozen=True)
@@ -86,7 +88,7 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = 1, se
     sampler = _seeded_sampler(sensor, feature_spp, seed + FEATURE_SEED_OFFSET, lanes)
     pixel = dr.arange(mi.UInt32, lanes) // feature_spp
     ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
-    si = scene.ray_intersect(ray)
+    si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
     hit = si.is_valid()
     bsdf = si.bsdf(ray)
     albedo = dr.select(hit, bsdf.eval_diffuse_reflectance(si, hit), 0.0)
