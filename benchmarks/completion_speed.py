@@ -1,14 +1,15 @@
 """Speed and quality of the low-rank completion (PAWNNM) on a synthetic frame.
 
 Times :func:`gmcpt.lowrank.complete_low_rank` at 256x256 and 512x512 for the
-paper's literal preset and the tuned default (median over ``--repeats`` runs,
+paper's literal preset, the NNM ablation and the tuned default (median over
+``--repeats`` runs; the slow paper preset runs ``--paper-repeats`` times;
 ``torch.set_num_threads(--threads)``) and prints the PSNR each reaches against
 the known clean image.  The test frame is procedural (smooth shading, hard
 edges, stripes and checks, in a 0..255 working-domain-like range); a fraction
 ``--rate`` of its pixels are "rendered" with heteroscedastic Gaussian noise of
 known variance, and the rest is pre-completed by a normalised-convolution fill.
 
-    python benchmarks/completion_speed.py            # full paper preset (slow)
+    python benchmarks/completion_speed.py            # full paper preset (45 iterations: minutes)
     python benchmarks/completion_speed.py --quick    # paper preset capped at 5 iterations
 """
 from __future__ import annotations
@@ -100,30 +101,37 @@ def psnr(x, ref, peak: float = 255.0) -> float:
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", type=int, nargs="+", default=[256, 512])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--rate", type=float, default=0.3)
     ap.add_argument("--noise", type=float, default=12.0)
+    ap.add_argument("--paper-repeats", type=int, default=1)
     ap.add_argument("--quick", action="store_true",
-                    help="cap the paper preset at --quick-iterations and run it once")
+                    help="cap the paper preset at --quick-iterations")
     ap.add_argument("--quick-iterations", type=int, default=5)
+    ap.add_argument("--presets", nargs="+", default=["paper", "nnm", "default"],
+                    choices=["paper", "nnm", "default"])
     ap.add_argument("--device", default="cpu")
     args = ap.parse_args(argv)
 
     import torch
-    from gmcpt.lowrank import DEFAULT, PAPER_PRESET, complete_low_rank
+    from gmcpt.lowrank import DEFAULT, NNM_PRESET, PAPER_PRESET, complete_low_rank
 
     torch.set_num_threads(args.threads)
     paper = PAPER_PRESET
     if args.quick:
         paper = replace(paper, iterations=min(paper.iterations, args.quick_iterations))
-    presets = [("paper" + (f"[{paper.iterations} it]" if args.quick else ""), paper,
-                1 if args.quick else args.repeats),
+    presets = [("paper" + (f" (capped at {paper.iterations} it)" if args.quick else ""), paper,
+                args.paper_repeats),
+               ("nnm", NNM_PRESET, args.repeats),
                ("default", DEFAULT, args.repeats)]
+    presets = [pr for pr in presets if pr[0].split()[0] in args.presets]
     print(f"torch {torch.__version__}, {args.threads} threads, device {args.device}, "
-          f"rate {args.rate}, noise std {args.noise} (0..255 scale)", flush=True)
+          f"rate {args.rate}, noise std {args.noise} (0..255 scale); CPU s is process CPU "
+          f"time (wall s > CPU s / threads means the machine was busy)", flush=True)
     for name, prm, _ in presets:
         print(f"  {name}: {prm}", flush=True)
     rows = []
@@ -132,23 +140,25 @@ def main(argv=None):
         base_psnr = psnr(fr["pre_completed"], fr["reference"])
         for name, prm, reps in presets:
             prm = replace(prm, device=args.device)
-            times, out, tim = [], None, None
+            times, cpus, out, tim = [], [], None, None
             for _ in range(reps):
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 out, tim = complete_low_rank(fr["pre_completed"], fr["observed"], fr["mask"],
                                              variance=fr["variance"], params=prm)
                 times.append(time.perf_counter() - t0)
-            row = (size, name, prm.iterations, float(np.median(times)), tim["block_matching_s"],
+                cpus.append(time.process_time() - c0)
+            row = (size, name, prm.iterations, float(np.median(times)), float(np.median(cpus)),
+                   tim["block_matching_s"],
                    tim["svd_s"], tim["aggregation_s"], base_psnr, psnr(out, fr["reference"]))
             rows.append(row)
-            print("  done %dx%d %-14s median %.2f s over %d run(s)" % (size, size, name, row[3], reps),
-                  flush=True)
+            print("  done %dx%d %-28s median %.2f s over %d run(s), %.2f dB"
+                  % (size, size, name, row[3], reps, row[-1]), flush=True)
     print()
-    print("| size | preset | iters | time s (median) | matching s | svd s | aggregation s "
-          "| PSNR pre-completion dB | PSNR out dB |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| size | preset | iters | wall s (median) | CPU s (median) | matching s | svd s "
+          "| aggregation s | PSNR pre-completion dB | PSNR out dB |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print("| %dx%d | %s | %d | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |"
+        print("| %dx%d | %s | %d | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.2f |"
               % (r[0], r[0], *r[1:]), flush=True)
 
 

@@ -98,16 +98,17 @@ def _value(text: str):
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--npz", nargs="*", default=[], help="frames as .npz files")
     ap.add_argument("--synthetic", type=int, default=2, help="number of synthetic frames (seeds)")
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--rate", type=float, default=0.3)
     ap.add_argument("--noise", type=float, default=12.0)
-    ap.add_argument("--w0", type=float, nargs="+", default=[1e4, 3e4, 1e5])
-    ap.add_argument("--iterations", type=int, nargs="+", default=[8, 16])
-    ap.add_argument("--patch", nargs="+", default=["7:3", "9:4"], help="patch_size:step pairs")
-    ap.add_argument("--K", type=int, nargs="+", default=[12, 16, 24])
+    ap.add_argument("--w0", type=float, nargs="+", default=[2e4, 3e4, 5e4])
+    ap.add_argument("--iterations", type=int, nargs="+", default=[11, 15])
+    ap.add_argument("--patch", nargs="+", default=["7:5", "7:4"], help="patch_size:step pairs")
+    ap.add_argument("--K", type=int, nargs="+", default=[16, 24])
     ap.add_argument("--data-term", nargs="+", default=["exact", "soft"])
     ap.add_argument("--grid", nargs="*", default=[], metavar="FIELD=V1,V2,...",
                     help="more swept fields, e.g. c=0.8,0.9 rematch_every=2,4")

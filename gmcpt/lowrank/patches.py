@@ -37,19 +37,22 @@ def reference_positions(size: int, patch_size: int, step: int) -> torch.Tensor:
     return torch.tensor(pos, dtype=torch.int64)
 
 
-def patch_matrix(image: torch.Tensor, patch_size: int) -> torch.Tensor:
-    """All overlapping patches of an ``(H, W, C)`` image as rows, ``(L, p*p*C)``."""
+def patch_view(image: torch.Tensor, patch_size: int) -> torch.Tensor:
+    """All overlapping patches of an ``(H, W, C)`` image as a strided view,
+    ``(H - p + 1, W - p + 1, p, p, C)`` (no copy)."""
     h, w, c = image.shape
     p = patch_size
     s = image.stride()
-    view = image.as_strided((h - p + 1, w - p + 1, p, p, c), (s[0], s[1], s[0], s[1], s[2]))
-    return view.reshape((h - p + 1) * (w - p + 1), p * p * c)
+    return image.as_strided((h - p + 1, w - p + 1, p, p, c), (s[0], s[1], s[0], s[1], s[2]))
 
 
-def gather_groups(patches: torch.Tensor, groups: torch.Tensor) -> torch.Tensor:
-    """Group matrices ``(G, K, d)`` (row k = patch k: the transpose of the
-    paper's d x K matrix) from a :func:`patch_matrix` and ``(G, K)`` indices."""
-    return patches[groups.reshape(-1)].reshape(*groups.shape, patches.shape[1])
+def gather_groups(image: torch.Tensor, groups: torch.Tensor, patch_size: int) -> torch.Tensor:
+    """Group matrices ``(G, K, d)`` of an ``(H, W, C)`` image for ``(G, K)``
+    patch indices; row k of group g is patch k (the transpose of the paper's
+    d x K matrix), ``d = p * p * C``."""
+    wp = image.shape[1] - patch_size + 1
+    view = patch_view(image, patch_size)
+    return view[groups // wp, groups % wp].reshape(*groups.shape, -1)
 
 
 def pixel_indices(groups: torch.Tensor, width: int, patch_size: int) -> torch.Tensor:
@@ -70,4 +73,5 @@ def aggregate(estimates: torch.Tensor, pix: torch.Tensor, numerator: torch.Tenso
 def coverage(pix: torch.Tensor, size: int, dtype=torch.float32) -> torch.Tensor:
     """How many grouped patch pixels fall on each of ``size`` pixels, ``(size,)``."""
     out = torch.zeros(size, dtype=dtype, device=pix.device)
-    return out.index_add_(0, pix.reshape(-1), torch.ones(pix.numel(), dtype=dtype, device=pix.device))
+    ones = torch.ones(pix.numel(), dtype=dtype, device=pix.device)
+    return out.index_add_(0, pix.reshape(-1), ones)
