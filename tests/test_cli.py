@@ -99,12 +99,14 @@ def _bad_input_cases(tmp_path):
         "output not exr": ([CORNELL], "must name an .exr file", tmp_path / "out.png"),
         "corrupt reference": ([CORNELL, "--reference", corrupt], "cannot read EXR"),
         "bad resolution": ([CORNELL, "--res", "0", "10"], "--res must be positive"),
+        "image smaller than a patch": ([CORNELL, "--method", "pawnnm", "--res", "5", "5"], "smaller than method"),
     }
 
 
 CASES = ["rate zero", "rate negative", "rate above one", "rate nan", "spp zero", "spp not a number",
          "missing scene", "malformed scene", "scene Mitsuba rejects", "unknown method", "unknown mask",
-         "missing output dir", "output is a directory", "output not exr", "corrupt reference", "bad resolution"]
+         "missing output dir", "output is a directory", "output not exr", "corrupt reference", "bad resolution",
+         "image smaller than a patch"]
 
 
 @pytest.mark.parametrize("case", CASES)
@@ -146,3 +148,12 @@ def test_python_m_gmcpt_is_the_same_cli():
     import sys
     result = subprocess.run([sys.executable, "-m", "gmcpt", "--help"], capture_output=True, text=True, cwd=ROOT)
     assert result.returncode == 0 and "--rate" in result.stdout and "--method" in result.stdout
+
+
+def test_pawnnm_end_to_end_records_substage_timings(tmp_path):
+    out = tmp_path / "pawnnm.exr"
+    result = run_cli(CORNELL, *SMALL, "--method", "pawnnm", "--out", out, "-q")
+    assert result.returncode == 0, result.stderr
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["parameters"]["method"] == "pawnnm"
+    assert {"block_matching_s", "svd_s", "aggregation_s", "pre_completion_s", "completion_s"} <= record["timings"].keys()
