@@ -111,3 +111,4 @@ def complete(frame: SparseFrame, method: str = "interp", **options) -> Completio
 
 
 from . import classical, lowrank  # noqa: E402,F401  (registers none, interp, pawnnm, nnm)
+from . import learned  # noqa: E402,F401  (registers gan, gan_pawnnm)

@@ -1,0 +1,234 @@
+"""Render the procedural dataset: one seeded, versioned ``.npz`` per scene.
+
+Per scene seed (see :mod:`gmcpt.dataset.scenes`):
+
+1. a 16-spp preview of the scene at exposure 1 picks the exposure that puts
+   the 95th luminance percentile at a random level in [0.4, 1.2] (radiance is
+   linear in the emitters, so this only rescales the lights);
+2. the scene is rebuilt at that exposure, and everything below is rendered
+   from it, exactly as the product would:
+   - ``reference``: full frame, ``reference_spp`` samples in passes of
+     ``pass_spp`` with seeds disjoint from the input's (``REFERENCE_SEED``);
+   - the product's sparse frame at a rate drawn from ``rate_range`` (mask
+     ``random``, 16 spp, seed = scene seed), via
+     :func:`gmcpt.render.render_sparse_frame`: ``radiance``, ``mask``,
+     ``variance`` and the feature buffers;
+   - the same call at rate 1 (``full_radiance``, ``full_variance``): every
+     pixel traced with the same per-pixel estimator, so training can draw
+     fresh masks at any rate; a traced pixel's value has the same
+     distribution whichever mask selected it.
+
+Files live in ``ROOT/<split>/<seed:07d>.npz`` with a ``meta`` JSON entry
+(dataset version, seed, split, exposure, rate, settings, render seconds);
+``ROOT/manifest.json`` records the :class:`DatasetSpec`. Building skips files
+that already exist with the current version, so an interrupted build resumes
+where it stopped. Splits draw seeds from disjoint ranges
+(``SPLIT_SEED_BASE``), so no seed, hence no scene, is shared.
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+DATASET_VERSION = 1
+SPLIT_SEED_BASE = {"train": 0, "val": 1_000_000, "test": 2_000_000}
+SEEDS_PER_SPLIT = 1_000_000
+REFERENCE_SEED = 0x4000_0000
+ARRAY_KEYS = ("reference", "radiance", "mask", "variance", "albedo", "normal", "depth", "visibility",
+              "full_radiance", "full_variance")
+
+
+@dataclass(frozen=True)
+class SplitSpec:
+    """One split: ``count`` scenes from seed ``SPLIT_SEED_BASE[name] + first``."""
+
+    name: str
+    count: int
+    resolution: int = 128
+    reference_spp: int = 512
+    first: int = 0
+
+    def seeds(self) -> list[int]:
+        if self.name not in SPLIT_SEED_BASE:
+            raise ValueError(f"unknown split {self.name!r}; choose from {', '.join(SPLIT_SEED_BASE)}")
+        if self.first < 0 or self.count < 0 or self.first + self.count > SEEDS_PER_SPLIT:
+            raise ValueError(f"split {self.name}: seeds must stay within {SEEDS_PER_SPLIT} of the split base")
+        base = SPLIT_SEED_BASE[self.name]
+        return list(range(base + self.first, base + self.first + self.count))
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    """Settings shared by all splits of a dataset build."""
+
+    splits: tuple[SplitSpec, ...] = field(default_factory=lambda: (SplitSpec("train", 200), SplitSpec("val", 10)))
+    spp: int = 16
+    rate_range: tuple[float, float] = (0.15, 0.5)
+    pass_spp: int = 128
+    exposure_range: tuple[float, float] = (0.4, 1.2)
+    version: int = DATASET_VERSION
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+
+def split_of(seed: int) -> str:
+    """The split a seed belongs to."""
+    for name, base in SPLIT_SEED_BASE.items():
+        if base <= seed < base + SEEDS_PER_SPLIT:
+            return name
+    raise ValueError(f"seed {seed} is in no split")
+
+
+def example_path(root: str | Path, split: str, seed: int) -> Path:
+    return Path(root) / split / f"{seed:07d}.npz"
+
+
+def _pick_exposure(seed: int, resolution: int, spec: DatasetSpec) -> float:
+    import mitsuba as mi
+
+    from .scenes import build_scene
+
+    preview = np.asarray(mi.render(build_scene(seed, resolution, 1.0), spp=16, seed=REFERENCE_SEED - 1))[..., :3]
+    level = float(np.percentile(np.nan_to_num(preview).mean(axis=-1), 95))
+    target = np.random.default_rng([seed, 0xE7905]).uniform(*spec.exposure_range)
+    return float(np.clip(target / max(level, 1e-6), 1e-2, 1e3))
+
+
+def render_reference(scene, spp: int, pass_spp: int, seed: int) -> np.ndarray:
+    """Full-frame mean of ``spp`` samples in passes with seeds disjoint from the input's."""
+    import drjit as dr
+    import mitsuba as mi
+
+    passes = max(1, spp // pass_spp)
+    total = None
+    for index in range(passes):
+        image = mi.render(scene, spp=min(pass_spp, spp), seed=REFERENCE_SEED + seed * 64 + index)
+        dr.eval(image)
+        array = np.nan_to_num(np.asarray(image, np.float64)[..., :3], nan=0.0, posinf=0.0, neginf=0.0)
+        total = array if total is None else total + array
+    return (total / passes).astype(np.float32)
+
+
+def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
+    """Render one scene's arrays and metadata (see the module docstring)."""
+    from ..render import RenderSettings, render_sparse_frame
+    from .scenes import build_scene
+
+    start = time.perf_counter()
+    exposure = _pick_exposure(seed, split.resolution, spec)
+    scene = build_scene(seed, split.resolution, exposure, spec.spp)
+    reference = render_reference(scene, split.reference_spp, spec.pass_spp, seed)
+    rate = float(np.random.default_rng([seed, 0x4A7E]).uniform(*spec.rate_range))
+    frame, _ = render_sparse_frame(scene, scene.integrator(), settings=RenderSettings(rate=rate, spp=spec.spp, seed=seed))
+    full, _ = render_sparse_frame(scene, scene.integrator(), settings=RenderSettings(rate=1.0, spp=spec.spp, seed=seed))
+    arrays = {"reference": reference, "radiance": frame.radiance, "mask": frame.mask, "variance": frame.variance,
+              "albedo": frame.albedo, "normal": frame.normal, "depth": frame.depth, "visibility": frame.visibility,
+              "full_radiance": np.where(full.mask[..., None], full.radiance, 0.0).astype(np.float32),
+              "full_variance": full.variance}
+    meta = {"version": spec.version, "seed": seed, "split": split.name, "exposure": exposure, "rate": rate,
+            "resolution": split.resolution, "spp": spec.spp, "reference_spp": split.reference_spp,
+            "full_mask_fraction": full.rendered_fraction, "seconds": time.perf_counter() - start}
+    return {"arrays": arrays, "meta": meta}
+
+
+def save_example(path: Path, example: dict) -> None:
+    """Write atomically (temporary name, then rename)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(path.stem + f".tmp{os.getpid()}.npz")
+    np.savez_compressed(temporary, meta=np.array(json.dumps(example["meta"])), **example["arrays"])
+    os.replace(temporary, path)
+
+
+def load_example(path: str | Path) -> dict:
+    """``{"meta": dict, **arrays}`` of one dataset file."""
+    with np.load(path) as data:
+        example = {key: data[key] for key in ARRAY_KEYS}
+        example["meta"] = json.loads(str(data["meta"]))
+    return example
+
+
+def is_complete(path: Path, version: int = DATASET_VERSION) -> bool:
+    """True if ``path`` holds a readable example of ``version``."""
+    if not path.is_file():
+        return False
+    try:
+        with np.load(path) as data:
+            return json.loads(str(data["meta"]))["version"] == version and all(k in data for k in ARRAY_KEYS)
+    except Exception:  # truncated or foreign file: render again
+        return False
+
+
+def _update_manifest(path: Path, spec: DatasetSpec) -> None:
+    """Record ``spec`` in the manifest, merging splits built by earlier calls."""
+    record = spec.to_json()
+    record["splits"] = {split["name"]: split for split in record["splits"]}
+    if path.is_file():
+        old = json.loads(path.read_text())
+        for key in ("version", "spp", "rate_range", "pass_spp", "exposure_range"):
+            if json.dumps(old.get(key)) != json.dumps(record[key]):
+                raise ValueError(f"{path.parent} was built with {key} = {old.get(key)}, this build has {record[key]}")
+        record["splits"] = {**old.get("splits", {}), **record["splits"]}
+    path.write_text(json.dumps(record, indent=1))
+
+
+def _init_worker(threads: int) -> None:
+    import gmcpt  # noqa: F401  (variant, LLVM)
+    import drjit as dr
+    import mitsuba as mi
+    mi.set_log_level(mi.LogLevel.Error)
+    if threads:
+        dr.set_thread_count(threads)
+
+
+def _work(job) -> tuple[int, str, float]:
+    root, seed, split, spec = job
+    example = render_example(seed, split, spec)
+    save_example(example_path(root, split.name, seed), example)
+    return seed, split.name, example["meta"]["seconds"]
+
+
+def build(root: str | Path, spec: DatasetSpec, workers: int = 1, threads: int = 0,
+          say=lambda message: print(message, file=sys.stderr, flush=True)) -> dict:
+    """Render every missing example of ``spec`` under ``root``; returns counts and seconds.
+
+    ``workers`` processes (spawned) render one scene each at a time; 0 renders
+    in this process. ``threads`` caps Dr.Jit's threads per worker (0: all).
+    """
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    _update_manifest(root / "manifest.json", spec)
+    jobs = [(str(root), seed, split, spec) for split in spec.splits for seed in split.seeds()
+            if not is_complete(example_path(root, split.name, seed), spec.version)]
+    total = sum(split.count for split in spec.splits)
+    say(f"dataset {root}: {total - len(jobs)}/{total} done, {len(jobs)} to render with {workers} worker(s)")
+    start, seconds = time.perf_counter(), 0.0
+    if workers == 0:
+        _init_worker(threads)
+        results = map(_work, jobs)
+    else:
+        import multiprocessing
+        pool = multiprocessing.get_context("spawn").Pool(workers, _init_worker, (threads,))
+        results = pool.imap_unordered(_work, jobs)
+    try:
+        for done, (seed, split, sec) in enumerate(results, 1):
+            seconds += sec
+            elapsed = time.perf_counter() - start
+            eta = elapsed / done * (len(jobs) - done)
+            say(f"[{done}/{len(jobs)}] {split} seed {seed}: {sec:.1f}s (elapsed {elapsed / 60:.1f} min, eta {eta / 60:.1f} min)")
+    finally:
+        if workers:
+            pool.terminate()
+    return {"rendered": len(jobs), "total": total, "render_seconds": seconds,
+            "wall_seconds": time.perf_counter() - start}
+
+
+def list_examples(root: str | Path, split: str) -> list[Path]:
+    """Sorted dataset files of one split."""
+    return sorted((Path(root) / split).glob("[0-9]*.npz"))

@@ -1,0 +1,93 @@
+"""``python -m gmcpt train``: train the GAN pre-completion and (optionally) export shipped weights.
+
+    python -m gmcpt train --config cpu --out runs/gan-cpu --export gan-cpu
+
+Rerunning with the same ``--out`` resumes from its checkpoint; ``--export``
+writes ``gmcpt/gan/weights/NAME.pt`` and its metadata JSON when training ends.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from ..errors import GmcptError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="gmcpt train", description=__doc__.splitlines()[0])
+    parser.add_argument("--config", default="cpu", help="preset (cpu, gpu) or a JSON file")
+    parser.add_argument("--out", help="run folder: checkpoint, curves.png, history.json (default: runs/gan-CONFIG)")
+    parser.add_argument("--dataset", help="override train.dataset")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=JSON",
+                        help="override a config value, e.g. train.steps=100 (repeatable)")
+    parser.add_argument("--export", metavar="NAME", help="write the trained generator to gmcpt/gan/weights/NAME.pt")
+    return parser
+
+
+def _overrides(args) -> dict:
+    overrides = {}
+    for item in args.set:
+        if "=" not in item or "." not in item.split("=", 1)[0]:
+            raise GmcptError(f"--set expects SECTION.KEY=VALUE, got {item!r}")
+        key, value = item.split("=", 1)
+        try:
+            overrides[key] = json.loads(value)
+        except json.JSONDecodeError:
+            overrides[key] = value
+    if args.dataset:
+        overrides["train.dataset"] = args.dataset
+    return overrides
+
+
+def export(trainer, name: str, command: str) -> dict:
+    """Save the trainer's generator as shipped weights ``name`` with full metadata."""
+    from .weights import WEIGHTS_DIR, save_weights
+
+    dataset = Path(trainer.config.train.dataset)
+    manifest = json.loads((dataset / "manifest.json").read_text()) if (dataset / "manifest.json").is_file() else {}
+    metadata = {"name": name, "command": command, "config": trainer.config.to_dict(),
+                "dataset": {"path": str(dataset), "version": manifest.get("version"), "manifest": manifest,
+                            "train_seeds": [min(trainer.train_seeds), max(trainer.train_seeds)],
+                            "train_scenes": len(trainer.train_seeds),
+                            "val_seeds": [e["meta"]["seed"] for e in trainer.val]},
+                "training": trainer.summary(), "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
+    return save_weights(WEIGHTS_DIR / f"{name}.pt", trainer.generator, metadata)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``python -m gmcpt train``; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        args = build_parser().parse_args(argv)
+        from .train import Trainer, load_config
+        try:
+            config = load_config(args.config, _overrides(args))
+        except (OSError, ValueError, TypeError) as error:
+            raise GmcptError(f"bad config {args.config}: {error}") from None
+        out = Path(args.out or f"runs/gan-{Path(args.config).stem}")
+        if not (Path(config.train.dataset) / "train").is_dir():
+            raise GmcptError(f"no dataset at {config.train.dataset}; build it with `python -m gmcpt dataset "
+                             f"--out {config.train.dataset}`")
+        start = time.perf_counter()
+        say = lambda message: print(f"[train {time.perf_counter() - start:7.1f}s] {message}",  # noqa: E731
+                                    file=sys.stderr, flush=True)
+        try:
+            trainer = Trainer(config, out, say)
+            summary = trainer.run()
+        except ValueError as error:  # incomplete dataset, a checkpoint from another config
+            raise GmcptError(str(error)) from None
+        if args.export:
+            record = export(trainer, args.export, "python -m gmcpt train " + " ".join(argv))
+            summary["exported"] = {"file": record["file"], "sha256": record["sha256"], "bytes": record["bytes"]}
+        print(json.dumps(summary))
+        return 0
+    except GmcptError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,108 @@
+"""Network inputs, shared by training and inference, and the training patch sampler.
+
+The generator sees (all in the working domain of :mod:`gmcpt.domain`, divided by 255):
+
+- ``radiance`` (3): sparse demodulated, log-compressed radiance, 0 where not traced;
+- ``features``: mask, albedo (3), normal (3), depth, visibility and, when the
+  config asks, the standard deviation of each traced pixel's mean (delta
+  method, 0 elsewhere, clipped at 1).
+
+Training draws a fresh random mask per crop at a rate drawn from
+``rate_range``, over the dataset's full-frame 16-spp render (the same
+per-pixel estimator the product uses for the pixels it traces).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..domain import WorkingDomain
+from ..frame import SparseFrame
+
+SCALE = 255.0
+
+
+def feature_stack(mask: np.ndarray, albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray,
+                  visibility: np.ndarray, std: np.ndarray | None) -> np.ndarray:
+    """(H, W, F) float32 features in the generator's channel order."""
+    parts = [mask[..., None].astype(np.float32), albedo, normal, depth[..., None], visibility[..., None]]
+    if std is not None:
+        parts.append(std[..., None])
+    return np.concatenate(parts, axis=-1).astype(np.float32)
+
+
+def working_std(domain: WorkingDomain, radiance: np.ndarray, variance: np.ndarray, factor: np.ndarray,
+                mask: np.ndarray) -> np.ndarray:
+    """Standard deviation of traced pixels in the working domain / 255, clipped to [0, 1]."""
+    std = np.sqrt(np.maximum(domain.variance(radiance, variance, factor), 0.0)) / SCALE
+    return np.where(mask, np.minimum(std, 1.0), 0.0).astype(np.float32)
+
+
+def frame_inputs(frame: SparseFrame, domain: WorkingDomain, use_variance: bool
+                 ) -> tuple[torch.Tensor, torch.Tensor, np.ndarray]:
+    """(radiance (1, 3, H, W), features (1, F, H, W), factor (H, W, 3)) of a sparse frame."""
+    factor = domain.factor(frame.albedo)
+    working = np.where(frame.mask[..., None], domain.forward(frame.radiance, factor), 0.0) / SCALE
+    std = working_std(domain, frame.radiance, frame.variance, factor, frame.mask) if use_variance else None
+    features = feature_stack(frame.mask, frame.albedo, frame.normal, frame.depth, frame.visibility, std)
+    to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(2, 0, 1)))[None].float()  # noqa: E731
+    return to_tensor(working.astype(np.float32)), to_tensor(features), factor
+
+
+def example_frame(example: dict) -> SparseFrame:
+    """The product-identical sparse frame stored in a dataset example."""
+    return SparseFrame(radiance=example["radiance"], mask=example["mask"].astype(bool), variance=example["variance"],
+                       albedo=example["albedo"], normal=example["normal"], depth=example["depth"],
+                       visibility=example["visibility"], spp=int(example["meta"]["spp"]))
+
+
+class PatchSampler:
+    """Random training crops from dataset examples, with fresh masks.
+
+    Each scene is kept in memory as one (H, W, 15) array: reference (3) and
+    full-frame noisy radiance (3) in the working domain / 255, noise std (1),
+    albedo (3), normal (3), depth, visibility.
+    """
+
+    def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
+                 rate_range: tuple[float, float] = (0.15, 0.5)):
+        from ..dataset import load_example
+
+        if not paths:
+            raise ValueError("no training examples")
+        self.crop, self.rate_range = crop, rate_range
+        self.scenes = []
+        for path in paths:
+            example = load_example(path)
+            factor = domain.factor(example["albedo"])
+            full = example["full_radiance"]
+            traced = np.ones(full.shape[:2], bool)
+            parts = [domain.forward(example["reference"], factor) / SCALE, domain.forward(full, factor) / SCALE,
+                     working_std(domain, full, example["full_variance"], factor, traced)[..., None],
+                     example["albedo"], example["normal"], example["depth"][..., None],
+                     example["visibility"][..., None]]
+            self.scenes.append(np.concatenate(parts, -1).astype(np.float32))
+
+    def batch(self, rng: np.random.Generator, size: int, use_variance: bool
+              ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(radiance (B, 3, c, c), features (B, F, c, c), target (B, 3, c, c))."""
+        crops = []
+        for _ in range(size):
+            scene = self.scenes[rng.integers(len(self.scenes))]
+            y = rng.integers(scene.shape[0] - self.crop + 1)
+            x = rng.integers(scene.shape[1] - self.crop + 1)
+            crop = scene[y:y + self.crop, x:x + self.crop]
+            if rng.random() < 0.5:
+                crop = crop[:, ::-1]
+            crops.append(crop)
+        data = np.stack(crops)
+        rates = rng.uniform(*self.rate_range, size=(size, 1, 1))
+        mask = rng.random(data.shape[:3]) < rates
+        radiance = data[..., 3:6] * mask[..., None]
+        std = data[..., 6] * mask if use_variance else None
+        features = np.stack([feature_stack(mask[i], data[i, ..., 7:10], data[i, ..., 10:13], data[i, ..., 13],
+                                           data[i, ..., 14], None if std is None else std[i]) for i in range(size)])
+        to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(0, 3, 1, 2))).float()  # noqa: E731
+        return to_tensor(radiance), to_tensor(features), to_tensor(data[..., 0:3])

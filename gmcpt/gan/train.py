@@ -1,0 +1,302 @@
+"""Training loop: configs as data, checkpoints and resume, curves, export.
+
+A config (``configs/cpu.json``, ``configs/gpu.json`` or any JSON file) has four
+sections: ``train`` (:class:`TrainConfig`), ``generator``
+(:class:`~gmcpt.gan.model.GeneratorConfig`), ``critic``
+(:class:`~gmcpt.gan.model.CriticConfig`) and ``loss``
+(:class:`~gmcpt.gan.losses.LossWeights`).
+
+Each step draws a batch of random crops with fresh masks, updates the WGAN-GP
+critic every ``critic_every`` steps (from ``critic_start``) and the generator
+with the hybrid loss. The run stops after ``steps`` steps, so the same config
+and seed give the same schedule. ``OUT/checkpoint.pt`` is written every
+``checkpoint_every`` steps (models, optimisers, RNG states, history) and a
+run restarted on the same ``OUT`` resumes from it. ``OUT/curves.png`` plots
+the L1, L2 and Wasserstein distances (paper Fig. 4) and the validation PSNR.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ..domain import WorkingDomain
+from .losses import (FixedFeatureExtractor, LossWeights, critic_loss, gradient_penalty, hybrid_loss, l2_loss,
+                     wasserstein_distance)
+from .model import Critic, CriticConfig, Generator, GeneratorConfig, parameter_count
+
+CONFIG_DIR = Path(__file__).resolve().parent / "configs"
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Optimisation settings.
+
+    Attributes
+    ----------
+    dataset : dataset folder (``train`` and ``val`` splits).
+    steps : generator updates.
+    batch, crop : crops per step and their side in pixels.
+    rate_range : sampling rates drawn per crop.
+    lr_g, lr_d : Adam learning rates (cosine decay to 5% over the run).
+    critic_every : update the critic every this many steps (1: every step).
+    critic_start : first step with the critic (and the texture term).
+    perceptual : ``fixed`` (:class:`FixedFeatureExtractor`) or ``critic`` (its detached features).
+    seed : seeds torch and the batch sampler.
+    threads : torch CPU threads (0: torch's default).
+    eval_every, checkpoint_every : in steps.
+    max_train_scenes : use only the first N training scenes (0: all).
+    """
+
+    dataset: str = "data/procedural-v1"
+    steps: int = 4000
+    batch: int = 8
+    crop: int = 64
+    rate_range: tuple[float, float] = (0.15, 0.5)
+    lr_g: float = 4e-4
+    lr_d: float = 1e-4
+    critic_every: int = 1
+    critic_start: int = 0
+    perceptual: str = "fixed"
+    seed: int = 1
+    threads: int = 1
+    eval_every: int = 250
+    checkpoint_every: int = 250
+    max_train_scenes: int = 0
+    device: str = "cpu"
+
+
+@dataclass(frozen=True)
+class FullConfig:
+    train: TrainConfig
+    generator: GeneratorConfig
+    critic: CriticConfig
+    loss: LossWeights
+
+    def to_dict(self) -> dict:
+        return {"train": asdict(self.train), "generator": self.generator.to_dict(),
+                "critic": self.critic.to_dict(), "loss": self.loss.to_dict()}
+
+
+def _build(cls, data: dict):
+    known = {f.name for f in fields(cls)}
+    unknown = set(data) - known
+    if unknown:
+        raise ValueError(f"unknown {cls.__name__} keys: {', '.join(sorted(unknown))}")
+    return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
+
+
+def load_config(name_or_path: str, overrides: dict | None = None) -> FullConfig:
+    """A preset name (``cpu``, ``gpu``) or a JSON path; ``overrides`` maps ``section.key`` to a value."""
+    path = Path(name_or_path)
+    if not path.suffix:
+        path = CONFIG_DIR / f"{name_or_path}.json"
+    data = json.loads(path.read_text())
+    for dotted, value in (overrides or {}).items():
+        section, key = dotted.split(".", 1)
+        data.setdefault(section, {})[key] = value
+    return FullConfig(train=_build(TrainConfig, data.get("train", {})),
+                      generator=_build(GeneratorConfig, data.get("generator", {})),
+                      critic=_build(CriticConfig, data.get("critic", {})),
+                      loss=_build(LossWeights, data.get("loss", {})))
+
+
+def validate(generator: Generator, examples: list[dict], domain: WorkingDomain) -> dict:
+    """Mean PSNR (tonemapped sRGB) of the generator on stored product frames."""
+    from ..metrics import psnr
+    from .data import example_frame
+    from .infer import precomplete
+
+    generator.eval()
+    scores = []
+    for example in examples:
+        working, factor = precomplete(generator, example_frame(example), domain)
+        scores.append(psnr(domain.inverse(working, factor), example["reference"]))
+    generator.train()
+    return {"val_psnr": float(np.mean(scores)), "val_psnr_each": [round(s, 3) for s in scores]}
+
+
+def interp_baseline(examples: list[dict]) -> float:
+    from ..completion import complete
+    from ..metrics import psnr
+    from .data import example_frame
+
+    return float(np.mean([psnr(complete(example_frame(e), "interp").image, e["reference"]) for e in examples]))
+
+
+def plot_curves(history: list[dict], path: Path, title: str = "") -> None:
+    """L2, L1 and Wasserstein distance per step (smoothed), and validation PSNR, as one PNG."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(1, 4, figsize=(16, 3.4))
+    for axis, key, label in zip(axes, ("l2", "l1", "wdist"), ("L2 distance", "L1 distance", "Wasserstein distance")):
+        steps = np.array([h["step"] for h in history if key in h])
+        values = np.array([h[key] for h in history if key in h], float)
+        axis.plot(steps, values, color="0.8", lw=0.5)
+        if len(values) >= 20:
+            kernel = np.ones(20) / 20
+            axis.plot(steps[19:], np.convolve(values, kernel, mode="valid"), color="C0")
+        axis.set_title(label)
+        axis.set_xlabel("step")
+        if key != "wdist":
+            axis.set_yscale("log")
+    val = [(h["step"], h["val_psnr"]) for h in history if "val_psnr" in h]
+    if val:
+        axes[3].plot(*zip(*val), "o-", color="C1", label="gan")
+        base = [h["interp_psnr"] for h in history if "interp_psnr" in h]
+        if base:
+            axes[3].axhline(base[-1], color="0.5", ls="--", label="interp")
+        axes[3].legend()
+    axes[3].set_title("validation PSNR (dB)")
+    axes[3].set_xlabel("step")
+    figure.suptitle(title)
+    figure.tight_layout()
+    temporary = path.with_name(path.stem + ".tmp.png")
+    figure.savefig(temporary, dpi=90)
+    plt.close(figure)
+    os.replace(temporary, path)
+
+
+class Trainer:
+    """Holds models, optimisers, data and history; :meth:`run` trains to ``steps``."""
+
+    def __init__(self, config: FullConfig, out: str | Path, say=print):
+        from ..dataset import list_examples, load_example
+        from .data import PatchSampler
+
+        self.config, self.out, self.say = config, Path(out), say
+        cfg = config.train
+        if cfg.threads:
+            torch.set_num_threads(cfg.threads)
+        torch.manual_seed(cfg.seed)
+        self.device = torch.device(cfg.device)
+        self.domain = WorkingDomain()
+        self.generator = Generator(config.generator).to(self.device)
+        self.critic = Critic(config.generator.feature_channels, config.critic).to(self.device)
+        self.extractor = FixedFeatureExtractor().to(self.device)
+        self.opt_g = torch.optim.Adam(self.generator.parameters(), lr=cfg.lr_g, betas=(0.9, 0.99))
+        self.opt_d = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_d, betas=(0.5, 0.9))
+        train_paths = list_examples(cfg.dataset, "train")
+        if cfg.max_train_scenes:
+            if len(train_paths) < cfg.max_train_scenes:
+                raise ValueError(f"{cfg.dataset} has {len(train_paths)} training scenes, the config asks for "
+                                 f"{cfg.max_train_scenes}; finish the dataset build first")
+            train_paths = train_paths[:cfg.max_train_scenes]
+        self.train_seeds = [int(p.stem) for p in train_paths]
+        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range)
+        self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")]
+        self.rng = np.random.default_rng([cfg.seed, 0x7EA1])
+        self.step, self.history, self.seconds = 0, [], 0.0
+        say(f"generator {parameter_count(self.generator) / 1e6:.3f} M parameters, critic "
+            f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes, {len(self.val)} val")
+
+    # ---------------------------------------------------------------- checkpoints
+    @property
+    def checkpoint_path(self) -> Path:
+        return self.out / "checkpoint.pt"
+
+    def save_checkpoint(self) -> None:
+        state = {"step": self.step, "seconds": self.seconds, "config": json.dumps(self.config.to_dict()),
+                 "generator": self.generator.state_dict(), "critic": self.critic.state_dict(),
+                 "opt_g": self.opt_g.state_dict(), "opt_d": self.opt_d.state_dict(),
+                 "torch_rng": torch.get_rng_state(),
+                 "numpy_rng": json.dumps(self.rng.bit_generator.state), "history": json.dumps(self.history)}
+        self.out.mkdir(parents=True, exist_ok=True)
+        temporary = self.checkpoint_path.with_suffix(".tmp")
+        torch.save(state, temporary)
+        os.replace(temporary, self.checkpoint_path)
+
+    def load_checkpoint(self) -> bool:
+        if not self.checkpoint_path.is_file():
+            return False
+        state = torch.load(self.checkpoint_path, map_location=self.device, weights_only=True)
+        if json.loads(state["config"]) != json.loads(json.dumps(self.config.to_dict())):
+            raise ValueError(f"{self.checkpoint_path} was made with another config; use a new --out")
+        self.generator.load_state_dict(state["generator"])
+        self.critic.load_state_dict(state["critic"])
+        self.opt_g.load_state_dict(state["opt_g"])
+        self.opt_d.load_state_dict(state["opt_d"])
+        torch.set_rng_state(state["torch_rng"])
+        self.rng.bit_generator.state = json.loads(state["numpy_rng"])
+        self.step, self.seconds = int(state["step"]), float(state["seconds"])
+        self.history = json.loads(state["history"])
+        self.say(f"resumed from {self.checkpoint_path} at step {self.step}")
+        return True
+
+    # ---------------------------------------------------------------- steps
+    def _learning_rate_scale(self) -> float:
+        progress = self.step / max(1, self.config.train.steps)
+        return 0.05 + 0.95 * 0.5 * (1 + math.cos(math.pi * progress))
+
+    def train_step(self) -> dict:
+        cfg, weights = self.config.train, self.config.loss
+        for optimizer, base in ((self.opt_g, cfg.lr_g), (self.opt_d, cfg.lr_d)):
+            for group in optimizer.param_groups:
+                group["lr"] = base * self._learning_rate_scale()
+        radiance, features, target = (t.to(self.device) for t in
+                                      self.sampler.batch(self.rng, cfg.batch, self.config.generator.use_variance))
+        fake = self.generator(radiance, features)
+        record = {}
+        adversarial = self.step >= cfg.critic_start
+        if adversarial and self.step % cfg.critic_every == 0:
+            real_score, fake_score = self.critic(target, features), self.critic(fake.detach(), features)
+            penalty = gradient_penalty(self.critic, target, fake.detach(), features)
+            loss_d = critic_loss(real_score, fake_score) + weights.gp_lambda * penalty
+            self.opt_d.zero_grad(set_to_none=True)
+            loss_d.backward()
+            self.opt_d.step()
+            record.update(wdist=float(wasserstein_distance(real_score, fake_score).detach()), gp=float(penalty.detach()))
+        self.critic.requires_grad_(False)
+        fake_score = self.critic(fake, features) if adversarial and weights.alpha else None
+        if cfg.perceptual == "critic":
+            out_features = self.critic.features(fake, features)
+            target_features = [f.detach() for f in self.critic.features(target, features)]
+        else:
+            out_features, target_features = self.extractor(fake), self.extractor(target)
+        loss_g, terms = hybrid_loss(fake, target, fake_score, out_features, target_features, weights)
+        self.critic.requires_grad_(True)
+        self.opt_g.zero_grad(set_to_none=True)
+        loss_g.backward()
+        self.opt_g.step()
+        record.update(terms, loss=float(loss_g.detach()), l2=float(l2_loss(fake.detach(), target)))
+        return record
+
+    def run(self) -> dict:
+        cfg = self.config.train
+        self.load_checkpoint()
+        if not any("interp_psnr" in h for h in self.history) and self.val:
+            self.history.append({"step": self.step, "interp_psnr": interp_baseline(self.val)})
+        while self.step < cfg.steps:
+            start = time.perf_counter()
+            record = self.train_step()
+            self.step += 1
+            self.seconds += time.perf_counter() - start
+            self.history.append({"step": self.step, **{k: round(v, 6) for k, v in record.items()}})
+            last = self.step == cfg.steps
+            if self.val and (self.step % cfg.eval_every == 0 or last):
+                self.history.append({"step": self.step, **validate(self.generator, self.val, self.domain)})
+                recent = [h for h in self.history[-cfg.eval_every - 1:] if "l1" in h]
+                self.say(f"step {self.step}/{cfg.steps} ({self.seconds / 60:.1f} min): "
+                         f"l1 {np.mean([h['l1'] for h in recent]):.4f} "
+                         f"wdist {np.nanmean([h.get('wdist', np.nan) for h in recent]):.3f} "
+                         f"val PSNR {self.history[-1]['val_psnr']:.2f} dB")
+            if self.step % cfg.checkpoint_every == 0 or last:
+                self.save_checkpoint()
+                plot_curves(self.history, self.out / "curves.png", f"{self.out.name}")
+        (self.out / "history.json").write_text(json.dumps(self.history))
+        return self.summary()
+
+    def summary(self) -> dict:
+        val = [h for h in self.history if "val_psnr" in h]
+        base = [h["interp_psnr"] for h in self.history if "interp_psnr" in h]
+        return {"steps": self.step, "train_seconds": round(self.seconds, 1),
+                "val_psnr": val[-1]["val_psnr"] if val else None, "val_interp_psnr": base[-1] if base else None,
+                "train_scenes": len(self.train_seeds), "val_scenes": len(self.val)}

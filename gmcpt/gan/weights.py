@@ -1,0 +1,96 @@
+"""Save and load generator weights with their metadata.
+
+A weights file ``NAME.pt`` holds ``{"format", "generator_config", "state_dict"}``
+(tensors, strings and numbers only: it loads with ``torch.load(weights_only=True)``).
+Beside it, ``NAME.json`` records the training config, the dataset (path,
+version, manifest), the training summary, the command that made it and the
+file's sha256, which :func:`load_generator` checks. The shipped weights live in
+``gmcpt/gan/weights/``; :data:`DEFAULT_WEIGHTS` is the one the ``gan`` methods use.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import torch
+
+from ..errors import GmcptError
+from .model import Generator, GeneratorConfig
+
+FORMAT = 1
+WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
+DEFAULT_WEIGHTS = "gan-cpu"
+RETRAIN_HINT = "retrain with `python -m gmcpt train --config cpu --export {name}` (see README, 'GAN weights')"
+
+_cache: dict[tuple[str, float], tuple[Generator, dict]] = {}
+
+
+def weights_path(name_or_path: str | Path | None = None) -> Path:
+    """A shipped weights name (``gan-cpu``) or a path to a ``.pt`` file."""
+    name_or_path = name_or_path or DEFAULT_WEIGHTS
+    path = Path(name_or_path)
+    if path.suffix == ".pt" or path.parent != Path("."):
+        return path
+    return WEIGHTS_DIR / f"{name_or_path}.pt"
+
+
+def sha256(path: str | Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for chunk in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def save_weights(path: str | Path, generator: Generator, metadata: dict) -> dict:
+    """Write ``path`` (.pt) and ``path.json``; returns the metadata written (with sha256)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    state = {k: v.detach().cpu().clone() for k, v in generator.state_dict().items()}
+    payload = {"format": FORMAT, "generator_config": json.dumps(generator.config.to_dict()), "state_dict": state}
+    temporary = path.with_name(path.name + f".tmp{os.getpid()}")
+    torch.save(payload, temporary)
+    os.replace(temporary, path)
+    record = {**metadata, "file": path.name, "format": FORMAT, "generator_config": generator.config.to_dict(),
+              "sha256": sha256(path), "bytes": path.stat().st_size}
+    path.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
+    return record
+
+
+def load_generator(name_or_path: str | Path | None = None, check_hash: bool = True) -> tuple[Generator, dict]:
+    """The generator (eval mode) and its metadata; cached per file and modification time.
+
+    Raises
+    ------
+    GmcptError
+        One line, saying how to retrain, when the file is missing, corrupt or
+        does not match its recorded hash.
+    """
+    path = weights_path(name_or_path)
+    hint = RETRAIN_HINT.format(name=path.stem)
+    if not path.is_file():
+        raise GmcptError(f"GAN weights not found: {path}; {hint}")
+    key = (str(path.resolve()), path.stat().st_mtime)
+    if key in _cache:
+        return _cache[key]
+    meta_path = path.with_suffix(".json")
+    metadata = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+    if check_hash and metadata.get("sha256") and metadata["sha256"] != sha256(path):
+        raise GmcptError(f"GAN weights {path} do not match the sha256 in {meta_path.name} (corrupt or replaced); {hint}")
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+        if payload.get("format") != FORMAT:
+            raise ValueError(f"format {payload.get('format')}, expected {FORMAT}")
+        generator = Generator(GeneratorConfig.from_dict(json.loads(payload["generator_config"])))
+        generator.load_state_dict(payload["state_dict"])
+    except Exception as error:  # unpickling, shape or key errors: all mean a bad file
+        message = " ".join(str(error).split())[:200]
+        raise GmcptError(f"GAN weights {path} are corrupt or incompatible ({type(error).__name__}: {message}); "
+                         f"{hint}") from None
+    generator.eval()
+    for parameter in generator.parameters():
+        parameter.requires_grad_(False)
+    _cache[key] = (generator, metadata)
+    return generator, metadata

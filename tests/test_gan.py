@@ -1,0 +1,262 @@
+"""GAN pre-completion: model, loss terms, weights I/O, training loop, completion methods."""
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from gmcpt.errors import GmcptError
+from gmcpt.gan import losses
+from gmcpt.gan.model import Critic, CriticConfig, Generator, GeneratorConfig, ModulatedResBlock, push_pull
+
+SMALL = GeneratorConfig(widths=(8, 8, 8), encoder_blocks=(1, 1, 1), decoder_blocks=(1, 1), condition_width=4)
+
+
+def _inputs(batch=2, size=16, config=SMALL, seed=0):
+    generator = torch.Generator().manual_seed(seed)
+    mask = (torch.rand(batch, 1, size, size, generator=generator) < 0.3).float()
+    radiance = torch.rand(batch, 3, size, size, generator=generator) * mask
+    rest = torch.rand(batch, config.feature_channels - 1, size, size, generator=generator)
+    return radiance, torch.cat([mask, rest], 1)
+
+
+# ----------------------------------------------------------------------------- model
+
+def test_push_pull_keeps_known_pixels_and_fills_constants():
+    mask = (torch.rand(1, 1, 13, 10) < 0.2).float()
+    mask[0, 0, 0, 0] = 1
+    values = torch.full((1, 3, 13, 10), 0.7) * mask
+    filled = push_pull(values, mask)
+    torch.testing.assert_close(filled, torch.full_like(filled, 0.7))
+
+
+def test_generator_starts_from_the_fill_and_is_small():
+    generator = Generator()
+    assert 0.3e6 < sum(p.numel() for p in generator.parameters()) < 1.0e6  # CPU-sized (METHOD.md: well under 1.5 M)
+    radiance, features = _inputs(config=GeneratorConfig())
+    out = generator(radiance, features)
+    assert out.shape == radiance.shape
+    # the tail is zero-initialised: an untrained generator returns the push-pull fill
+    torch.testing.assert_close(out, push_pull(radiance, features[:, :1]))
+
+
+def test_feature_modulation_is_scale_plus_one_and_shift():
+    block = ModulatedResBlock(2, 1)
+    with torch.no_grad():
+        block.conv1.weight.zero_(); block.conv1.bias.fill_(1.0)   # h = 1 everywhere
+        block.conv2.weight.zero_(); block.conv2.bias.fill_(0.0)   # second conv -> 0
+        block.modulation.bias.zero_()
+        block.modulation.weight.zero_()
+        block.modulation.weight[4:6, 0] = 1.0   # scale2 = condition
+        block.modulation.bias[6:8] = 0.5        # shift2 = 0.5
+    x = torch.zeros(1, 2, 4, 4)
+    condition = torch.full((1, 1, 4, 4), 3.0)
+    # out = x + conv2(...) * (scale2 + 1) + shift2 = 0 + 0 * 4 + 0.5
+    torch.testing.assert_close(block(x, condition), torch.full((1, 2, 4, 4), 0.5))
+
+
+def test_conditioning_changes_the_output():
+    torch.manual_seed(0)
+    generator = Generator(SMALL)
+    for parameter in generator.parameters():
+        torch.nn.init.normal_(parameter, std=0.2)
+    radiance, features = _inputs()
+    other = features.clone()
+    other[:, 1:4] = 1 - other[:, 1:4]   # change only the albedo
+    assert not torch.allclose(generator(radiance, features), generator(radiance, other))
+
+
+def test_critic_has_no_batch_norm_and_scores_each_sample():
+    critic = Critic(SMALL.feature_channels, CriticConfig((8, 8)))
+    assert not any(isinstance(m, torch.nn.modules.batchnorm._BatchNorm) for m in critic.modules())
+    radiance, features = _inputs(batch=3)
+    assert critic(radiance, features).shape == (3,)
+
+
+# ----------------------------------------------------------------------------- loss terms
+
+def test_terms_vanish_for_identical_images():
+    x = torch.rand(2, 3, 24, 24)
+    extractor = losses.FixedFeatureExtractor()
+    for term in (losses.l1_loss, losses.l2_loss, losses.sharpness_loss, losses.ssim_loss):
+        assert float(term(x, x)) == pytest.approx(0.0, abs=1e-6)
+    assert float(losses.perceptual_loss(extractor(x), extractor(x))) == 0.0
+
+
+def test_ssim_matches_scikit_image():
+    from skimage.metrics import structural_similarity
+
+    rng = np.random.default_rng(0)
+    a = rng.random((48, 48, 3)).astype(np.float32)
+    b = np.clip(a + 0.1 * rng.standard_normal(a.shape), 0, 1).astype(np.float32)
+    expected = structural_similarity(a, b, channel_axis=-1, data_range=1.0, gaussian_weights=True, sigma=1.5,
+                                     use_sample_covariance=False)
+    to = lambda x: torch.from_numpy(x).permute(2, 0, 1)[None]  # noqa: E731
+    assert float(losses.ssim(to(a), to(b))) == pytest.approx(expected, abs=5e-3)
+
+
+def test_sharpness_and_perceptual_terms_see_blur():
+    torch.manual_seed(0)
+    sharp = (torch.rand(1, 3, 32, 32) > 0.5).float()
+    blurred = torch.nn.functional.avg_pool2d(sharp, 3, stride=1, padding=1, count_include_pad=False)
+    shifted = sharp * 0.9 + 0.05   # same structure, other contrast
+    extractor = losses.FixedFeatureExtractor()
+    assert losses.sharpness_loss(blurred, sharp) > 5 * losses.sharpness_loss(shifted, sharp)
+    assert losses.perceptual_loss(extractor(blurred), extractor(sharp)) > \
+        losses.perceptual_loss(extractor(shifted), extractor(sharp))
+    assert not list(extractor.parameters())  # fixed: nothing to train, nothing to download
+
+
+def test_wasserstein_terms_and_gradient_penalty():
+    real, fake = torch.tensor([2.0, 4.0]), torch.tensor([1.0, -1.0])
+    assert float(losses.texture_loss(fake)) == 0.0
+    assert float(losses.critic_loss(real, fake)) == pytest.approx(-3.0)
+    assert float(losses.wasserstein_distance(real, fake)) == pytest.approx(3.0)
+
+    class Linear(torch.nn.Module):   # D(x) = <w, x>: gradient norm |w| everywhere
+        def __init__(self, norm):
+            super().__init__()
+            self.w = torch.full((1, 3, 4, 4), norm / np.sqrt(48))
+
+        def forward(self, image, features):
+            return (image * self.w).flatten(1).sum(1)
+
+    x, y, f = torch.rand(2, 3, 4, 4), torch.rand(2, 3, 4, 4), torch.zeros(2, 1, 4, 4)
+    assert float(losses.gradient_penalty(Linear(1.0), x, y, f)) == pytest.approx(0.0, abs=1e-6)
+    assert float(losses.gradient_penalty(Linear(3.0), x, y, f)) == pytest.approx(4.0, rel=1e-4)
+
+
+def test_hybrid_loss_uses_the_paper_weights():
+    weights = losses.LossWeights()
+    assert (weights.alpha, weights.beta, weights.gamma, weights.omega, weights.gp_lambda) == (0.005, 0.0095, 0.95, 0.095, 10)
+    out, target = torch.rand(1, 3, 16, 16), torch.rand(1, 3, 16, 16)
+    extractor = losses.FixedFeatureExtractor()
+    total, terms = losses.hybrid_loss(out, target, torch.tensor([2.0]), extractor(out), extractor(target), weights)
+    expected = (0.005 * terms["tex"] + 0.0095 * terms["per"] + 0.95 * terms["sharp"] + 0.095 * terms["ssim"]
+                + weights.l1 * terms["l1"])
+    assert float(total) == pytest.approx(expected, rel=1e-5) and terms["tex"] == -2.0
+
+
+# ----------------------------------------------------------------------------- weights
+
+def test_weights_round_trip_and_metadata(tmp_path):
+    from gmcpt.gan.weights import load_generator, save_weights, sha256
+
+    generator = Generator(SMALL)
+    torch.nn.init.normal_(generator.tail.weight, std=0.1)
+    record = save_weights(tmp_path / "w.pt", generator, {"config": {"x": 1}, "dataset": {"version": 1}})
+    assert record["sha256"] == sha256(tmp_path / "w.pt")
+    assert json.loads((tmp_path / "w.json").read_text())["dataset"]["version"] == 1
+    torch.load(tmp_path / "w.pt", weights_only=True)   # plain tensors and strings only
+    loaded, meta = load_generator(tmp_path / "w.pt")
+    radiance, features = _inputs()
+    torch.testing.assert_close(loaded(radiance, features), generator(radiance, features).detach())
+    assert meta["config"] == {"x": 1}
+
+
+def test_missing_or_corrupt_weights_give_one_line_with_the_fix(tmp_path):
+    from gmcpt.gan.weights import load_generator, save_weights
+
+    with pytest.raises(GmcptError, match="not found.*retrain with `python -m gmcpt train"):
+        load_generator(tmp_path / "absent.pt")
+    path = tmp_path / "bad.pt"
+    save_weights(path, Generator(SMALL), {})
+    path.write_bytes(path.read_bytes()[:500])
+    for check_hash, pattern in ((True, "sha256"), (False, "corrupt")):
+        with pytest.raises(GmcptError, match=pattern) as error:
+            load_generator(path, check_hash=check_hash)
+        assert "\n" not in str(error.value) and "retrain" in str(error.value)
+
+
+# ----------------------------------------------------------------------------- training
+
+def _tiny_dataset(root, count=2, size=24):
+    from gmcpt.dataset.build import save_example
+    from tests.conftest import synthetic_frame
+
+    for split, base in (("train", 0), ("val", 1_000_000)):
+        for index in range(count):
+            frame, clean = synthetic_frame(size, size, 0.3, seed=index)
+            arrays = {"reference": clean, "radiance": frame.radiance, "mask": frame.mask, "variance": frame.variance,
+                      "albedo": frame.albedo, "normal": frame.normal, "depth": frame.depth,
+                      "visibility": frame.visibility, "full_radiance": clean * 1.05, "full_variance": frame.variance + 1e-3}
+            meta = {"version": 1, "seed": base + index, "split": split, "spp": 16, "rate": 0.3}
+            save_example(root / split / f"{base + index:07d}.npz", {"arrays": arrays, "meta": meta})
+    (root / "manifest.json").write_text(json.dumps({"version": 1}))
+
+
+def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
+    from gmcpt.gan import cli, weights
+    from gmcpt.gan.train import Trainer, load_config
+
+    data = tmp_path / "data"
+    _tiny_dataset(data)
+    overrides = {"train.dataset": str(data), "train.steps": 2, "train.max_train_scenes": 0, "train.batch": 2, "train.crop": 16,
+                 "train.eval_every": 2, "train.checkpoint_every": 1, "critic.widths": [8, 8],
+                 "generator.widths": [8, 8, 8], "generator.encoder_blocks": [1, 1, 1], "generator.condition_width": 4}
+    config = load_config("cpu", overrides)
+    out = tmp_path / "run"
+    first = Trainer(config, out, lambda m: None).run()
+    assert first["steps"] == 2 and (out / "checkpoint.pt").is_file() and (out / "curves.png").is_file()
+    history = json.loads((out / "history.json").read_text())
+    assert {"l1", "l2", "wdist"} <= set(history[1]) and any("val_psnr" in h for h in history)
+    resumed = Trainer(load_config("cpu", {**overrides, "train.steps": 3}), out, lambda m: None)
+    with pytest.raises(ValueError, match="another config"):
+        resumed.run()   # a changed config never silently resumes
+    again = Trainer(config, out, lambda m: None)
+    assert again.load_checkpoint() and again.step == 2
+    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    record = cli.export(again, "tiny", "python -m gmcpt train ...")
+    assert record["dataset"]["version"] == 1 and (tmp_path / "shipped" / "tiny.pt").is_file()
+
+
+def test_train_cli_reports_a_missing_dataset(tmp_path, capsys):
+    from gmcpt.gan.cli import main
+
+    assert main(["--config", "cpu", "--dataset", str(tmp_path / "none"), "--out", str(tmp_path / "r")]) == 2
+    assert "python -m gmcpt dataset" in capsys.readouterr().err
+
+
+def test_presets_load():
+    from gmcpt.gan.train import load_config
+
+    cpu, gpu = load_config("cpu"), load_config("gpu")
+    assert cpu.train.device == "cpu" and gpu.train.device == "cuda"
+    assert cpu.loss == losses.LossWeights()
+
+
+# ----------------------------------------------------------------------------- completion methods
+
+def test_gan_method_with_given_weights(tmp_path):
+    from gmcpt.completion import complete
+    from gmcpt.gan.weights import save_weights
+    from tests.conftest import synthetic_frame
+
+    save_weights(tmp_path / "g.pt", Generator(SMALL), {})
+    frame, clean = synthetic_frame(30, 36)   # not a multiple of 8: padded and cropped
+    result = complete(frame, "gan", weights=str(tmp_path / "g.pt"))
+    assert result.image.shape == (30, 36, 3) and np.isfinite(result.image).all()
+    assert "pre_completion_s" in result.timings
+
+
+def test_shipped_weights_match_their_metadata():
+    from gmcpt.gan.weights import DEFAULT_WEIGHTS, load_generator, weights_path
+
+    path = weights_path(DEFAULT_WEIGHTS)
+    if not path.is_file():
+        pytest.skip(f"no shipped weights at {path} yet")
+    generator, meta = load_generator(DEFAULT_WEIGHTS)   # checks the sha256
+    assert meta["command"].startswith("python -m gmcpt train") and meta["dataset"]["version"] >= 1
+    assert path.stat().st_size < 5e6
+
+
+def test_gan_pawnnm_runs_end_to_end():
+    from gmcpt.completion import complete
+    from gmcpt.gan.weights import DEFAULT_WEIGHTS, weights_path
+    from tests.conftest import synthetic_frame
+
+    if not weights_path(DEFAULT_WEIGHTS).is_file():
+        pytest.skip("no shipped weights yet")
+    frame, clean = synthetic_frame(32, 32)
+    result = complete(frame, "gan_pawnnm")
+    assert result.image.shape == (32, 32, 3) and np.isfinite(result.image).all()
