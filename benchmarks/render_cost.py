@@ -4,12 +4,15 @@
 For each scene and spp, the stock full-frame render and the masked render
 (feature pass + compacted path tracing, no completion) at each rate run
 interleaved, ``--repeats`` rounds after one warm-up round (kernel
-compilation); the table shows medians and the ratio masked / full beside the
-target ``rate + 0.05``, both in wall-clock time and in CPU time of this
-process (all its threads). CPU time is the cost measure that other programs
-on a shared machine disturb least; the verdict uses it.
+compilation). Each round runs ``full, r1, r2, ..., full``; a masked time is
+divided by the mean of the full renders around it (paired ratios cancel the
+slow drift of a shared virtual machine, whose clock moves by 10-20% over a
+minute), and the table shows the median over rounds beside the target
+``rate + 0.05``, in wall-clock time and in CPU time of this process (all its
+threads). CPU time is the cost measure that other programs on a shared
+machine disturb least; the verdict uses it.
 
-    python benchmarks/render_cost.py [--res 256] [--spp 16 64] [--repeats 3]
+    python benchmarks/render_cost.py [--res 256] [--spp 16 64] [--repeats 5]
 """
 from __future__ import annotations
 
@@ -36,7 +39,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--res", type=int, default=256)
     parser.add_argument("--spp", type=int, nargs="+", default=[16, 64])
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--scenes", nargs="+", default=[str(BUNDLED), str(SHARED_BREAKFAST)])
     args = parser.parse_args()
 
@@ -64,22 +67,28 @@ def main() -> int:
             def sparse(rate):
                 return lambda: render_sparse_frame(scene, nested, settings=RenderSettings(rate=rate, spp=spp, seed=1))
 
-            jobs = [("full", full)] + [(rate, sparse(rate)) for rate in RATES]
-            for _, job in jobs:  # warm-up: kernel compilation
+            jobs = [(rate, sparse(rate)) for rate in RATES]
+            for _, job in [("full", full)] + jobs:  # warm-up: kernel compilation
                 job()
-            samples = {name: [] for name, _ in jobs}
+            full_times, masked_times, ratios = [], {rate: [] for rate in RATES}, {rate: [] for rate in RATES}
+            before = timed(full)
             for round_index in range(args.repeats):
-                for name, job in jobs:
-                    samples[name].append(timed(job))
+                this_round = {rate: timed(job) for rate, job in jobs}
+                after = timed(full)
+                full_times.append(before)
+                for rate, (wall, cpu) in this_round.items():
+                    masked_times[rate].append(wall)
+                    ratios[rate].append((2 * wall / (before[0] + after[0]), 2 * cpu / (before[1] + after[1])))
+                before = after
                 print(f"  {scene_path.parent.name} spp={spp}: round {round_index + 1}/{args.repeats} done", flush=True)
-            def median(name, which):
-                return statistics.median(sample[which] for sample in samples[name])
+            full_s = statistics.median(wall for wall, _ in full_times)
             for rate in RATES:
-                rows.append((scene_path.parent.name, spp, rate, median("full", 0), median(rate, 0),
-                             median(rate, 0) / median("full", 0), median(rate, 1) / median("full", 1), rate + 0.05))
+                rows.append((scene_path.parent.name, spp, rate, full_s, statistics.median(masked_times[rate]),
+                             statistics.median(wall for wall, _ in ratios[rate]),
+                             statistics.median(cpu for _, cpu in ratios[rate]), rate + 0.05))
 
     print(f"\nmasked render (features + traced pixels) vs stock path, {args.res}x{args.res}, "
-          f"median of {args.repeats}")
+          f"median of {args.repeats} paired ratios")
     header = (f"{'scene':<16}{'spp':>5}{'rate':>6}{'full s':>9}{'masked s':>10}{'wall ratio':>12}"
               f"{'CPU ratio':>11}{'target':>8}  ok")
     print(header)

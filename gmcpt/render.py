@@ -31,6 +31,8 @@ from .masks import make_mask
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
 FEATURE_SEED_OFFSET = 0x5EED_F00D
+# samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
+SCATTER_MODE = dr.ReduceMode.Local
 # the features need UVs (textured albedo) and the shading frame, no surface derivatives
 FEATURE_RAY_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFrame
 
@@ -119,7 +121,8 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     """Path trace ``spp`` samples for each flat pixel index in ``pixels``.
 
     Returns ``(sum, sum_of_squares, count)`` over the finite samples, shapes
-    (n, 3), (n, 3) and (n,).
+    (n, 3), (n,) and (n,); the sum of squares is summed over the three
+    channels (all that the channel-averaged variance needs).
     """
     _, width = _sensor_film_size(sensor)
     lanes = pixels.size * spp
@@ -130,17 +133,16 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     radiance = weight * radiance
     finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
     radiance = dr.select(finite, radiance, 0.0)
-    # Accumulate per pixel inside the path tracing kernel (as the film does):
-    # sum, sum of squares and count of finite samples, all in one launch.
+    # Accumulate per pixel inside the path tracing kernel (as the film does,
+    # with as many channels: RGB, squared norm, count of finite samples).
     lane_pixel = dr.arange(mi.UInt32, lanes) // spp
-    values = [radiance[0], radiance[1], radiance[2], dr.square(radiance[0]), dr.square(radiance[1]),
-              dr.square(radiance[2]), dr.select(finite, 1.0, 0.0)]
+    values = [radiance[0], radiance[1], radiance[2], dr.squared_norm(radiance), dr.select(finite, 1.0, 0.0)]
     sums = [dr.zeros(mi.Float, pixels.size) for _ in values]
     for target, value in zip(sums, values):
-        dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel)
+        dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
     dr.eval(sums)
     columns = np.stack([np.asarray(column, dtype=np.float64) for column in sums], axis=1)
-    return columns[:, 0:3], columns[:, 3:6], columns[:, 6]
+    return columns[:, 0:3], columns[:, 3], columns[:, 4]
 
 
 def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,
@@ -178,7 +180,7 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     pixels = np.flatnonzero(mask)
     passes = max(1, -(-pixels.size * spp // MAX_LANES))
     pass_spp = -(-spp // passes)
-    total = np.zeros((pixels.size, 3)); squares = np.zeros((pixels.size, 3)); count = np.zeros(pixels.size)
+    total = np.zeros((pixels.size, 3)); squares = np.zeros(pixels.size); count = np.zeros(pixels.size)
     done = 0
     for index in range(passes):
         this_spp = min(pass_spp, spp - done)
@@ -192,8 +194,9 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     timings["render_s"] = time.perf_counter() - start
 
     mean = total / np.maximum(count, 1)[:, None]
-    sample_variance = (squares - count[:, None] * mean ** 2) / np.maximum(count - 1, 1)[:, None]
-    variance_of_mean = np.maximum(sample_variance, 0.0).mean(axis=1) / np.maximum(count, 1)
+    # channel-averaged unbiased sample variance, divided by n: the variance of the pixel's mean
+    sample_variance = (squares - count * (mean ** 2).sum(axis=1)) / (3 * np.maximum(count - 1, 1))
+    variance_of_mean = np.maximum(sample_variance, 0.0) / np.maximum(count, 1)
     traced = mask.copy().ravel()
     traced[pixels[count == 0]] = False  # every sample was NaN/Inf
     radiance = np.zeros((height * width, 3), np.float32); radiance[pixels] = mean
