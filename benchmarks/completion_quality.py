@@ -7,9 +7,12 @@ and relMSE on linear radiance are printed per scene and rate, beside the
 noisy full-frame render at the same spp for scale.
 
     python benchmarks/completion_quality.py [--methods interp nnm pawnnm] [--rates 0.2 0.3 0.4]
+        [--scenes cornell-box still-life breakfast-room-open]
 
-References come from gmcpt.reference (cached; rendered on a miss, which is slow:
-run scripts/make_references.py first). ``--save-frames DIR`` also writes each
+Scenes are those of :mod:`gmcpt.evalscenes` (why breakfast-room is evaluated
+with its window panes left out is explained there). References come from
+gmcpt.reference (cached; rendered on a miss, which is slow: run
+scripts/make_references.py first). ``--save-frames DIR`` also writes each
 sparse frame with its reference as .npz for parameter sweeps.
 """
 from __future__ import annotations
@@ -22,8 +25,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-SCENES = [ROOT / "scenes" / "cornell-box" / "scene.xml", ROOT / "scenes" / "still-life" / "scene.xml",
-          ROOT.parent / "shared" / "scenes" / "breakfast-room" / "scene.xml"]
+sys.path.insert(0, str(ROOT))
 
 
 def main() -> int:
@@ -34,28 +36,31 @@ def main() -> int:
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--ref-spp", type=int, default=4096)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--scenes", nargs="+", default=[str(s) for s in SCENES])
+    parser.add_argument("--scenes", nargs="+", help="names from gmcpt.evalscenes (default: the quality scenes)")
     parser.add_argument("--save-frames", metavar="DIR")
     args = parser.parse_args()
 
     import gmcpt  # noqa: F401
     import mitsuba as mi
     from gmcpt.completion import complete
+    from gmcpt.evalscenes import by_name
     from gmcpt.metrics import all_metrics
-    from gmcpt.reference import render_reference
     from gmcpt.render import RenderSettings, render_sparse_frame
-    from gmcpt.scene import load_scene
 
     mi.set_log_level(mi.LogLevel.Error)
     rows = []
-    for scene_path in map(Path, args.scenes):
-        if not scene_path.is_file():
-            print(f"skipping {scene_path}: not found", flush=True)
+    try:
+        scenes = by_name(args.scenes)
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    for eval_scene in scenes:
+        if not eval_scene.available():
+            print(f"skipping {eval_scene.name}: {eval_scene.path} not found", flush=True)
             continue
-        name = scene_path.parent.name
-        reference = render_reference(scene_path, args.res, args.ref_spp,
-                                     progress=lambda m: print(m, flush=True))
-        scene = load_scene(scene_path, (args.res, args.res))
+        name = eval_scene.name
+        reference = eval_scene.reference(args.res, args.ref_spp, progress=lambda m: print(m, flush=True))
+        scene = eval_scene.load(args.res)
         nested = getattr(scene.integrator(), "integrator", scene.integrator())
         noisy = np.asarray(mi.render(scene, integrator=nested, spp=args.spp, seed=args.seed + 17))[..., :3]
         rows.append((name, 1.0, f"path {args.spp}spp", all_metrics(noisy, reference), 0.0))

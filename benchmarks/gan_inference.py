@@ -45,8 +45,6 @@ def main() -> int:
     parser.add_argument("--weights", default=None, help="shipped name or .pt path (default: gan-cpu)")
     args = parser.parse_args()
 
-    import torch
-
     from gmcpt.completion.learned import gan_precompletion
     from gmcpt.domain import WorkingDomain
     from gmcpt.gan.weights import load_generator
@@ -59,7 +57,7 @@ def main() -> int:
                "weights": meta.get("name", args.weights), "load_weights_s": round(load_s, 4),
                "cpu_count": os.cpu_count(), "load_average": os.getloadavg()[0], "per_threads": {}}
     for threads in args.threads:
-        torch.set_num_threads(threads)
+        os.environ["GMCPT_TORCH_THREADS"] = str(threads)  # read by gan_precompletion on each call
         gan_precompletion(frame, domain, args.weights)  # warm-up
         times = []
         for _ in range(args.repeats):

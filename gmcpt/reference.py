@@ -25,25 +25,31 @@ def cache_dir() -> Path:
 
 
 def reference_key(scene_path: str | Path, resolution: int, spp: int, seed: int,
-                  parameters: dict | None = None) -> str:
+                  parameters: dict | None = None, without: tuple[str, ...] = ()) -> str:
     digest = hashlib.sha256(Path(scene_path).read_bytes())
-    digest.update(json.dumps([resolution, spp, seed, sorted((parameters or {}).items())]).encode())
+    key = [resolution, spp, seed, sorted((parameters or {}).items())]
+    if without:  # keys of references made before this option stay valid
+        key.append(sorted(without))
+    digest.update(json.dumps(key).encode())
     return f"{Path(scene_path).parent.name}-{resolution}px-{spp}spp-s{seed}-{digest.hexdigest()[:12]}"
 
 
 def render_reference(scene_path: str | Path, resolution: int = 256, spp: int = 4096, seed: int = 1_000_003,
                      parameters: dict | None = None, pass_spp: int = 256,
-                     progress: Callable[[str], None] | None = None) -> np.ndarray:
-    """Return a cached (H, W, 3) reference, rendering it on a miss."""
+                     progress: Callable[[str], None] | None = None, without: tuple[str, ...] = ()) -> np.ndarray:
+    """Return a cached (H, W, 3) reference, rendering it on a miss.
+
+    ``without`` lists ids of scene elements left out (see :func:`gmcpt.scene.load_scene`).
+    """
     import drjit as dr
     import mitsuba as mi
 
     from .scene import load_scene
 
-    path = cache_dir() / (reference_key(scene_path, resolution, spp, seed, parameters) + ".exr")
+    path = cache_dir() / (reference_key(scene_path, resolution, spp, seed, parameters, without) + ".exr")
     if path.is_file():
         return read_rgb_exr(path)
-    scene = load_scene(scene_path, (resolution, resolution), parameters)
+    scene = load_scene(scene_path, (resolution, resolution), parameters, without)
     integrator = scene.integrator()
     integrator = getattr(integrator, "integrator", integrator)  # unwrap masked_path
     passes = max(1, spp // pass_spp)

@@ -36,8 +36,17 @@ def _set_film_size(root: ET.Element, width: int, height: int) -> None:
             node.set("value", str(value))
 
 
+def _remove_elements(root: ET.Element, ids: tuple[str, ...], path: Path) -> None:
+    found = {element.get("id"): element for element in root if element.get("id") in ids}
+    missing = [name for name in ids if name not in found]
+    if missing:
+        raise GmcptError(f"{path} has no top-level element with id {', '.join(missing)}")
+    for element in found.values():
+        root.remove(element)
+
+
 def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
-               parameters: dict[str, str] | None = None) -> mi.Scene:
+               parameters: dict[str, str] | None = None, without: tuple[str, ...] = ()) -> mi.Scene:
     """Load a Mitsuba 3 XML scene, optionally at another resolution.
 
     Parameters
@@ -45,6 +54,7 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
     path : scene file; relative resources resolve from its folder.
     resolution : (width, height) replacing every sensor film's size.
     parameters : values for the scene's ``$name`` parameters (``<default>``).
+    without : ids of top-level elements (shapes, emitters) to leave out.
     """
     path = Path(path)
     if not path.is_file():
@@ -57,6 +67,8 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         raise GmcptError(f"{path} is not a Mitsuba scene (root element <{root.tag}>)")
     if resolution is not None:
         _set_film_size(root, *resolution)
+    if without:
+        _remove_elements(root, tuple(without), path)
     text = ET.tostring(root, encoding="unicode")
     try:
         with _resolving_from(path.resolve().parent):

@@ -8,8 +8,13 @@ pre-completion to the low-rank refinement
 (:func:`gmcpt.completion.lowrank.refine_low_rank`).
 
 Both take ``weights=`` (a shipped name such as ``gan-cpu`` or a ``.pt`` path;
-default :data:`gmcpt.gan.weights.DEFAULT_WEIGHTS`). Torch uses
-``$GMCPT_TORCH_THREADS`` threads when set.
+default :data:`gmcpt.gan.weights.DEFAULT_WEIGHTS`).
+
+The generator runs on :data:`GAN_THREADS` torch threads (``$GMCPT_TORCH_THREADS``
+overrides), restored afterwards. One thread is the default because on a
+shared 2-core machine torch's thread barrier made 2 threads ~10x slower
+(measured: 256x256, 1 thread 0.13 s; 2 threads 0.6-1.8 s while another
+process used the other core; ``benchmarks/gan_inference.py``).
 """
 from __future__ import annotations
 
@@ -22,6 +27,9 @@ from ..domain import WorkingDomain
 from ..frame import SparseFrame
 from . import Completion, register_method
 
+GAN_THREADS = 1
+GAN_PAWNNM_BLEND = 0.5
+
 
 def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
                       weights: str | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
@@ -31,13 +39,15 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     from ..gan.infer import precomplete
     from ..gan.weights import load_generator
 
-    threads = os.environ.get("GMCPT_TORCH_THREADS")
-    if threads:
-        torch.set_num_threads(int(threads))
     start = time.perf_counter()
     generator, _ = load_generator(weights)
     loaded = time.perf_counter()
-    working, factor = precomplete(generator, frame, domain)
+    previous = torch.get_num_threads()
+    torch.set_num_threads(int(os.environ.get("GMCPT_TORCH_THREADS", GAN_THREADS)))
+    try:
+        working, factor = precomplete(generator, frame, domain)
+    finally:
+        torch.set_num_threads(previous)
     timings = {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}
     return working, factor, timings
 
@@ -60,11 +70,22 @@ def _low_rank_min_size() -> int:
 @register_method("gan_pawnnm", min_size=_low_rank_min_size(),
                  summary="GAN pre-completion + block matching + PAWNNM (the paper's full method)")
 def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDomain(), weights: str | None = None,
-                        params=None) -> Completion:
-    """GAN pre-completion, then PAWNNM low-rank refinement."""
+                        params=None, blend: float = GAN_PAWNNM_BLEND) -> Completion:
+    """GAN pre-completion, then PAWNNM low-rank refinement.
+
+    ``blend`` is the weight of the GAN pre-completion in the output,
+    ``blend * gan + (1 - blend) * pawnnm`` (linear radiance); 0 is the paper's
+    pipeline as printed. Why the default is not 0: PAWNNM re-imposes the
+    16-spp samples (its data term), so it discards the GAN's denoising of the
+    traced pixels and, on its own, lands *below* the GAN (val, 128x128:
+    gan 27.51 dB, blend 0: 26.35 dB, pawnnm 26.28 dB), while the two
+    stages' errors are largely independent: blend 0.5 gave 27.96 dB.
+    """
     from .lowrank import refine_low_rank
 
-    working, _, timings = gan_precompletion(frame, domain, weights)
+    working, factor, timings = gan_precompletion(frame, domain, weights)
     result = refine_low_rank(frame, working, domain, params)
+    if blend:
+        result.image = (blend * domain.inverse(working, factor) + (1 - blend) * result.image).astype(np.float32)
     result.timings.update(timings)
     return result

@@ -18,6 +18,13 @@ Per scene seed (see :mod:`gmcpt.dataset.scenes`):
      fresh masks at any rate; a traced pixel's value has the same
      distribution whichever mask selected it.
 
+Reproducibility: everything in a file is a pure function of the seed and
+the spec (measured with Mitsuba 3.9.1, llvm_ad_rgb): scenes load without
+Mitsuba's shape merging, which otherwise reorders emitters from one load to
+the next (see :func:`gmcpt.dataset.scenes.build_scene`). Files of
+``data/procedural-v1`` built before that change hold equally valid samples
+that differ bit-wise from a rebuild.
+
 Files live in ``ROOT/<split>/<seed:07d>.npz`` with a ``meta`` JSON entry
 (dataset version, seed, split, exposure, rate, settings, render seconds);
 ``ROOT/manifest.json`` records the :class:`DatasetSpec`. Building skips files

@@ -350,5 +350,8 @@ def scene_description(seed: int, resolution: int = 128, exposure: float = 1.0, s
 def build_scene(seed: int, resolution: int = 128, exposure: float = 1.0, spp: int = 16):
     """Load procedural scene ``seed`` as an ``mi.Scene``."""
     import mitsuba as mi
-    # serial loading keeps the emitter order, hence the samples, identical across loads
-    return mi.load_dict(scene_description(seed, resolution, exposure, spp), parallel=False)
+    # Mitsuba's shape merging (optimize=True) orders the merged scene's shapes, and so its
+    # area emitters, differently from one load to the next within a process (measured,
+    # Mitsuba 3.9.1): emitter sampling, hence every sample, would then depend on what the
+    # process loaded before. Serial loading without merging keeps the order of the description.
+    return mi.load_dict(scene_description(seed, resolution, exposure, spp), parallel=False, optimize=False)

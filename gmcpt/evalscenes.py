@@ -1,0 +1,66 @@
+"""The scenes the benchmarks and the evaluation run on.
+
+Two bundled scenes, and ``../shared/scenes/breakfast-room`` (CC-BY, read in
+place, never copied) where present, in two forms:
+
+- ``breakfast-room-open``: the scene with its two window panes left out
+  (``windowglass1``, ``windowglass2``), which is what the quality tables use.
+  As shipped, the room's main light is a small, very bright sphere ("fakesun")
+  seen only through dielectric glass, so every sunlit pixel is a caustic that
+  a path tracer reaches only by chance: two independent 512-spp renders at
+  128x128 agree to 12.4 dB PSNR, so no affordable reference exists and every
+  method scores ~11 dB. With the panes out the sun is sampled directly and
+  two 512-spp renders agree to 31.5 dB (measured with Mitsuba 3.9.1).
+- ``breakfast-room``: as shipped, for timings (``benchmarks/render_cost.py``)
+  and to show the reference-noise problem above.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED_SCENES = ROOT.parent / "shared" / "scenes"
+
+
+@dataclass(frozen=True)
+class EvalScene:
+    """A scene file plus the ids of elements left out when loading it."""
+
+    name: str
+    path: Path
+    without: tuple[str, ...] = ()
+
+    def available(self) -> bool:
+        return self.path.is_file()
+
+    def load(self, resolution: int):
+        from .scene import load_scene
+
+        return load_scene(self.path, (resolution, resolution), without=self.without)
+
+    def reference(self, resolution: int = 256, spp: int = 4096, seed: int = 1_000_003, progress=None):
+        from .reference import render_reference
+
+        return render_reference(self.path, resolution, spp, seed, progress=progress, without=self.without)
+
+
+CORNELL = EvalScene("cornell-box", ROOT / "scenes" / "cornell-box" / "scene.xml")
+STILL_LIFE = EvalScene("still-life", ROOT / "scenes" / "still-life" / "scene.xml")
+BREAKFAST = EvalScene("breakfast-room", SHARED_SCENES / "breakfast-room" / "scene.xml")
+BREAKFAST_OPEN = EvalScene("breakfast-room-open", BREAKFAST.path, ("windowglass1", "windowglass2"))
+
+#: scenes of the quality tables
+QUALITY_SCENES = (CORNELL, STILL_LIFE, BREAKFAST_OPEN)
+ALL_SCENES = (CORNELL, STILL_LIFE, BREAKFAST_OPEN, BREAKFAST)
+
+
+def by_name(names: list[str] | None, default=QUALITY_SCENES) -> list[EvalScene]:
+    """Scenes named in ``names`` (default: ``default``); raises ValueError for an unknown name."""
+    if not names:
+        return list(default)
+    known = {scene.name: scene for scene in ALL_SCENES}
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise ValueError(f"unknown scene {', '.join(unknown)}; choose from {', '.join(known)}")
+    return [known[name] for name in names]

@@ -1,0 +1,130 @@
+"""Procedural scene generator and dataset builder (gmcpt.dataset)."""
+import json
+
+import numpy as np
+import pytest
+
+
+def _summary(value):
+    """A comparable, object-free summary of a scene description."""
+    if isinstance(value, dict):
+        return {k: _summary(v) for k, v in sorted(value.items())}
+    if isinstance(value, (list, tuple)):
+        return [_summary(v) for v in value]
+    if isinstance(value, (int, float, str, bool)) or value is None:
+        return value
+    return type(value).__name__ + ":" + " ".join(str(value).split())[:200]
+
+
+def _types(description, key="type"):
+    found = set()
+
+    def walk(node):
+        if isinstance(node, dict):
+            if key in node and isinstance(node[key], str):
+                found.add(node[key])
+            for child in node.values():
+                walk(child)
+        elif type(node).__name__ == "Mesh":
+            found.add("mesh")
+    walk(description)
+    return found
+
+
+def test_same_seed_same_scene_and_seeds_differ(mi):
+    from gmcpt.dataset.scenes import scene_description
+
+    a, b = _summary(scene_description(7, 32)), _summary(scene_description(7, 32))
+    assert a == b
+    assert _summary(scene_description(8, 32)) != a
+    # exposure only scales the lights: the rest of the scene is unchanged
+    assert _summary(scene_description(7, 32, exposure=3.0))["sensor"] == a["sensor"]
+
+
+def test_generator_covers_required_variety(mi):
+    from gmcpt.dataset.scenes import scene_description
+
+    found = set()
+    for seed in range(80):
+        found |= _types(scene_description(seed, 16))
+    needed = {"rectangle", "cube", "sphere", "cylinder", "mesh",                              # shapes
+              "diffuse", "bitmap", "plastic", "roughplastic", "conductor", "roughconductor",    # materials
+              "dielectric", "roughdielectric",
+              "area", "point", "spot", "directional", "constant", "envmap"}                    # lights
+    assert needed <= found, needed - found
+
+
+def test_scenes_load_and_render(mi):
+    from gmcpt.dataset.scenes import build_scene
+
+    for seed in (0, 2_000_000):
+        scene = build_scene(seed, 16)
+        image = np.asarray(mi.render(scene, spp=4))
+        assert image.shape[:2] == (16, 16) and np.isfinite(image).all()
+
+
+@pytest.mark.parametrize("builder", ["torus", "cone", "pyramid", "prism", "vase", "blob"])
+def test_meshes_are_closed_and_outward(builder):
+    from gmcpt.dataset import meshes
+
+    rng = np.random.default_rng(0)
+    vertices, faces = getattr(meshes, builder)(rng) if builder in ("vase", "blob") else getattr(meshes, builder)()
+    v = vertices.astype(np.float64)
+    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+    assert np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6 > 0  # positive signed volume: normals point out
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert (counts == 2).all()  # closed, manifold
+
+
+def test_splits_never_share_seeds():
+    from gmcpt.dataset import SplitSpec, split_of
+
+    seeds = {name: set(SplitSpec(name, 5000).seeds()) for name in ("train", "val", "test")}
+    assert not seeds["train"] & seeds["val"] and not seeds["train"] & seeds["test"] and not seeds["val"] & seeds["test"]
+    assert all(split_of(s) == name for name, group in seeds.items() for s in group)
+    with pytest.raises(ValueError):
+        SplitSpec("train", 2_000_000).seeds()
+
+
+def test_build_resume_and_product_identical_inputs(mi, tmp_path):
+    from gmcpt.dataset import DatasetSpec, SplitSpec, build, example_path, list_examples, load_example
+    from gmcpt.dataset.build import is_complete
+    from gmcpt.dataset.scenes import build_scene
+    from gmcpt.render import RenderSettings, render_sparse_frame
+
+    spec = DatasetSpec(splits=(SplitSpec("train", 1, 16, 16),), pass_spp=8)
+    summary = build(tmp_path, spec, workers=0, say=lambda m: None)
+    assert summary["rendered"] == 1
+    assert build(tmp_path, spec, workers=0, say=lambda m: None)["rendered"] == 0  # resumes: nothing left
+    path = example_path(tmp_path, "train", 0)
+    assert list_examples(tmp_path, "train") == [path]
+    example = load_example(path)
+    meta = example["meta"]
+    assert meta["version"] == spec.version and meta["seed"] == 0 and meta["split"] == "train"
+    assert 0.15 <= meta["rate"] <= 0.5 and abs(example["mask"].mean() - meta["rate"]) < 0.01
+    assert example["reference"].shape == (16, 16, 3) and np.isfinite(example["reference"]).all()
+    assert example["full_radiance"].shape == (16, 16, 3)
+    # the stored inputs are exactly what the product renders for that scene, rate and seed
+    scene = build_scene(0, 16, meta["exposure"], spec.spp)
+    frame, _ = render_sparse_frame(scene, scene.integrator(), settings=RenderSettings(rate=1.0, spp=16, seed=0))
+    sparse, _ = render_sparse_frame(scene, scene.integrator(), settings=RenderSettings(rate=meta["rate"], spp=16, seed=0))
+    np.testing.assert_array_equal(sparse.mask, example["mask"])
+    np.testing.assert_array_equal(sparse.radiance, example["radiance"])
+    np.testing.assert_array_equal(frame.radiance, example["full_radiance"])
+    for name in ("albedo", "normal", "depth", "visibility"):
+        np.testing.assert_array_equal(getattr(frame, name), example[name])
+    assert (example["radiance"][~example["mask"]] == 0).all()
+    manifest = json.loads((tmp_path / "manifest.json").read_text())
+    assert set(manifest["splits"]) == {"train"}
+    # a truncated file counts as missing, so the next build renders it again
+    assert is_complete(path)
+    path.write_bytes(path.read_bytes()[:100])
+    assert not is_complete(path)
+
+
+def test_cli_rejects_bad_arguments(tmp_path, capsys):
+    from gmcpt.dataset.cli import main
+
+    assert main(["--out", str(tmp_path / "d"), "--rate", "0.6", "0.2"]) == 2
+    assert "error:" in capsys.readouterr().err
