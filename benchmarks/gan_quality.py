@@ -3,9 +3,9 @@
 
 Scenes: the held-out procedural test split of the dataset (``--dataset``,
 seeds 2000000.., references stored in the split at 256x256 / 4096 spp, scenes
-rebuilt from their seed and exposure), the bundled scenes and
-``../shared/scenes/breakfast-room`` (references from :mod:`gmcpt.reference`'s
-cache). For each scene and rate one sparse frame is rendered (16 spp, seed 0,
+rebuilt from their seed and exposure) and the quality scenes of
+:mod:`gmcpt.evalscenes` (bundled ones, breakfast-room with its window panes
+left out; references from :mod:`gmcpt.reference`'s cache). For each scene and rate one sparse frame is rendered (16 spp, seed 0,
 ``random`` mask) and every method completes it; beside them, full-frame path
 tracing with the same number of path samples (``round(rate * spp)`` per
 pixel), denoised with Intel Open Image Denoise when ``pyoidn`` is installed.
@@ -25,29 +25,26 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-BUNDLED = [ROOT / "scenes" / "cornell-box" / "scene.xml", ROOT / "scenes" / "still-life" / "scene.xml",
-           ROOT.parent / "shared" / "scenes" / "breakfast-room" / "scene.xml"]
 
 
 def scenes(args):
     """(name, scene, nested integrator, reference) for every scene to evaluate."""
     from gmcpt.dataset import list_examples, load_example
     from gmcpt.dataset.scenes import build_scene
-    from gmcpt.reference import render_reference
-    from gmcpt.scene import load_scene
+    from gmcpt.evalscenes import QUALITY_SCENES
 
     for path in list_examples(args.dataset, "test")[:args.test_scenes] if args.test_scenes else []:
         example = load_example(path)
         meta = example["meta"]
         scene = build_scene(meta["seed"], meta["resolution"], meta["exposure"], args.spp)
         yield f"proc-{meta['seed']}", scene, scene.integrator(), example["reference"]
-    for path in (BUNDLED if args.bundled else []):
-        if not path.is_file():
-            print(f"skipping {path}: not found", file=sys.stderr)
+    for eval_scene in (QUALITY_SCENES if args.bundled else []):
+        if not eval_scene.available():
+            print(f"skipping {eval_scene.name}: {eval_scene.path} not found", file=sys.stderr)
             continue
-        reference = render_reference(path, args.res, args.ref_spp, progress=lambda m: print(m, file=sys.stderr))
-        scene = load_scene(path, (args.res, args.res))
-        yield path.parent.name, scene, getattr(scene.integrator(), "integrator", scene.integrator()), reference
+        reference = eval_scene.reference(args.res, args.ref_spp, progress=lambda m: print(m, file=sys.stderr))
+        scene = eval_scene.load(args.res)
+        yield eval_scene.name, scene, getattr(scene.integrator(), "integrator", scene.integrator()), reference
 
 
 def oidn(image, albedo, normal):

@@ -81,11 +81,14 @@ def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDo
     gan 27.51 dB, blend 0: 26.35 dB, pawnnm 26.28 dB), while the two
     stages' errors are largely independent: blend 0.5 gave 27.96 dB.
     """
-    from .lowrank import refine_low_rank
+    from .lowrank import LOW_RANK_DOMAIN, refine_low_rank
 
     working, factor, timings = gan_precompletion(frame, domain, weights)
-    result = refine_low_rank(frame, working, domain, params)
+    gan_image = domain.inverse(working, factor)
+    # the low-rank stage works in its own domain (see LOW_RANK_DOMAIN)
+    low_rank_working = LOW_RANK_DOMAIN.forward(gan_image, LOW_RANK_DOMAIN.factor(frame.albedo))
+    result = refine_low_rank(frame, low_rank_working, LOW_RANK_DOMAIN, params)
     if blend:
-        result.image = (blend * domain.inverse(working, factor) + (1 - blend) * result.image).astype(np.float32)
+        result.image = (blend * gan_image + (1 - blend) * result.image).astype(np.float32)
     result.timings.update(timings)
     return result

@@ -123,15 +123,15 @@ class LowRankParams:
 
     patch_size: int = 7
     step: int = 5
-    search_radius: int = 8
+    search_radius: int = 10
     group_size: int = 16
     iterations: int = 11
-    w0: float = 3e4
+    w0: float = 1e4
     c: float = 0.9
     eps: float = 1e-8
     rendered_weight: float = 1.0
     filled_weight: float = 0.5
-    feature_weight: float = 0.0
+    feature_weight: float = 0.3
     rematch_every: int = 4
     threshold: str = "weighted"
     data_term: str = "soft"
@@ -181,13 +181,19 @@ PAPER_PRESET = LowRankParams(patch_size=7, step=3, search_radius=10, group_size=
                              iterations=45, w0=80.5, c=0.9, rematch_every=1,
                              threshold="weighted", data_term="exact", momentum=0.0)
 
-#: Tuned default, from benchmarks/sweep_lowrank.py on two synthetic 256x256
-#: frames (30 % samples, noise std 12; pre-completion 24.2 dB): 29.98 dB in
-#: 2.0 s of one core.  One change at a time (dB, CPU time): w0 2e4 or 5e4
-#: -0.3; K 12 -0.2 (0.8x), K 24 +0.2 (1.7x); search radius 10 +0.1 (1.2x);
-#: rendered:filled weight 1:1 +0.05, 1:0.25 -0.1; 15 iterations +0.3 (1.3x);
-#: step 4 / 3 +0.1 (1.6x / 2.7x); c = 1 -0.7; no momentum -0.9; exact data
-#: term -2.0.
+#: Tuned default. First from benchmarks/sweep_lowrank.py on two synthetic
+#: 256x256 frames (30 % samples, noise std 12): patch 7, step 5, K 16, 11
+#: iterations, c 0.9, momentum 0.8, soft data term, re-matching every 4
+#: iterations (one change at a time, dB: K 24 +0.2 at 1.7x time, 15 iterations
+#: +0.3 at 1.3x, step 3 +0.1 at 2.7x, c = 1 -0.7, no momentum -0.9, exact data
+#: term -2.0). Then from benchmarks/sweep_rendered.py on the rendered frames of
+#: cornell-box and still-life (256x256, 16 spp, rates 0.2/0.3/0.4, seed 0),
+#: scored by the worst frame's tonemapped-PSNR gain over interp: w0 3e4 -> 1e4,
+#: search radius 8 -> 10, feature weight 0 -> 0.3 together +0.4 dB (worst frame
+#: +2.3 -> +2.8), and the low-rank domain's albedo_eps 0.02 -> 0.2 another +0.9
+#: (worst frame +3.6; see gmcpt.completion.lowrank.LOW_RANK_DOMAIN). Tried and
+#: left: K 24 (-2.6 dB on cornell-box at rate 0.2), c 0.8, momentum 0.6,
+#: patch 5 or 8, 16 iterations, two passes.
 DEFAULT = LowRankParams()
 
 #: NNM ablation: constant threshold (w0 is then a singular value, not its square).
