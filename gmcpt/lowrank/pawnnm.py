@@ -178,7 +178,7 @@ class LowRankParams:
 #: The paper's literal settings (w0, c, k; Algorithm 1 re-forms the groups every
 #: iteration); patch 7x7, step 3, K = 70 as in METHOD.md's measurement.
 PAPER_PRESET = LowRankParams(patch_size=7, step=3, search_radius=10, group_size=70,
-                             iterations=45, w0=80.5, c=0.9, rematch_every=1,
+                             iterations=45, w0=80.5, c=0.9, rematch_every=1, feature_weight=0.0,
                              threshold="weighted", data_term="exact", momentum=0.0)
 
 #: Tuned default. First from benchmarks/sweep_lowrank.py on two synthetic
