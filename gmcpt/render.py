@@ -104,24 +104,26 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = 1, se
     def per_pixel(values, channels):
         array = np.asarray(values, dtype=np.float32)
         array = array.T if channels > 1 else array
-        return array.reshape(height, width, feature_spp, *(() if channels == 1 else (channels,))).mean(axis=2)
+        array = array.reshape(height, width, feature_spp, *(() if channels == 1 else (channels,)))
+        return array[:, :, 0] if feature_spp == 1 else array.mean(axis=2)
 
     hit_fraction = per_pixel(hit_weight, 1)
     distance = per_pixel(distance, 1) / np.maximum(hit_fraction, 1e-6)
     max_distance = float(distance.max()) if (hit_fraction > 0).any() else 1.0
     depth = np.where(hit_fraction > 0, distance / max(max_distance, 1e-12), 1.0)
     normal = per_pixel(normal, 3)
-    normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-6)
-    return {"albedo": per_pixel(albedo, 3), "normal": normal.astype(np.float32),
-            "depth": depth.astype(np.float32), "visibility": per_pixel(visible, 1)}
+    if feature_spp > 1:  # a mean of unit normals: renormalise (one sample is unit already, or 0 on a miss)
+        normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-6)
+    return {"albedo": np.ascontiguousarray(per_pixel(albedo, 3)), "normal": np.ascontiguousarray(normal),
+            "depth": depth.astype(np.float32), "visibility": np.ascontiguousarray(per_pixel(visible, 1))}
 
 
 def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
                  pixels: np.ndarray, spp: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Path trace ``spp`` samples for each flat pixel index in ``pixels``.
 
-    Returns ``(sum, sum_of_squares, count)`` over the finite samples, shapes
-    (n, 3), (n,) and (n,); the sum of squares is summed over the three
+    Returns float32 ``(sum, sum_of_squares, count)`` over the finite samples,
+    shapes (n, 3), (n,) and (n,); the sum of squares is summed over the three
     channels (all that the channel-averaged variance needs).
     """
     _, width = _sensor_film_size(sensor)
@@ -141,8 +143,8 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     for target, value in zip(sums, values):
         dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
     dr.eval(sums)
-    columns = np.stack([np.asarray(column, dtype=np.float64) for column in sums], axis=1)
-    return columns[:, 0:3], columns[:, 3], columns[:, 4]
+    red, green, blue, squares, count = (np.asarray(column) for column in sums)
+    return np.stack([red, green, blue], axis=1), squares, count
 
 
 def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,
@@ -180,8 +182,7 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     pixels = np.flatnonzero(mask)
     passes = max(1, -(-pixels.size * spp // MAX_LANES))
     pass_spp = -(-spp // passes)
-    total = np.zeros((pixels.size, 3)); squares = np.zeros(pixels.size); count = np.zeros(pixels.size)
-    done = 0
+    total, squares, count, done = 0.0, 0.0, 0.0, 0
     for index in range(passes):
         this_spp = min(pass_spp, spp - done)
         if this_spp <= 0:
@@ -190,20 +191,24 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
             + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
         s, q, n = trace_pixels(scene, sensor, integrator, pixels, this_spp,
                                settings.seed if passes == 1 else settings.seed * passes + index)
-        total += s; squares += q; count += n; done += this_spp
+        total, squares, count, done = total + s, squares + q, count + n, done + this_spp
     timings["render_s"] = time.perf_counter() - start
 
-    mean = total / np.maximum(count, 1)[:, None]
-    # channel-averaged unbiased sample variance, divided by n: the variance of the pixel's mean
-    sample_variance = (squares - count * (mean ** 2).sum(axis=1)) / (3 * np.maximum(count - 1, 1))
-    variance_of_mean = np.maximum(sample_variance, 0.0) / np.maximum(count, 1)
-    traced = mask.copy().ravel()
-    traced[pixels[count == 0]] = False  # every sample was NaN/Inf
-    radiance = np.zeros((height * width, 3), np.float32); radiance[pixels] = mean
-    variance = np.zeros(height * width, np.float32); variance[pixels] = variance_of_mean
-    radiance[~traced] = 0.0; variance[~traced] = 0.0
+    # mean, and the variance of the mean: channel-averaged unbiased sample variance over n (in float64,
+    # as sum of squares minus n mean^2 cancels); pixels whose every sample was NaN/Inf count as untraced
+    valid = count > 0
+    inverse_count = 1.0 / np.maximum(count, 1)
+    mean = total * inverse_count[:, None]
+    sample_variance = (squares - count * np.einsum("ij,ij->i", mean, mean, dtype=np.float64)) \
+        / (3 * np.maximum(count - 1, 1))
+    traced = mask.ravel().copy()
+    traced[pixels[~valid]] = False
+    radiance = np.zeros((height * width, 3), np.float32)
+    radiance[pixels] = np.where(valid[:, None], mean, 0.0)
+    variance = np.zeros(height * width, np.float32)
+    variance[pixels] = np.where(valid, np.maximum(sample_variance, 0.0) * inverse_count, 0.0)
     info = {"mask": settings.pattern, "seed": settings.seed, "feature_spp": settings.feature_spp,
-            "traced_pixels": int(traced.sum()), "nonfinite_samples": int(pixels.size * spp - count.sum()),
+            "traced_pixels": int(traced.sum()), "nonfinite_samples": int(pixels.size * spp - np.sum(count)),
             "passes": passes}
     frame = SparseFrame(radiance=radiance.reshape(height, width, 3), mask=traced.reshape(height, width),
                         variance=variance.reshape(height, width), spp=spp, info=info, **features)
