@@ -9,7 +9,7 @@ from gmcpt.layers import channel_names, pack
 from gmcpt.masks import PATTERNS, check_rate
 from gmcpt.render import RenderSettings, render_sparse_frame
 
-DEFAULT_COMPLETION = "interp"
+DEFAULT_COMPLETION = "pawnnm"
 
 
 class MaskedPathIntegrator(mi.SamplingIntegrator):
@@ -41,7 +41,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - Primary samples per pixel of the feature pass (albedo, normal, depth, visibility). (Default: 1)
      * - completion
        - |string|
-       - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``interp``)
+       - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``pawnnm``)
      * - (Nested plugin)
        - :paramtype:`integrator`
        - The integrator that computes radiance along each traced ray. (Default: ``path``)
