@@ -11,8 +11,11 @@ minute), and the table shows the median over rounds beside the target
 ``rate + 0.05``, in wall-clock time and in CPU time of this process (all its
 threads). CPU time is the cost measure that other programs on a shared
 machine disturb least; the verdict uses it.
+At 16 spp on the bundled still life (0.8 s per full render) single cells
+still move by about +-0.02 between runs on a shared 2-core machine, hence
+the 13 rounds by default.
 
-    python benchmarks/render_cost.py [--res 256] [--spp 16 64] [--repeats 5]
+    python benchmarks/render_cost.py [--res 256] [--spp 16 64] [--repeats 13]   # about 17 minutes
 """
 from __future__ import annotations
 
@@ -39,7 +42,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--res", type=int, default=256)
     parser.add_argument("--spp", type=int, nargs="+", default=[16, 64])
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--repeats", type=int, default=13)
     parser.add_argument("--scenes", nargs="+", default=[str(BUNDLED), str(SHARED_BREAKFAST)])
     args = parser.parse_args()
 
