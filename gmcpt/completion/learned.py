@@ -28,7 +28,7 @@ from ..frame import SparseFrame
 from . import Completion, register_method
 
 GAN_THREADS = 1
-GAN_PAWNNM_BLEND = 0.5
+GAN_PAWNNM_BLEND = 0.0
 
 
 def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
@@ -74,12 +74,15 @@ def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDo
     """GAN pre-completion, then PAWNNM low-rank refinement.
 
     ``blend`` is the weight of the GAN pre-completion in the output,
-    ``blend * gan + (1 - blend) * pawnnm`` (linear radiance); 0 is the paper's
-    pipeline as printed. Why the default is not 0: PAWNNM re-imposes the
-    16-spp samples (its data term), so it discards the GAN's denoising of the
-    traced pixels and, on its own, lands *below* the GAN (val, 128x128:
-    gan 27.51 dB, blend 0: 26.35 dB, pawnnm 26.28 dB), while the two
-    stages' errors are largely independent: blend 0.5 gave 27.96 dB.
+    ``blend * gan + (1 - blend) * pawnnm`` (linear radiance); 0, the default,
+    is the paper's pipeline as printed. Measured with the shipped gan-cpu
+    weights and the retuned PAWNNM (256x256, 16 spp, rates 0.2/0.3/0.4, PSNR
+    dB; blend 0 / 0.25 / 0.5): cornell-box 31.48/31.18/30.18,
+    33.67/33.14/31.62, 35.19/34.26/32.27; still-life 30.67/31.12/31.10,
+    31.48/31.90/31.77, 31.85/32.20/31.96; breakfast-room-open
+    24.67/23.56/22.36, 25.38/24.21/22.93, 25.76/24.60/23.24. (Before the
+    PAWNNM retune, on 128x128 validation scenes, 0.5 had been best: 27.96 dB
+    against 26.35 dB for 0.)
     """
     from .lowrank import LOW_RANK_DOMAIN, refine_low_rank
 
