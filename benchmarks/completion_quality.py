@@ -3,7 +3,7 @@
 
 For each scene and rate, one sparse frame is rendered (256x256, 16 spp,
 seeded) and every method completes it; PSNR / SSIM / MSE on tonemapped sRGB
-and relMSE on linear radiance are printed per scene and rate, beside the
+relMSE on linear radiance and FLIP are printed per scene and rate, beside the
 noisy full-frame render at the same spp for scale.
 
     python benchmarks/completion_quality.py [--methods interp nnm pawnnm] [--rates 0.2 0.3 0.4]
@@ -82,11 +82,11 @@ def main() -> int:
                       f"({rows[-1][4]:.2f} s)", flush=True)
 
     print(f"\n{args.res}x{args.res}, {args.spp} spp per traced pixel, reference {args.ref_spp} spp, seed {args.seed}")
-    header = "| scene | rate | method | PSNR dB | SSIM | MSE | relMSE | time s |"
-    print(header + "\n|---|---|---|---|---|---|---|---|")
+    header = "| scene | rate | method | PSNR dB | SSIM | MSE | relMSE | FLIP | time s |"
+    print(header + "\n|---|---|---|---|---|---|---|---|---|")
     for name, rate, method, m, seconds in rows:
         print(f"| {name} | {rate:.2f} | {method} | {m['psnr']:.2f} | {m['ssim']:.4f} | {m['mse']:.2e} | "
-              f"{m['relmse']:.2e} | {seconds:.2f} |")
+              f"{m['relmse']:.2e} | {m['flip']:.4f} | {seconds:.2f} |")
     return 0
 
 

@@ -160,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
         record = run(args, say)
         if "metrics" in record:
             m = record["metrics"]
-            say(f"PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  MSE {m['mse']:.3e}  relMSE {m['relmse']:.3e}")
+            say(f"PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  MSE {m['mse']:.3e}  relMSE {m['relmse']:.3e}  FLIP {m['flip']:.4f}")
         return 0
     except GmcptError as error:
         print(f"error: {error}", file=sys.stderr)

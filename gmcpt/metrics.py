@@ -3,7 +3,9 @@
 MSE, PSNR and SSIM are computed on the tonemapped sRGB image in [0, 1]
 (:func:`tonemap`: clamp linear radiance to [0, 1], then the sRGB transfer
 function, which is what tev and most viewers display); relMSE on linear
-radiance, ``mean((x - r)^2 / (r^2 + 0.01))``.
+radiance, ``mean((x - r)^2 / (r^2 + 0.01))``; FLIP (NVIDIA's perceptual error,
+``flip-evaluator``, LDR mode on the same tonemapped images, 67 pixels per
+degree: 0 is identical, 1 the largest error).
 """
 from __future__ import annotations
 
@@ -49,6 +51,16 @@ def relmse(image: np.ndarray, reference: np.ndarray) -> float:
     return float(np.mean((x - r) ** 2 / (r ** 2 + 0.01)))
 
 
+def flip(image: np.ndarray, reference: np.ndarray) -> float:
+    """Mean LDR FLIP error of the tonemapped images (``flip-evaluator``)."""
+    import flip_evaluator
+
+    _check(image, reference)
+    _, mean_error, _ = flip_evaluator.evaluate(np.ascontiguousarray(tonemap(reference)),
+                                               np.ascontiguousarray(tonemap(image)), "LDR", applyMagma=False)
+    return float(mean_error)
+
+
 def all_metrics(image: np.ndarray, reference: np.ndarray) -> dict[str, float]:
-    return {"mse": mse(image, reference), "psnr": psnr(image, reference),
-            "ssim": ssim(image, reference), "relmse": relmse(image, reference)}
+    return {"mse": mse(image, reference), "psnr": psnr(image, reference), "ssim": ssim(image, reference),
+            "relmse": relmse(image, reference), "flip": flip(image, reference)}

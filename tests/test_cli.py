@@ -53,7 +53,7 @@ def test_reference_metrics(rendered, tmp_path):
     result = run_cli(CORNELL, *SMALL, "--rate", "0.4", "--seed", "3", "--reference", out, "--out", target, "-q")
     assert result.returncode == 0, result.stderr
     metrics = json.loads(target.with_suffix(".json").read_text())["metrics"]
-    assert metrics["mse"] == 0 and metrics["relmse"] == 0 and metrics["ssim"] == pytest.approx(1)
+    assert metrics["mse"] == 0 and metrics["relmse"] == 0 and metrics["flip"] == 0 and metrics["ssim"] == pytest.approx(1)
     worse = tmp_path / "other.exr"
     assert run_cli(CORNELL, *SMALL, "--rate", "0.2", "--seed", "4", "--reference", out, "--out", worse,
                    "-q").returncode == 0

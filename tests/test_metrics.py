@@ -15,6 +15,7 @@ def test_identical_images(image):
     assert metrics.psnr(image, image) == float("inf")
     assert metrics.ssim(image, image) == pytest.approx(1.0)
     assert metrics.relmse(image, image) == 0
+    assert metrics.flip(image, image) == 0
 
 
 def test_known_constant_offset_in_display_space():
@@ -44,3 +45,10 @@ def test_tonemap_clamps_and_matches_mitsuba_png_conversion(image):
 def test_shape_mismatch(image):
     with pytest.raises(ValueError, match="shape"):
         metrics.mse(image, image[:-1])
+
+
+def test_flip_grows_with_the_error(image):
+    small = metrics.flip(image * 1.05, image)
+    large = metrics.flip(image * 1.5, image)
+    assert 0 < small < large <= 1
+    assert set(metrics.all_metrics(image * 1.05, image)) == {"mse", "psnr", "ssim", "relmse", "flip"}
