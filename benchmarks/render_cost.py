@@ -26,8 +26,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED_BREAKFAST = ROOT.parent / "shared" / "scenes" / "breakfast-room" / "scene.xml"
-BUNDLED = ROOT / "scenes" / "still-life" / "scene.xml"
+sys.path.insert(0, str(ROOT))
 RATES = (0.2, 0.3, 0.5, 1.0)
 
 
@@ -43,18 +42,20 @@ def main() -> int:
     parser.add_argument("--res", type=int, default=256)
     parser.add_argument("--spp", type=int, nargs="+", default=[16, 64])
     parser.add_argument("--repeats", type=int, default=13)
-    parser.add_argument("--scenes", nargs="+", default=[str(BUNDLED), str(SHARED_BREAKFAST)])
+    parser.add_argument("--scenes", nargs="+", help="scene files (default: the bundled still life and the "
+                        "shared breakfast room as shipped, from gmcpt.evalscenes)")
     args = parser.parse_args()
 
     import drjit as dr
     import gmcpt  # noqa: F401
     import mitsuba as mi
+    from gmcpt.evalscenes import BREAKFAST, STILL_LIFE
     from gmcpt.render import RenderSettings, render_sparse_frame
     from gmcpt.scene import load_scene
 
     mi.set_log_level(mi.LogLevel.Error)
     rows = []
-    for scene_path in map(Path, args.scenes):
+    for scene_path in map(Path, args.scenes or [STILL_LIFE.path, BREAKFAST.path]):
         if not scene_path.is_file():
             print(f"skipping {scene_path}: not found (the shared scenes are absent)", flush=True)
             continue

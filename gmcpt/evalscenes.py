@@ -39,10 +39,11 @@ class EvalScene:
 
         return load_scene(self.path, (resolution, resolution), without=self.without)
 
-    def reference(self, resolution: int = 256, spp: int = 4096, seed: int = 1_000_003, progress=None):
+    def reference(self, resolution: int = 256, spp: int = 4096, **options):
+        """The cached reference (:func:`gmcpt.reference.render_reference`; ``options``: seed, progress, ...)."""
         from .reference import render_reference
 
-        return render_reference(self.path, resolution, spp, seed, progress=progress, without=self.without)
+        return render_reference(self.path, resolution, spp, without=self.without, **options)
 
 
 CORNELL = EvalScene("cornell-box", ROOT / "scenes" / "cornell-box" / "scene.xml")

@@ -35,7 +35,7 @@ def main() -> int:
         if not scene.available():
             print(f"skipping {scene.name}: {scene.path} not found", flush=True)
             continue
-        scene.reference(args.res, args.spp, args.seed,
+        scene.reference(args.res, args.spp, seed=args.seed,
                         progress=lambda m: print(f"[{time.perf_counter() - start:7.1f}s] {m}", flush=True))
         print(f"{scene.name}: reference ready", flush=True)
     return 0

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..domain import WorkingDomain
 from ..frame import SparseFrame
+from ..lowrank import DEFAULT as LOW_RANK_DEFAULT
 from . import Completion, register_method
 
 GAN_THREADS = 1
@@ -59,15 +60,7 @@ def complete_gan(frame: SparseFrame, *, domain: WorkingDomain = WorkingDomain(),
     return Completion(domain.inverse(working, factor), timings)
 
 
-def _low_rank_min_size() -> int:
-    try:
-        from ..lowrank import DEFAULT
-        return max(8, DEFAULT.patch_size)
-    except ImportError:  # low-rank stage not installed yet
-        return 8
-
-
-@register_method("gan_pawnnm", min_size=_low_rank_min_size(),
+@register_method("gan_pawnnm", min_size=max(8, LOW_RANK_DEFAULT.patch_size),
                  summary="GAN pre-completion + block matching + PAWNNM (the paper's full method)")
 def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDomain(), weights: str | None = None,
                         params=None, blend: float = GAN_PAWNNM_BLEND) -> Completion:
