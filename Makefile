@@ -5,7 +5,7 @@ STAMP  := $(VENV)/.bootstrapped
 SCENE  ?= scenes/still-life/scene.xml
 OUT    ?= out
 
-.PHONY: setup demo test test-slow benchmark clean
+.PHONY: setup demo test test-slow benchmark eval eval-full clean
 
 $(STAMP): pyproject.toml scripts/bootstrap.sh
 	VENV=$(VENV) scripts/bootstrap.sh
@@ -25,6 +25,13 @@ test-slow: $(STAMP)
 
 benchmark: $(STAMP)
 	$(PY) benchmarks/render_cost.py
+
+# docs/results.md, docs/*.png and the README's results section (references are rendered once, then cached)
+eval: $(STAMP)
+	$(PY) -m gmcpt eval --quick
+
+eval-full: $(STAMP)
+	$(PY) -m gmcpt eval
 
 clean:
 	rm -rf $(OUT) .pytest_cache

@@ -8,7 +8,7 @@ rebuilt from their seed and exposure) and the quality scenes of
 left out; references from :mod:`gmcpt.reference`'s cache). For each scene and rate one sparse frame is rendered (16 spp, seed 0,
 ``random`` mask) and every method completes it; beside them, full-frame path
 tracing with the same number of path samples (``round(rate * spp)`` per
-pixel), denoised with Intel Open Image Denoise when ``pyoidn`` is installed.
+pixel), denoised with Intel Open Image Denoise (``pyoidn``).
 Metrics: PSNR, SSIM and MSE on tonemapped sRGB (:mod:`gmcpt.metrics`).
 
     python benchmarks/gan_quality.py [--methods interp gan pawnnm gan_pawnnm] [--json out.json]
@@ -47,16 +47,6 @@ def scenes(args):
         yield eval_scene.name, scene, getattr(scene.integrator(), "integrator", scene.integrator()), reference
 
 
-def oidn(image, albedo, normal):
-    """Intel Open Image Denoise (``pyoidn``, CPU, weights inside the wheel), or None if not installed."""
-    try:
-        import pyoidn
-    except ImportError:
-        return None
-    return pyoidn.denoise(np.ascontiguousarray(image, np.float32), np.ascontiguousarray(albedo, np.float32),
-                          np.ascontiguousarray(normal, np.float32), hdr=True)
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--methods", nargs="+", default=["interp", "gan", "pawnnm", "gan_pawnnm"])
@@ -75,6 +65,7 @@ def main() -> int:
     import gmcpt  # noqa: F401
     import mitsuba as mi
     from gmcpt.completion import complete
+    from gmcpt.evaluation.baselines import denoise_oidn
     from gmcpt.metrics import all_metrics
     from gmcpt.render import RenderSettings, render_features, render_sparse_frame
 
@@ -100,9 +91,8 @@ def main() -> int:
             samples = max(1, round(rate * args.spp))
             noisy = np.asarray(mi.render(scene, integrator=integrator, spp=samples, seed=args.seed + 17))[..., :3]
             add(name, rate, f"path {samples}spp", noisy, reference, 0.0)
-            denoised = oidn(noisy.astype(np.float32), features["albedo"], features["normal"])
-            if denoised is not None:
-                add(name, rate, f"path {samples}spp+oidn", denoised, reference, 0.0)
+            denoised = denoise_oidn(noisy.astype(np.float32), features["albedo"], features["normal"])
+            add(name, rate, f"path {samples}spp+oidn", denoised, reference, 0.0)
 
     methods = list(dict.fromkeys(r["method"] if not r["method"].startswith("path") else "path" + r["method"][r["method"].find("spp") + 3:]
                                  for r in rows))

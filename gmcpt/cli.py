@@ -4,6 +4,7 @@
     python -m gmcpt SCENE.xml --out OUT.exr [options]
     python -m gmcpt dataset ...   (procedural training data, see gmcpt.dataset.cli)
     python -m gmcpt train ...     (GAN training, see gmcpt.gan.cli)
+    python -m gmcpt eval [--quick] (docs/results.md and plots, see gmcpt.evaluation.cli)
 
 Bad input ends with one ``error: ...`` line on stderr and exit status 2; no
 output file is written or replaced.
@@ -136,7 +137,7 @@ def run(args, say=lambda message: None) -> dict:
     return record
 
 
-SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli"}
+SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli", "eval": "gmcpt.evaluation.cli"}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,6 +1,7 @@
 """The scenes the benchmarks and the evaluation run on.
 
-Two bundled scenes, and ``../shared/scenes/breakfast-room`` (CC-BY, read in
+Two bundled scenes, held-out procedural scenes (:class:`ProceduralScene`: seeds
+of the dataset's test split, never trained on), and ``../shared/scenes/breakfast-room`` (CC-BY, read in
 place, never copied) where present, in two forms:
 
 - ``breakfast-room-open``: the scene with its two window panes left out
@@ -16,6 +17,8 @@ place, never copied) where present, in two forms:
 """
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,6 +47,55 @@ class EvalScene:
         from .reference import render_reference
 
         return render_reference(self.path, resolution, spp, without=self.without, **options)
+
+
+@dataclass(frozen=True)
+class ProceduralScene:
+    """Procedural scene ``seed`` (:mod:`gmcpt.dataset.scenes`), exposed as the dataset exposes it.
+
+    The exposure is the dataset's (a 16-spp preview at the evaluation
+    resolution, :func:`gmcpt.dataset.build.pick_exposure`); references are
+    cached like those of scene files, keyed by the seed, the exposure and the
+    generator's source, so a changed generator renders new ones.
+    """
+
+    seed: int
+
+    @property
+    def name(self) -> str:
+        return f"proc-{self.seed}"
+
+    def available(self) -> bool:
+        return True
+
+    def exposure(self, resolution: int) -> float:
+        from .dataset.build import DatasetSpec, pick_exposure
+
+        return pick_exposure(self.seed, resolution, DatasetSpec())
+
+    def load(self, resolution: int, spp: int = 16):
+        from .dataset.scenes import build_scene
+
+        return build_scene(self.seed, resolution, self.exposure(resolution), spp)
+
+    def reference(self, resolution: int = 256, spp: int = 4096, seed: int = 1_000_003, pass_spp: int = 256,
+                  progress=None):
+        from .dataset.build import DATASET_VERSION
+        from .reference import cached_reference
+
+        exposure = self.exposure(resolution)
+        digest = hashlib.sha256(json.dumps([DATASET_VERSION, self.seed, exposure]).encode())
+        for module in ("scenes.py", "meshes.py", "textures.py"):
+            digest.update((Path(__file__).parent / "dataset" / module).read_bytes())
+        key = f"{self.name}-{resolution}px-{spp}spp-s{seed}-{digest.hexdigest()[:12]}"
+        return cached_reference(key, lambda: self.load(resolution), spp, seed, pass_spp, progress, self.name)
+
+
+def procedural_scenes(count: int) -> list[ProceduralScene]:
+    """The first ``count`` held-out (test split) procedural scenes."""
+    from .dataset import SPLIT_SEED_BASE
+
+    return [ProceduralScene(SPLIT_SEED_BASE["test"] + index) for index in range(count)]
 
 
 CORNELL = EvalScene("cornell-box", ROOT / "scenes" / "cornell-box" / "scene.xml")

@@ -51,14 +51,19 @@ def relmse(image: np.ndarray, reference: np.ndarray) -> float:
     return float(np.mean((x - r) ** 2 / (r ** 2 + 0.01)))
 
 
-def flip(image: np.ndarray, reference: np.ndarray) -> float:
-    """Mean LDR FLIP error of the tonemapped images (``flip-evaluator``)."""
+def flip_map(image: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, float]:
+    """(per-pixel LDR FLIP error (H, W), its mean) of the tonemapped images (``flip-evaluator``)."""
     import flip_evaluator
 
     _check(image, reference)
-    _, mean_error, _ = flip_evaluator.evaluate(np.ascontiguousarray(tonemap(reference)),
-                                               np.ascontiguousarray(tonemap(image)), "LDR", applyMagma=False)
-    return float(mean_error)
+    error_map, mean_error, _ = flip_evaluator.evaluate(np.ascontiguousarray(tonemap(reference)),
+                                                       np.ascontiguousarray(tonemap(image)), "LDR", applyMagma=False)
+    return np.asarray(error_map, dtype=np.float32).reshape(reference.shape[:2]), float(mean_error)
+
+
+def flip(image: np.ndarray, reference: np.ndarray) -> float:
+    """Mean LDR FLIP error of the tonemapped images (``flip-evaluator``)."""
+    return flip_map(image, reference)[1]
 
 
 def all_metrics(image: np.ndarray, reference: np.ndarray) -> dict[str, float]:

@@ -37,32 +37,46 @@ def reference_key(scene_path: str | Path, resolution: int, spp: int, seed: int,
 def render_reference(scene_path: str | Path, resolution: int = 256, spp: int = 4096, seed: int = 1_000_003,
                      parameters: dict | None = None, pass_spp: int = 256,
                      progress: Callable[[str], None] | None = None, without: tuple[str, ...] = ()) -> np.ndarray:
-    """Return a cached (H, W, 3) reference, rendering it on a miss.
+    """Return a cached (H, W, 3) reference of a scene file, rendering it on a miss.
 
     ``without`` lists ids of scene elements left out (see :func:`gmcpt.scene.load_scene`).
+    """
+    from .scene import load_scene
+
+    key = reference_key(scene_path, resolution, spp, seed, parameters, without)
+    return cached_reference(key, lambda: load_scene(scene_path, (resolution, resolution), parameters, without),
+                            spp, seed, pass_spp, progress, label=Path(scene_path).parent.name)
+
+
+def cached_reference(key: str, load: Callable[[], object], spp: int, seed: int, pass_spp: int = 256,
+                     progress: Callable[[str], None] | None = None, label: str = "") -> np.ndarray:
+    """The reference stored under ``key`` in :func:`cache_dir`, or render it from ``load()`` and store it.
+
+    The scene's own integrator (unwrapped from ``masked_path``) runs full frame
+    in passes of ``pass_spp`` samples with seeds ``seed, seed + 1, ...``; the
+    passes are averaged in float64. Written atomically.
     """
     import drjit as dr
     import mitsuba as mi
 
-    from .scene import load_scene
-
-    path = cache_dir() / (reference_key(scene_path, resolution, spp, seed, parameters, without) + ".exr")
+    path = cache_dir() / (key + ".exr")
     if path.is_file():
         return read_rgb_exr(path)
-    scene = load_scene(scene_path, (resolution, resolution), parameters, without)
+    scene = load()
     integrator = scene.integrator()
     integrator = getattr(integrator, "integrator", integrator)  # unwrap masked_path
     passes = max(1, spp // pass_spp)
-    total = np.zeros((resolution, resolution, 3))
+    total = None
     for index in range(passes):
         if progress:
-            progress(f"reference {Path(scene_path).parent.name}: pass {index + 1}/{passes}")
+            progress(f"reference {label or key}: pass {index + 1}/{passes}")
         image = mi.render(scene, integrator=integrator, spp=min(pass_spp, spp), seed=seed + index)
         dr.eval(image)
-        total += np.asarray(image, dtype=np.float64)[..., :3]
+        array = np.asarray(image, dtype=np.float64)[..., :3]
+        total = array if total is None else total + array
     reference = (total / passes).astype(np.float32)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_output(path) as temporary:
         write_exr(temporary, {c: reference[..., i] for i, c in enumerate("RGB")},
-                  {"spp": passes * min(pass_spp, spp), "scene": str(scene_path)})
+                  {"spp": passes * min(pass_spp, spp), "scene": label or key})
     return reference

@@ -97,7 +97,7 @@ def example_path(root: str | Path, split: str, seed: int) -> Path:
     return Path(root) / split / f"{seed:07d}.npz"
 
 
-def _pick_exposure(seed: int, resolution: int, spec: DatasetSpec) -> float:
+def pick_exposure(seed: int, resolution: int, spec: DatasetSpec) -> float:
     import mitsuba as mi
 
     from .scenes import build_scene
@@ -129,7 +129,7 @@ def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
     from .scenes import build_scene
 
     start = time.perf_counter()
-    exposure = _pick_exposure(seed, split.resolution, spec)
+    exposure = pick_exposure(seed, split.resolution, spec)
     scene = build_scene(seed, split.resolution, exposure, spec.spp)
     reference = render_reference(scene, split.reference_spp, spec.pass_spp, seed)
     rate = float(np.random.default_rng([seed, 0x4A7E]).uniform(*spec.rate_range))

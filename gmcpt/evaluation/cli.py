@@ -1,0 +1,168 @@
+"""``python -m gmcpt eval``: run the evaluation and regenerate ``docs/results.md``, its plots and the README section.
+
+    python -m gmcpt eval --quick          # under 10 minutes on 2 CPU cores once references are cached
+    python -m gmcpt eval                  # full mode
+    python -m gmcpt eval --quick --out /tmp/eval --no-readme
+
+References (4096 spp, and a second independent one per scene for its noise
+level) are rendered on the first run and cached (``gmcpt.reference``);
+rendering them takes tens of minutes, printed as it goes.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from dataclasses import asdict, replace
+from pathlib import Path
+
+from ..errors import GmcptError
+from ..evalscenes import QUALITY_SCENES, by_name, procedural_scenes
+from ..imageio import atomic_output, check_writable
+from .config import CONFIGS, SECOND_REFERENCE_SEED
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise GmcptError(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="python -m gmcpt eval", description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="the quick configuration (default: full)")
+    parser.add_argument("--out", default=str(ROOT / "docs"), help="folder of results.md, results.json, plots")
+    parser.add_argument("--scenes", nargs="+", help="named scenes of gmcpt.evalscenes (default: the quality scenes)")
+    parser.add_argument("--procedural", type=int, help="held-out procedural scenes (default: the configuration's)")
+    parser.add_argument("--readme", default=str(ROOT / "README.md"), help="README whose results section to rewrite")
+    parser.add_argument("--no-readme", dest="readme", action="store_const", const=None)
+    return parser
+
+
+def _commit() -> str:
+    try:
+        out = subprocess.run(["git", "-C", str(ROOT), "describe", "--always", "--dirty"], capture_output=True,
+                             text=True, timeout=10)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def _versions() -> dict:
+    from importlib import metadata
+
+    from ..outputs import library_versions
+
+    versions = library_versions()
+    for package in ("flip-evaluator", "pyoidn"):
+        try:
+            versions[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            versions[package] = "not installed"
+    return versions
+
+
+def _write_text(path: Path, text: str) -> None:
+    with atomic_output(path) as temporary:
+        Path(temporary).write_text(text)
+
+
+def evaluate(config, scenes, out: Path, say) -> dict:
+    """Measure everything, write the plots, return the run's record (rows, settings, versions)."""
+    from . import measure, plots
+
+    start = time.perf_counter()
+    record = {"config": asdict(config), "second_reference_seed": SECOND_REFERENCE_SEED, "references": [],
+              "quality": [], "equal_time": [], "stage_timings": [], "grids": {}}
+    for index, eval_scene in enumerate(scenes, 1):
+        say(f"[{index}/{len(scenes)}] {eval_scene.name}: references")
+        loaded, noise = measure.load(eval_scene, config, say)
+        record["references"].append(noise)
+        say(f"[{index}/{len(scenes)}] {eval_scene.name}: quality at rates {', '.join(map(str, config.rates))}")
+        record["quality"] += measure.quality(loaded, config, say)
+        say(f"[{index}/{len(scenes)}] {eval_scene.name}: equal-time settings")
+        record["equal_time"] += measure.equal_time(loaded, config, say)
+        grid = f"grid-{eval_scene.name}.png"
+        plots.image_grid(loaded.images, out / grid, f"{eval_scene.name}, rate {config.grid_rate:g} x {config.spp} spp")
+        record["grids"][eval_scene.name] = grid
+    timing_scene = next((s for s in scenes if s.name == config.timing_scene), scenes[0])
+    say(f"stage timings on {timing_scene.name} at {', '.join(map(str, config.timing_resolutions))} px")
+    record["stage_timings"] = measure.stage_timings(timing_scene, config, say)
+    plots.psnr_vs_time(record["equal_time"], out / "psnr_vs_time.png")
+    plots.psnr_vs_rate(record["quality"], list(config.variants), out / "psnr_vs_rate.png")
+    record["seconds"] = time.perf_counter() - start
+    return record
+
+
+def main(argv: list[str] | None = None) -> int:
+    start = time.perf_counter()
+
+    def say(message: str) -> None:
+        print(f"[eval {time.perf_counter() - start:6.1f}s] {message}", file=sys.stderr, flush=True)
+
+    try:
+        args = build_parser().parse_args(argv)
+        config = CONFIGS["quick" if args.quick else "full"]
+        if args.procedural is not None:
+            if args.procedural < 0:
+                raise GmcptError("--procedural must be >= 0")
+            config = replace(config, procedural=args.procedural)
+        try:
+            chosen = by_name(args.scenes, QUALITY_SCENES)
+        except ValueError as error:
+            raise GmcptError(str(error)) from None
+        scenes = []
+        for scene in chosen:
+            if scene.available():
+                scenes.append(scene)
+            else:
+                say(f"skipping {scene.name}: {scene.path} not found")
+        scenes += procedural_scenes(config.procedural)
+        if not scenes:
+            raise GmcptError("no evaluation scene is available")
+        out = Path(args.out)
+        if out.exists() and not out.is_dir():
+            raise GmcptError(f"--out {out} is not a folder")
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise GmcptError(f"cannot create {out}: {error.strerror}") from None
+        for path in [out / "results.md", out / "results.json"] + ([Path(args.readme)] if args.readme else []):
+            check_writable(path)
+        try:
+            import pyoidn  # noqa: F401
+        except ImportError:
+            raise GmcptError("the evaluation's denoiser baseline needs pyoidn: pip install -e '.[dev]'") from None
+
+        import gmcpt  # noqa: F401  (LLVM, variant)
+        import mitsuba as mi
+        mi.set_log_level(mi.LogLevel.Error)
+        record = evaluate(config, scenes, out, say)
+        record.update(command="python -m gmcpt eval" + (" --quick" if args.quick else ""),
+                      date=datetime.date.today().isoformat(), commit=_commit(), versions=_versions(),
+                      machine=f"{platform.machine()}, {os.cpu_count()} CPU cores, {platform.system()}, no GPU used")
+        if args.scenes or args.procedural is not None:
+            record["command"] += "".join([f" --scenes {' '.join(args.scenes)}" if args.scenes else "",
+                                          f" --procedural {args.procedural}" if args.procedural is not None else ""])
+        from .document import readme_section, replace_readme_section, results_markdown
+
+        _write_text(out / "results.json", json.dumps(record, indent=1, default=float) + "\n")
+        _write_text(out / "results.md", results_markdown(record))
+        if args.readme:
+            readme = Path(args.readme)
+            _write_text(readme, replace_readme_section(readme.read_text() if readme.is_file() else "",
+                                                       readme_section(record)))
+        say(f"wrote {out / 'results.md'}, results.json and plots" + (f"; updated {args.readme}" if args.readme else ""))
+        return 0
+    except GmcptError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130

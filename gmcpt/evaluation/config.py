@@ -1,0 +1,88 @@
+"""What an evaluation run measures: configs as data, and the completion variants it compares."""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """Settings of one evaluation run (``python -m gmcpt eval``).
+
+    Attributes
+    ----------
+    name : "quick" or "full"; printed in the report.
+    procedural : how many held-out procedural scenes (test split seeds) join the bundled ones.
+    resolution, spp, reference_spp, rates, seed : the quality protocol (METHOD.md section 6).
+    variants : completion variants of the quality tables (keys of :data:`VARIANTS`).
+    patch_sizes, patch_rates : the PSNR-against-patch-size sweep of PAWNNM (paper Fig. 12).
+    grid_rate : rate of the image grids.
+    path_spp : full-frame path tracing sample counts of the equal-time comparison.
+    budget_rates, budget_spp : (rate, spp) grid of the completion methods in the equal-time comparison.
+    budget_variants : the completion variants that enter the equal-time comparison.
+    timing_resolutions : resolutions of the stage-timing table.
+    timing_scene : scene of the stage-timing table.
+    repeats : timed runs of each render (the fastest counts: the first may trace kernels).
+    """
+
+    name: str
+    procedural: int
+    resolution: int = 256
+    spp: int = 16
+    reference_spp: int = 4096
+    rates: tuple[float, ...] = (0.2, 0.3, 0.4)
+    seed: int = 0
+    variants: tuple[str, ...] = ("interp", "liu", "nnm", "pawnnm", "gan", "gan_pawnnm")
+    patch_sizes: tuple[int, ...] = (5, 6, 7, 8)
+    patch_rates: tuple[float, ...] = (0.3,)
+    grid_rate: float = 0.3
+    path_spp: tuple[int, ...] = (1, 2, 4, 8, 16, 32)
+    budget_rates: tuple[float, ...] = (0.25, 0.5)
+    budget_spp: tuple[int, ...] = (1, 4, 16)
+    budget_variants: tuple[str, ...] = ("pawnnm", "gan_pawnnm")
+    timing_resolutions: tuple[int, ...] = (128, 256)
+    timing_scene: str = "still-life"
+    repeats: int = 2
+
+
+QUICK = EvalConfig(name="quick", procedural=2)
+FULL = EvalConfig(name="full", procedural=6, patch_sizes=(4, 5, 6, 7, 8, 9), patch_rates=(0.2, 0.3, 0.4),
+                  path_spp=(1, 2, 4, 8, 16, 32, 64), budget_rates=(0.125, 0.25, 0.5),
+                  budget_spp=(1, 2, 4, 8, 16, 32), timing_resolutions=(128, 256, 512), repeats=3)
+CONFIGS = {config.name: config for config in (QUICK, FULL)}
+
+#: Second reference seed: an independent reference whose distance to the first is the reference's noise level.
+SECOND_REFERENCE_SEED = 2_000_003
+
+
+@dataclass(frozen=True)
+class Variant:
+    """A completion method with options, under a label of the report."""
+
+    label: str
+    method: str
+    summary: str
+    patch_size: int | None = None
+
+    def options(self) -> dict:
+        """Keyword options for :func:`gmcpt.completion.complete`."""
+        if self.patch_size is None:
+            return {}
+        from ..lowrank import DEFAULT
+
+        return {"params": replace(DEFAULT, patch_size=self.patch_size, step=max(1, self.patch_size - 2))}
+
+
+VARIANTS = {variant.label: variant for variant in (
+    Variant("interp", "interp", "feature-guided interpolation (classical pre-completion alone)"),
+    Variant("liu", "liu", "Liu et al. 2018 style: image-only push-pull fill + NNM"),
+    Variant("nnm", "nnm", "classical pre-completion + block matching + NNM"),
+    Variant("pawnnm", "pawnnm", "classical pre-completion + block matching + PAWNNM"),
+    Variant("gan", "gan", "GAN pre-completion alone"),
+    Variant("gan_pawnnm", "gan_pawnnm", "GAN pre-completion + block matching + PAWNNM (the paper's full method)"),
+)}
+
+
+def patch_variant(size: int) -> Variant:
+    """PAWNNM with ``size`` x ``size`` patches stepped by ``size - 2`` (neighbours overlap by two pixels, as in
+    the paper's section IV-C; 7 gives the default step of 5)."""
+    return Variant(f"pawnnm-p{size}", "pawnnm", f"PAWNNM with {size}x{size} patches", patch_size=size)

@@ -1,0 +1,110 @@
+"""The evaluation's figures (matplotlib, PNG), each written atomically."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..imageio import atomic_output
+from ..metrics import flip_map, tonemap
+from .report import contender_name, contenders
+
+STYLE = {"path": ("tab:gray", "o"), "path+oidn": ("tab:blue", "s"), "pawnnm": ("tab:orange", "^"),
+         "gan_pawnnm": ("tab:red", "v"), "interp": ("tab:olive", "x"), "liu": ("tab:purple", "d"),
+         "nnm": ("tab:brown", "<"), "gan": ("tab:pink", ">")}
+
+
+def _figure(columns: int, panels: int, size=(4.2, 3.4)):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = -(-panels // columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(size[0] * columns, size[1] * rows), squeeze=False)
+    for axis in axes.flat[panels:]:
+        axis.axis("off")
+    return figure, list(axes.flat)
+
+
+def _save(figure, path: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    with atomic_output(path) as temporary:
+        figure.savefig(temporary, format="png", dpi=110, bbox_inches="tight")
+    plt.close(figure)
+
+
+def _frontier(points: list[tuple[float, float]], end: float) -> tuple[list[float], list[float]]:
+    """The best PSNR reachable within each time up to ``end``: a staircase through the non-dominated points."""
+    xs, ys, best = [], [], -np.inf
+    for x, y in sorted(points):
+        if y > best:
+            xs.append(x)
+            ys.append(y)
+            best = y
+    return xs + [end], ys + ys[-1:]
+
+
+def psnr_vs_time(rows: list[dict], path: Path) -> None:
+    """Per scene: PSNR against total wall time of every measured setting (markers) and, as a staircase, the best
+    PSNR each contender reaches within a given time."""
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    figure, axes = _figure(min(3, len(scenes)), len(scenes))
+    for axis, scene in zip(axes, scenes):
+        end = max(r["seconds"] for r in rows if r["scene"] == scene)
+        for name in contenders(rows):
+            chosen = [r for r in rows if r["scene"] == scene and r["contender"] == name]
+            color, marker = STYLE.get(name, ("black", "."))
+            points = [(r["seconds"], r["psnr"]) for r in chosen]
+            axis.scatter(*zip(*points), color=color, marker=marker, s=18, alpha=0.5)
+            axis.plot(*_frontier(points, end), color=color, drawstyle="steps-post", label=contender_name(name))
+        axis.set_xscale("log")
+        axis.set_title(scene)
+        axis.set_xlabel("wall time, s (log)")
+        axis.set_ylabel("PSNR dB")
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    _save(figure, path)
+
+
+def psnr_vs_rate(rows: list[dict], variants: list[str], path: Path) -> None:
+    """Per scene and on average: PSNR against sampling rate for each completion variant."""
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    figure, axes = _figure(min(3, len(scenes) + 1), len(scenes) + 1)
+    for axis, scene in zip(axes, scenes + [None]):
+        for variant in variants:
+            chosen = [r for r in rows if r["variant"] == variant and (scene is None or r["scene"] == scene)]
+            if not chosen:
+                continue
+            rates = sorted({r["rate"] for r in chosen})
+            psnr = [np.mean([r["psnr"] for r in chosen if r["rate"] == rate]) for rate in rates]
+            color, marker = STYLE.get(variant, ("black", "."))
+            axis.plot(rates, psnr, color=color, marker=marker, label=variant)
+        axis.set_title(scene or f"mean of {len(scenes)} scenes")
+        axis.set_xlabel("sampling rate")
+        axis.set_ylabel("PSNR dB")
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    _save(figure, path)
+
+
+def image_grid(images: dict, path: Path, title: str) -> None:
+    """Top row: reference, sparse input and each method's image; bottom row: their FLIP error maps."""
+    reference = images["reference"]
+    labels = [label for label in images if label != "reference"]
+    figure, axes = _figure(len(labels) + 1, 2 * (len(labels) + 1), size=(2.3, 2.5))
+    columns = len(labels) + 1
+    axes[0].imshow(tonemap(reference))
+    axes[0].set_title("reference", fontsize=8)
+    axes[columns].axis("off")
+    for index, label in enumerate(labels, 1):
+        error, mean = flip_map(images[label], reference)
+        axes[index].imshow(tonemap(images[label]))
+        axes[index].set_title(label, fontsize=8)
+        axes[columns + index].imshow(error, cmap="magma", vmin=0, vmax=1)
+        axes[columns + index].set_title(f"FLIP {mean:.3f}", fontsize=8)
+    for axis in axes:
+        axis.set_xticks([])
+        axis.set_yticks([])
+    figure.suptitle(title, fontsize=9)
+    _save(figure, path)

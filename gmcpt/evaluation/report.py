@@ -1,0 +1,196 @@
+"""Markdown tables and the crossover analysis, as pure functions of an evaluation's rows."""
+from __future__ import annotations
+
+import numpy as np
+
+from .config import VARIANTS, patch_variant
+
+#: Equal-time budgets in units of the scene's 1-spp full-frame render time.
+TIME_BUDGETS = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512)
+#: Equal-sample budgets (path samples per pixel, rate x spp for the completion methods).
+SAMPLE_BUDGETS = (0.125, 0.25, 0.5, 1, 2, 4, 8, 16, 32, 64)
+CONTENDER_NAMES = {"path": "path tracing", "path+oidn": "path tracing + OIDN"}
+
+
+def contender_name(label: str) -> str:
+    return CONTENDER_NAMES.get(label, label)
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
+
+
+def _scenes(rows: list[dict]) -> list[str]:
+    return list(dict.fromkeys(row["scene"] for row in rows))
+
+
+def _mean(rows: list[dict], key: str, **where) -> float | None:
+    chosen = [row[key] for row in rows if all(row.get(k) == v for k, v in where.items())]
+    return float(np.mean(chosen)) if chosen else None
+
+
+def _per_scene_and_mean(rows, rates, cell) -> list[list[str]]:
+    """Rows (scene, rate, cells...) for each scene and the mean over scenes; ``cell(scene_or_None, rate)``."""
+    table = []
+    for scene in _scenes(rows) + [None]:
+        for rate in rates:
+            table.append([scene or f"**mean of {len(_scenes(rows))}**", f"{rate:.0%}", *cell(scene, rate)])
+    return table
+
+
+def _cells(rows, variants, metrics, scene, rate):
+    formats = {"psnr": 2, "ssim": 3, "mse": -1, "flip": 3, "relmse": -1}
+    out = []
+    for variant in variants:
+        for metric in metrics:
+            digits = formats[metric]
+            value = _mean(rows, metric, variant=variant, rate=rate, **({"scene": scene} if scene else {}))
+            out.append("-" if value is None else (f"{value:.1e}" if digits < 0 else f"{value:.{digits}f}"))
+    return out
+
+
+def variant_table(rows: list[dict], variants: list[str], metrics: list[str], rates, delta: tuple | None = None) -> str:
+    """Per scene and rate, ``metrics`` of each variant; ``delta=(a, b)`` adds PSNR(a) - PSNR(b)."""
+    variants = [v for v in variants if any(row["variant"] == v for row in rows)]
+    header = ["scene", "rate"] + [f"{v} {m.upper() if m != 'psnr' else 'PSNR dB'}" for v in variants for m in metrics]
+    if delta:
+        header.append(f"{delta[0]} - {delta[1]} dB")
+
+    def cell(scene, rate):
+        cells = _cells(rows, variants, metrics, scene, rate)
+        if delta:
+            a, b = (_mean(rows, "psnr", variant=v, rate=rate, **({"scene": scene} if scene else {})) for v in delta)
+            cells.append("-" if a is None or b is None else f"{a - b:+.2f}")
+        return cells
+
+    return _table(header, _per_scene_and_mean(rows, rates, cell))
+
+
+def patch_table(rows: list[dict], sizes, rates) -> str:
+    """PSNR against patch size (paper Fig. 12)."""
+    labels = [patch_variant(size).label for size in sizes]
+    header = ["scene", "rate"] + [f"{size}x{size}" for size in sizes]
+    table = _per_scene_and_mean([r for r in rows if r["variant"] in labels], rates,
+                                lambda scene, rate: _cells(rows, labels, ["psnr"], scene, rate))
+    return _table(header, table)
+
+
+def reference_table(noise_rows: list[dict]) -> str:
+    return _table(["scene", "reference spp", "PSNR dB vs second reference", "SSIM", "FLIP"],
+                  [[r["scene"], str(r["reference_spp"]), f"{r['noise_psnr']:.2f}", f"{r['noise_ssim']:.4f}",
+                    f"{r['noise_flip']:.4f}"] for r in noise_rows])
+
+
+# --- equal time / equal samples -------------------------------------------------------------------------
+
+def best_within(rows: list[dict], contender: str, axis: str, budget: float) -> dict | None:
+    """The contender's highest-PSNR row whose ``axis`` (seconds or samples_per_pixel) fits ``budget``."""
+    fitting = [r for r in rows if r["contender"] == contender and r[axis] <= budget * (1 + 1e-9)]
+    return max(fitting, key=lambda r: r["psnr"]) if fitting else None
+
+
+def contenders(rows: list[dict]) -> list[str]:
+    return list(dict.fromkeys(row["contender"] for row in rows))
+
+
+def one_spp_seconds(rows: list[dict], scene: str) -> float:
+    return next(r["seconds"] for r in rows if r["scene"] == scene and r["contender"] == "path" and r["spp"] == 1)
+
+
+def _setting(row: dict) -> str:
+    return f"{row['spp']} spp" if row["rate"] == 1.0 else f"{row['rate']:g} x {row['spp']} spp"
+
+
+def budget_table(rows: list[dict], axis: str) -> str:
+    """Mean over scenes and per scene, the best PSNR / SSIM / FLIP of each contender within each budget.
+
+    A budget whose row would repeat the previous one (nothing better fits) is left out.
+
+    ``axis="seconds"``: budgets are multiples of each scene's 1-spp render
+    time; ``axis="samples_per_pixel"``: budgets in path samples per pixel.
+    """
+    names = contenders(rows)
+    budgets = TIME_BUDGETS if axis == "seconds" else SAMPLE_BUDGETS
+    unit = "x 1-spp time" if axis == "seconds" else "samples / pixel"
+    header = ["scene", f"budget ({unit})"] + [contender_name(c) for c in names]
+    table = []
+    for scene in _scenes(rows) + [None]:
+        scenes = [scene] if scene else _scenes(rows)
+        for budget in budgets:
+            cells = []
+            for name in names:
+                best = [best_within([r for r in rows if r["scene"] == s], name, axis,
+                                    budget * (one_spp_seconds(rows, s) if axis == "seconds" else 1)) for s in scenes]
+                if any(b is None for b in best):
+                    cells.append("-")
+                elif scene:
+                    b = best[0]
+                    cells.append(f"{b['psnr']:.2f} / {b['ssim']:.3f} / {b['flip']:.3f} ({_setting(b)}, {b['seconds']:.2f} s)")
+                else:
+                    cells.append(" / ".join(f"{np.mean([b[m] for b in best]):.{d}f}"
+                                            for m, d in (("psnr", 2), ("ssim", 3), ("flip", 3))))
+            previous = table[-1] if table and table[-1][0] == (scene or f"**mean of {len(scenes)}**") else None
+            if any(c != "-" for c in cells) and (previous is None or previous[2:] != cells):
+                table.append([scene or f"**mean of {len(scenes)}**", f"{budget:g}", *cells])
+    return _table(header, table)
+
+
+def crossover(rows: list[dict], scene: str, challenger: str, incumbent: str, axis: str) -> str:
+    """Where ``challenger``'s best-within-budget PSNR beats ``incumbent``'s, over every measured budget."""
+    scene_rows = [r for r in rows if r["scene"] == scene]
+    budgets = sorted({r[axis] for r in scene_rows if r["contender"] in (challenger, incumbent)})
+    unit = " s" if axis == "seconds" else " spp"
+    fmt = (lambda v: f"{v:.2f}{unit}") if axis == "seconds" else (lambda v: f"{v:g}{unit}")
+    alone, ahead, both = [], [], []
+    for budget in budgets:
+        a = best_within(scene_rows, challenger, axis, budget)
+        b = best_within(scene_rows, incumbent, axis, budget)
+        if a is None:
+            continue
+        if b is None:
+            alone.append(budget)
+            continue
+        both.append(budget)
+        if a["psnr"] > b["psnr"]:
+            ahead.append(budget)
+    name = contender_name(incumbent)
+    parts = [f"below {fmt(both[0])} only {challenger} can run" if alone and both else ""]
+    if not both:
+        parts.append(f"{name} cannot run within any budget where {challenger} can")
+    elif not ahead:
+        parts.append(f"{challenger} is behind {name} at every budget from {fmt(both[0])} to {fmt(both[-1])}")
+    elif ahead == both:
+        parts.append(f"{challenger} is ahead of {name} at every budget from {fmt(both[0])} to {fmt(both[-1])}")
+    elif ahead == both[:len(ahead)]:
+        parts.append(f"{challenger} is ahead of {name} up to {fmt(ahead[-1])} and behind from {fmt(both[len(ahead)])}")
+    elif ahead == both[-len(ahead):]:
+        parts.append(f"{challenger} is behind {name} up to {fmt(both[-len(ahead) - 1])} and ahead from {fmt(ahead[0])}")
+    else:
+        parts.append(f"{challenger} is ahead of {name} at {len(ahead)} of {len(both)} budgets "
+                     f"({', '.join(fmt(b) for b in ahead)})")
+    return ", ".join(part for part in parts if part)
+
+
+def crossover_lines(rows: list[dict]) -> list[str]:
+    """One line per scene, challenger and axis: where each completion variant overtakes, or is overtaken."""
+    lines = []
+    challengers = [c for c in contenders(rows) if c not in CONTENDER_NAMES]
+    for scene in _scenes(rows):
+        for axis, label in (("samples_per_pixel", "equal samples"), ("seconds", "equal time")):
+            parts = [crossover(rows, scene, c, "path+oidn", axis) for c in challengers]
+            lines.append(f"- {scene}, {label}: " + "; ".join(parts) + ".")
+    return lines
+
+
+def stage_table(rows: list[dict]) -> str:
+    keys = ["features_s", "render_s", "pre_completion_s", "block_matching_s", "svd_s", "aggregation_s",
+            "completion_s", "total_s"]
+    header = ["resolution", "method", "features", "render", "pre-completion (GAN for gan_pawnnm)",
+              "block matching", "SVD", "aggregation", "completion (all)", "total"]
+    return _table(header, [[f"{r['resolution']}x{r['resolution']}", r["variant"], *(f"{r[k]:.3f}" for k in keys)]
+                           for r in rows])
+
+
+def variant_legend(labels: list[str]) -> str:
+    return "\n".join(f"- `{label}`: {VARIANTS[label].summary}" for label in labels if label in VARIANTS)
