@@ -98,6 +98,7 @@ def example_path(root: str | Path, split: str, seed: int) -> Path:
 
 
 def pick_exposure(seed: int, resolution: int, spec: DatasetSpec) -> float:
+    """The emitter scale of scene ``seed`` (step 1 of the module docstring); deterministic."""
     import mitsuba as mi
 
     from .scenes import build_scene
