@@ -20,7 +20,8 @@ def _figure(columns: int, panels: int, size=(4.2, 3.4)):
     import matplotlib.pyplot as plt
 
     rows = -(-panels // columns)
-    figure, axes = plt.subplots(rows, columns, figsize=(size[0] * columns, size[1] * rows), squeeze=False)
+    figure, axes = plt.subplots(rows, columns, figsize=(size[0] * columns, size[1] * rows), squeeze=False,
+                                layout="constrained")
     for axis in axes.flat[panels:]:
         axis.axis("off")
     return figure, list(axes.flat)
@@ -48,6 +49,8 @@ def _frontier(points: list[tuple[float, float]], end: float) -> tuple[list[float
 def psnr_vs_time(rows: list[dict], path: Path) -> None:
     """Per scene: PSNR against total wall time of every measured setting (markers) and, as a staircase, the best
     PSNR each contender reaches within a given time."""
+    from matplotlib.ticker import NullFormatter
+
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     figure, axes = _figure(min(3, len(scenes)), len(scenes))
     for axis, scene in zip(axes, scenes):
@@ -59,6 +62,7 @@ def psnr_vs_time(rows: list[dict], path: Path) -> None:
             axis.scatter(*zip(*points), color=color, marker=marker, s=18, alpha=0.5)
             axis.plot(*_frontier(points, end), color=color, drawstyle="steps-post", label=contender_name(name))
         axis.set_xscale("log")
+        axis.xaxis.set_minor_formatter(NullFormatter())
         axis.set_title(scene)
         axis.set_xlabel("wall time, s (log)")
         axis.set_ylabel("PSNR dB")

@@ -183,6 +183,27 @@ def crossover_lines(rows: list[dict]) -> list[str]:
     return lines
 
 
+def merged(rows: list[dict], label: str = "completion") -> list[dict]:
+    """The rows with every completion variant relabelled ``label`` (their best setting then competes as one)."""
+    return [r if r["contender"] in CONTENDER_NAMES else dict(r, contender=label) for r in rows]
+
+
+def crossover_table(rows: list[dict]) -> str:
+    """Per scene: where the best completion setting beats path tracing + OIDN at equal samples and at equal time,
+    and the best each reaches at its smallest sample budgets (below 1 spp; 1 spp)."""
+    rows = merged(rows)
+    header = ["scene", "equal samples", "equal time", "best completion below 1 spp", "path tracing + OIDN at 1 spp"]
+    table = []
+    for scene in _scenes(rows):
+        scene_rows = [r for r in rows if r["scene"] == scene]
+        below = best_within(scene_rows, "completion", "samples_per_pixel", 0.999)
+        one = best_within(scene_rows, "path+oidn", "samples_per_pixel", 1.0)
+        cell = lambda r: "-" if r is None else f"{r['psnr']:.2f} dB ({_setting(r)}, {r['seconds']:.2f} s)"  # noqa: E731
+        table.append([scene, crossover(rows, scene, "completion", "path+oidn", "samples_per_pixel"),
+                      crossover(rows, scene, "completion", "path+oidn", "seconds"), cell(below), cell(one)])
+    return _table(header, table)
+
+
 def stage_table(rows: list[dict]) -> str:
     keys = ["features_s", "render_s", "pre_completion_s", "block_matching_s", "svd_s", "aggregation_s",
             "completion_s", "total_s"]
