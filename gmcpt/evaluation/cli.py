@@ -143,9 +143,10 @@ def main(argv: list[str] | None = None) -> int:
         import gmcpt  # noqa: F401  (LLVM, variant)
         import mitsuba as mi
         mi.set_log_level(mi.LogLevel.Error)
+        commit = _commit()  # before the run rewrites docs/
         record = evaluate(config, scenes, out, say)
         record.update(command="python -m gmcpt eval" + (" --quick" if args.quick else ""),
-                      date=datetime.date.today().isoformat(), commit=_commit(), versions=_versions(),
+                      date=datetime.date.today().isoformat(), commit=commit, versions=_versions(),
                       machine=f"{platform.machine()}, {os.cpu_count()} CPU cores, {platform.system()}, no GPU used")
         if args.scenes or args.procedural is not None:
             record["command"] += "".join([f" --scenes {' '.join(args.scenes)}" if args.scenes else "",
