@@ -241,3 +241,44 @@ def test_low_rank_estimate_survives_float32_eigh_failure():
     assert torch.isfinite(estimate).all()
     expected = low_rank_estimate(groups.double(), 1e4).float()
     assert torch.allclose(estimate, expected, atol=1e-3)
+
+
+def test_local_variance_measures_noise_of_flat_region():
+    from gmcpt.lowrank.noise import local_variance
+
+    rng = np.random.default_rng(3)
+    mask = rng.random((64, 64)) < 0.3
+    values = 100 + rng.normal(0, 4.0, (64, 64, 3))
+    variance = local_variance(values, mask, radius=3)
+    assert variance.shape == (64, 64) and variance.dtype == np.float32
+    assert abs(np.median(variance[mask]) / 16.0 - 1) < 0.15
+    # values outside the mask are never read
+    assert np.array_equal(local_variance(np.where(mask[..., None], values, 1e9), mask), variance)
+
+
+def test_local_variance_needs_two_samples_and_valid_input():
+    from gmcpt.lowrank.noise import local_variance
+
+    mask = np.zeros((9, 9), bool)
+    mask[4, 4] = True
+    assert not local_variance(np.ones((9, 9, 3)), mask).any()
+    with pytest.raises(ValueError, match="matching mask"):
+        local_variance(np.ones((9, 8, 3)), mask)
+    with pytest.raises(ValueError, match="radius"):
+        local_variance(np.ones((9, 9, 3)), mask, radius=0)
+
+
+def test_one_sample_frames_are_denoised_not_kept():
+    """At 1 spp the frame has no sample variance; the completion must still smooth the noisy samples."""
+    import dataclasses
+
+    from conftest import synthetic_frame
+    from gmcpt.completion import complete
+
+    frame, clean = synthetic_frame(height=64, width=64, rate=0.5)
+    rng = np.random.default_rng(0)
+    noisy = np.clip(clean * rng.gamma(4.0, 0.25, clean.shape), 0, None).astype(np.float32)
+    one_spp = dataclasses.replace(frame, radiance=np.where(frame.mask[..., None], noisy, 0), spp=1)
+    result = complete(one_spp, "pawnnm").image
+    error = lambda image: np.mean((image[frame.mask] - clean[frame.mask]) ** 2)  # noqa: E731
+    assert error(result) < 0.5 * error(noisy)
