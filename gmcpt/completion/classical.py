@@ -95,26 +95,28 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     radius = params.radius or max(1, math.ceil(1.5 / math.sqrt(rate)))
     pad = radius
     sigma_space = max(radius / 2.0, 0.5)
-    inv = {"albedo": 0.5 / params.sigma_albedo ** 2, "normal": 0.5 / params.sigma_normal ** 2,
-           "depth": 0.5 / params.sigma_depth ** 2, "vis": 0.5 / params.sigma_visibility ** 2}
-    padded_values = np.pad(values * mask[..., None], ((pad, pad), (pad, pad), (0, 0)))
+    # exp(-distance) with distance = |scaled feature difference|^2; depth differences are relative
+    # to the pixel's own depth, so depth is scaled per pixel rather than once
+    scale = np.float32(math.sqrt(0.5)) * np.array([1 / params.sigma_albedo] * 3 + [1 / params.sigma_normal] * 3
+                                                  + [1 / params.sigma_visibility], np.float32)
+    scaled = np.concatenate([features[..., 0:6], features[..., 7:8]], axis=-1).astype(np.float32) * scale
+    depth = features[..., 6].astype(np.float32)
+    depth_scale = np.float32(math.sqrt(0.5) / params.sigma_depth) / np.maximum(depth, np.float32(1e-3))
+    padded_values = np.pad((values * mask[..., None]).astype(np.float32), ((pad, pad), (pad, pad), (0, 0)))
     padded_mask = np.pad(mask.astype(np.float32), pad)
-    padded_features = np.pad(features, ((pad, pad), (pad, pad), (0, 0)), mode="edge")
-    albedo, normal = features[..., 0:3], features[..., 3:6]
-    depth, visibility = features[..., 6], features[..., 7]
-    numerator = np.zeros(values.shape, np.float64)
-    denominator = np.zeros(mask.shape, np.float64)
+    padded_scaled = np.pad(scaled, ((pad, pad), (pad, pad), (0, 0)), mode="edge")
+    padded_depth = np.pad(depth, pad, mode="edge")
+    numerator = np.zeros(values.shape, np.float32)
+    denominator = np.zeros(mask.shape, np.float32)
     for dy in range(-radius, radius + 1):
         for dx in range(-radius, radius + 1):
             if dy * dy + dx * dx > radius * radius:
                 continue
-            weight = _shift(padded_mask, dy, dx, pad) * math.exp(-(dy * dy + dx * dx) / (2 * sigma_space ** 2))
-            neighbour = _shift(padded_features, dy, dx, pad)
-            distance = (inv["albedo"] * np.sum((neighbour[..., 0:3] - albedo) ** 2, axis=-1)
-                        + inv["normal"] * np.sum((neighbour[..., 3:6] - normal) ** 2, axis=-1)
-                        + inv["depth"] * ((neighbour[..., 6] - depth) / np.maximum(depth, 1e-3)) ** 2
-                        + inv["vis"] * (neighbour[..., 7] - visibility) ** 2)
-            weight = weight * np.exp(-distance)
+            difference = _shift(padded_scaled, dy, dx, pad) - scaled
+            distance = np.einsum("ijk,ijk->ij", difference, difference)
+            distance += ((_shift(padded_depth, dy, dx, pad) - depth) * depth_scale) ** 2
+            distance += np.float32((dy * dy + dx * dx) / (2 * sigma_space ** 2))
+            weight = _shift(padded_mask, dy, dx, pad) * np.exp(-distance)
             numerator += weight[..., None] * _shift(padded_values, dy, dx, pad)
             denominator += weight
     fallback = push_pull(values * mask[..., None], mask.astype(np.float32))

@@ -6,9 +6,10 @@ albedo, normal, depth, visibility and, optionally, the log variance of the
 traced samples) into a shared feature map; every residual block maps it,
 pooled to the block's resolution, to a per-channel scale and shift applied
 after each convolution (``h * (scale + 1) + shift``). The network starts from
-a fixed push-pull fill of the sparse input (no parameters) and predicts a
-correction of the whole image, traced pixels included, so it fills and
-denoises at once.
+a fixed fill of the sparse input (no parameters; ``base``: a push-pull
+pyramid, or the feature-guided fill of ``interp``, which keeps the edges the
+feature buffers see) and predicts a correction of the whole image, traced
+pixels included, so it fills and denoises at once.
 
 Default size (``GeneratorConfig()``): widths 48/64/96 at 1/2, 1/4 and 1/8
 resolution, about 0.6 M parameters, about 3.3 GMAC for a 256x256 frame.
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
+import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
@@ -41,6 +43,8 @@ class GeneratorConfig:
     encoder_blocks, decoder_blocks : residual blocks per level (decoder: levels 0 and 1).
     condition_width : channels of the conditioning feature map.
     use_variance : add log(1 + variance) of the traced samples as a feature.
+    base : the fixed fill the network corrects: ``"push_pull"`` (feature-blind pyramid) or
+        ``"guided"`` (:func:`gmcpt.completion.classical.guided_fill`, runs on the CPU in numpy).
     """
 
     widths: tuple[int, int, int] = (32, 48, 96)
@@ -48,6 +52,11 @@ class GeneratorConfig:
     decoder_blocks: tuple[int, int] = (1, 1)
     condition_width: int = 24
     use_variance: bool = True
+    base: str = "push_pull"
+
+    def __post_init__(self):
+        if self.base not in BASES:
+            raise ValueError(f"generator base must be one of {', '.join(BASES)}, got {self.base!r}")
 
     @property
     def feature_channels(self) -> int:
@@ -87,6 +96,20 @@ def push_pull(values: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
     coarse = push_pull(F.avg_pool2d(v, 2) * 4 / sum_w.clamp_min(1e-8), sum_w.clamp(max=1.0))
     up = F.interpolate(coarse, scale_factor=2, mode="nearest")[..., :height, :width]
     return weights * values + (1 - weights) * up
+
+
+def guided_base(radiance: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
+    """The feature-guided fill of each (B, 3, H, W) ``radiance`` from its (B, F, H, W) ``features``."""
+    from ..completion.classical import guided_fill
+
+    values = radiance.detach().permute(0, 2, 3, 1).cpu().numpy()
+    aux = features.detach().permute(0, 2, 3, 1).cpu().numpy()
+    filled = [guided_fill(values[i], aux[i, ..., 0] > 0, aux[i, ..., 1:FEATURE_CHANNELS]) for i in range(len(values))]
+    return torch.from_numpy(np.stack(filled)).permute(0, 3, 1, 2).to(radiance)
+
+
+#: The fixed fills a generator can start from.
+BASES = {"push_pull": lambda radiance, features: push_pull(radiance, features[:, :1]), "guided": guided_base}
 
 
 class ModulatedResBlock(nn.Module):
@@ -164,8 +187,7 @@ class Generator(nn.Module):
         return x
 
     def forward(self, radiance: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
-        mask = features[:, :1]
-        fill = push_pull(radiance, mask)
+        fill = BASES[self.config.base](radiance, features)
         cond = self.condition(F.pixel_unshuffle(features, 2))
         x = F.pixel_unshuffle(torch.cat([radiance, fill, features], 1), 2)
         x0 = self._run(self.enc0, self.head(x), cond[0])
