@@ -40,6 +40,24 @@ def test_generator_starts_from_the_fill_and_is_small():
     torch.testing.assert_close(out, push_pull(radiance, features[:, :1]))
 
 
+def test_guided_base_is_the_classical_feature_guided_fill():
+    from dataclasses import replace
+
+    from gmcpt.completion.classical import guided_fill
+
+    config = replace(SMALL, base="guided")
+    radiance, features = _inputs(batch=2, size=24, config=config)
+    out = Generator(config)(radiance, features)   # zero-initialised tail: the base itself
+    for i in range(2):
+        image = radiance[i].permute(1, 2, 0).numpy()
+        aux = features[i].permute(1, 2, 0).numpy()
+        expected = guided_fill(image, aux[..., 0] > 0, aux[..., 1:9])
+        np.testing.assert_allclose(out[i].detach().permute(1, 2, 0).numpy(), expected, atol=1e-6)
+    assert not torch.allclose(out, push_pull(radiance, features[:, :1]))
+    with pytest.raises(ValueError, match="generator base must be one of"):
+        GeneratorConfig(base="bilinear")
+
+
 def test_feature_modulation_is_scale_plus_one_and_shift():
     block = ModulatedResBlock(2, 1)
     with torch.no_grad():
