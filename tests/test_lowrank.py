@@ -282,3 +282,24 @@ def test_one_sample_frames_are_denoised_not_kept():
     result = complete(one_spp, "pawnnm").image
     error = lambda image: np.mean((image[frame.mask] - clean[frame.mask]) ** 2)  # noqa: E731
     assert error(result) < 0.5 * error(noisy)
+
+
+def test_blend_samples_trusts_a_good_estimate_and_corrects_a_bad_one():
+    from gmcpt.lowrank.noise import blend_samples
+
+    rng = np.random.default_rng(1)
+    truth = np.full((48, 48, 3), 100.0, np.float32)
+    mask = rng.random((48, 48)) < 0.3
+    variance = np.full((48, 48), 25.0, np.float32)
+    observed = truth + rng.normal(0, 5.0, truth.shape).astype(np.float32)
+    error = lambda image: np.mean((image[mask] - truth[mask]) ** 2)  # noqa: E731
+    # a good estimate: the noisy samples are mostly left out
+    good = blend_samples(truth, observed, mask, variance)
+    assert error(good) < 0.05 * error(observed)
+    # an estimate 40 (8 noise sigmas) off: the samples win
+    bad = blend_samples(truth + 40, observed, mask, variance)
+    assert error(bad) < 1.5 * error(observed)
+    # pixels that were not rendered are left alone
+    assert np.array_equal(bad[~mask], (truth + 40)[~mask])
+    with pytest.raises(ValueError, match="share H and W"):
+        blend_samples(truth, observed, mask, variance[:-1])

@@ -26,6 +26,7 @@ import numpy as np
 from ..domain import WorkingDomain
 from ..frame import SparseFrame
 from ..lowrank import DEFAULT as LOW_RANK_DEFAULT
+from ..lowrank.noise import blend_samples, working_variance
 from . import Completion, register_method
 
 GAN_THREADS = 1
@@ -49,6 +50,8 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
         working, factor = precomplete(generator, frame, domain)
     finally:
         torch.set_num_threads(previous)
+    observed = domain.forward(frame.radiance, factor)
+    working = blend_samples(working, observed, frame.mask, working_variance(frame, domain, observed, factor))
     timings = {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}
     return working, factor, timings
 

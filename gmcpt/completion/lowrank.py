@@ -16,7 +16,7 @@ from ..frame import SparseFrame
 from dataclasses import replace
 
 from ..lowrank import DEFAULT, NNM_PRESET, LowRankParams, complete_low_rank
-from ..lowrank.noise import local_variance
+from ..lowrank.noise import working_variance
 from . import Completion, register_method
 from .classical import guided_fill, push_pull
 
@@ -47,10 +47,7 @@ def refine_low_rank(frame: SparseFrame, pre_completed_working: np.ndarray,
     """
     params = params or DEFAULT
     observed, factor = domain.encode(frame)
-    if frame.spp > 1:
-        variance = domain.variance(frame.radiance, frame.variance, factor)
-    else:  # one sample: no sample variance, estimate it from the neighbourhood
-        variance = local_variance(observed, frame.mask)
+    variance = working_variance(frame, domain, observed, factor)
     try:
         refined, timings = complete_low_rank(pre_completed_working, observed, frame.mask, variance=variance,
                                              guide=matching_guide(frame), params=params)
