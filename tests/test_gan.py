@@ -240,6 +240,7 @@ def test_presets_load():
 
     cpu, gpu = load_config("cpu"), load_config("gpu")
     assert cpu.train.device == "cpu" and gpu.train.device == "cuda"
+    assert cpu.generator.base == "guided" and gpu.generator.base == "push_pull"
     assert cpu.loss == losses.LossWeights()
 
 
@@ -255,6 +256,42 @@ def test_gan_method_with_given_weights(tmp_path):
     result = complete(frame, "gan", weights=str(tmp_path / "g.pt"))
     assert result.image.shape == (30, 36, 3) and np.isfinite(result.image).all()
     assert "pre_completion_s" in result.timings
+
+
+def test_autoexposure_sets_the_95th_percentile():
+    import dataclasses
+
+    from gmcpt.gan.infer import EXPOSURE_TARGET, autoexposure, exposed
+    from tests.conftest import synthetic_frame
+
+    frame, _ = synthetic_frame()
+    exposure = autoexposure(frame)
+    brought = exposed(frame, exposure)
+    level = np.percentile(brought.radiance[brought.mask].mean(axis=-1), 95)
+    assert level == pytest.approx(EXPOSURE_TARGET, rel=1e-4)
+    assert np.allclose(brought.variance, frame.variance * exposure ** 2)
+    assert autoexposure(dataclasses.replace(frame, mask=np.zeros_like(frame.mask))) == 1.0
+
+
+def test_gan_output_follows_the_exposure_of_its_input(tmp_path):
+    """Autoexposure: a frame 7x brighter completes to a 7x brighter image (same network input)."""
+    import dataclasses
+
+    from gmcpt.completion import complete
+    from gmcpt.gan.weights import save_weights
+    from tests.conftest import synthetic_frame
+
+    torch.manual_seed(0)
+    generator = Generator(SMALL)
+    for parameter in generator.parameters():
+        torch.nn.init.normal_(parameter, std=0.1)
+    save_weights(tmp_path / "g.pt", generator, {})
+    frame, _ = synthetic_frame(32, 32)
+    frame = dataclasses.replace(frame, variance=np.where(frame.mask, 1e-3, 0).astype(np.float32))
+    bright = dataclasses.replace(frame, radiance=frame.radiance * 7, variance=frame.variance * 49)
+    image = complete(frame, "gan", weights=str(tmp_path / "g.pt")).image
+    np.testing.assert_allclose(complete(bright, "gan", weights=str(tmp_path / "g.pt")).image, 7 * image,
+                               rtol=1e-4, atol=1e-6)
 
 
 def test_shipped_weights_match_their_metadata():

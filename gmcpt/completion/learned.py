@@ -35,10 +35,16 @@ GAN_PAWNNM_BLEND = 0.0
 
 def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
                       weights: str | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(working-domain image (H, W, 3), demodulation factor, timings) from the generator."""
+    """(working-domain image (H, W, 3), demodulation factor, timings) from the generator.
+
+    The generator runs on the frame brought to :data:`~gmcpt.gan.infer.EXPOSURE_TARGET`
+    (:func:`~gmcpt.gan.infer.autoexposure`); the exposure is folded into the returned factor, so
+    ``domain.inverse(working, factor)`` is radiance at the frame's own exposure. The traced
+    pixels are then blended back by :func:`~gmcpt.lowrank.noise.blend_samples`.
+    """
     import torch
 
-    from ..gan.infer import precomplete
+    from ..gan.infer import autoexposure, exposed, precomplete
     from ..gan.weights import load_generator
 
     start = time.perf_counter()
@@ -46,6 +52,8 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     loaded = time.perf_counter()
     previous = torch.get_num_threads()
     torch.set_num_threads(int(os.environ.get("GMCPT_TORCH_THREADS", GAN_THREADS)))
+    exposure = autoexposure(frame)
+    frame = exposed(frame, exposure)
     try:
         working, factor = precomplete(generator, frame, domain)
     finally:
@@ -53,7 +61,7 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     observed = domain.forward(frame.radiance, factor)
     working = blend_samples(working, observed, frame.mask, working_variance(frame, domain, observed, factor))
     timings = {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}
-    return working, factor, timings
+    return working, factor / exposure, timings
 
 
 @register_method("gan", min_size=8, summary="GAN pre-completion alone (fills and denoises every pixel)")
