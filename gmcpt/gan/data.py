@@ -67,8 +67,9 @@ class PatchSampler:
     """
 
     def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
-                 rate_range: tuple[float, float] = (0.15, 0.5)):
+                 rate_range: tuple[float, float] = (0.15, 0.5), autoexposure: bool = False):
         from ..dataset import load_example
+        from .infer import autoexposure as exposure_of, exposed
 
         if not paths:
             raise ValueError("no training examples")
@@ -77,10 +78,15 @@ class PatchSampler:
         for path in paths:
             example = load_example(path)
             factor = domain.factor(example["albedo"])
-            full = example["full_radiance"]
-            traced = np.ones(full.shape[:2], bool)
-            parts = [domain.forward(example["reference"], factor) / SCALE, domain.forward(full, factor) / SCALE,
-                     working_std(domain, full, example["full_variance"], factor, traced)[..., None],
+            traced = np.ones(example["full_radiance"].shape[:2], bool)
+            full = SparseFrame(radiance=example["full_radiance"], mask=traced, variance=example["full_variance"],
+                               albedo=example["albedo"], normal=example["normal"], depth=example["depth"],
+                               visibility=example["visibility"], spp=int(example["meta"]["spp"]))
+            exposure = exposure_of(full) if autoexposure else 1.0
+            full = exposed(full, exposure)
+            parts = [domain.forward(example["reference"] * exposure, factor) / SCALE,
+                     domain.forward(full.radiance, factor) / SCALE,
+                     working_std(domain, full.radiance, full.variance, factor, traced)[..., None],
                      example["albedo"], example["normal"], example["depth"][..., None],
                      example["visibility"][..., None]]
             self.scenes.append(np.concatenate(parts, -1).astype(np.float32))

@@ -52,6 +52,8 @@ class TrainConfig:
     threads : torch CPU threads (0: torch's default).
     eval_every, checkpoint_every : in steps.
     max_train_scenes : use only the first N training scenes (0: all).
+    autoexposure : train (and validate) on scenes brought to the exposure the product runs the
+        generator at (:func:`gmcpt.gan.infer.autoexposure`) rather than at their dataset exposure.
     """
 
     dataset: str = "data/procedural-v1"
@@ -70,6 +72,7 @@ class TrainConfig:
     checkpoint_every: int = 250
     max_train_scenes: int = 0
     device: str = "cpu"
+    autoexposure: bool = False
 
 
 @dataclass(frozen=True)
@@ -101,23 +104,34 @@ def load_config(name_or_path: str, overrides: dict | None = None) -> FullConfig:
     for dotted, value in (overrides or {}).items():
         section, key = dotted.split(".", 1)
         data.setdefault(section, {})[key] = value
+    return config_from_dict(data)
+
+
+def config_from_dict(data: dict) -> FullConfig:
+    """A config from its four sections; keys left out take their defaults."""
     return FullConfig(train=_build(TrainConfig, data.get("train", {})),
                       generator=_build(GeneratorConfig, data.get("generator", {})),
                       critic=_build(CriticConfig, data.get("critic", {})),
                       loss=_build(LossWeights, data.get("loss", {})))
 
 
-def validate(generator: Generator, examples: list[dict], domain: WorkingDomain) -> dict:
-    """Mean PSNR (tonemapped sRGB) of the generator on stored product frames."""
+def validate(generator: Generator, examples: list[dict], domain: WorkingDomain, autoexposure: bool = False) -> dict:
+    """Mean PSNR (tonemapped sRGB) of the generator alone on stored product frames.
+
+    ``autoexposure``: bring each frame to :data:`~gmcpt.gan.infer.EXPOSURE_TARGET` first, as
+    the product does (otherwise the frame runs at its dataset exposure).
+    """
     from ..metrics import psnr
     from .data import example_frame
-    from .infer import precomplete
+    from .infer import autoexposure as exposure_of, exposed, precomplete
 
     generator.eval()
     scores = []
     for example in examples:
-        working, factor = precomplete(generator, example_frame(example), domain)
-        scores.append(psnr(domain.inverse(working, factor), example["reference"]))
+        frame = example_frame(example)
+        exposure = exposure_of(frame) if autoexposure else 1.0
+        working, factor = precomplete(generator, exposed(frame, exposure), domain)
+        scores.append(psnr(domain.inverse(working, factor) / exposure, example["reference"]))
     generator.train()
     return {"val_psnr": float(np.mean(scores)), "val_psnr_each": [round(s, 3) for s in scores]}
 
@@ -191,7 +205,7 @@ class Trainer:
                                  f"{cfg.max_train_scenes}; finish the dataset build first")
             train_paths = train_paths[:cfg.max_train_scenes]
         self.train_seeds = [int(p.stem) for p in train_paths]
-        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range)
+        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range, cfg.autoexposure)
         self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")]
         self.rng = np.random.default_rng([cfg.seed, 0x7EA1])
         self.step, self.history, self.seconds = 0, [], 0.0
@@ -218,7 +232,8 @@ class Trainer:
         if not self.checkpoint_path.is_file():
             return False
         state = torch.load(self.checkpoint_path, map_location=self.device, weights_only=True)
-        if json.loads(state["config"]) != json.loads(json.dumps(self.config.to_dict())):
+        stored = config_from_dict(json.loads(state["config"])).to_dict()  # keys added since: defaults
+        if json.loads(json.dumps(stored)) != json.loads(json.dumps(self.config.to_dict())):
             raise ValueError(f"{self.checkpoint_path} was made with another config; use a new --out")
         self.generator.load_state_dict(state["generator"])
         self.critic.load_state_dict(state["critic"])
@@ -282,7 +297,7 @@ class Trainer:
             self.history.append({"step": self.step, **{k: round(v, 6) for k, v in record.items()}})
             last = self.step == cfg.steps
             if self.val and (self.step % cfg.eval_every == 0 or last):
-                self.history.append({"step": self.step, **validate(self.generator, self.val, self.domain)})
+                self.history.append({"step": self.step, **validate(self.generator, self.val, self.domain, cfg.autoexposure)})
                 recent = [h for h in self.history[-cfg.eval_every - 1:] if "l1" in h]
                 self.say(f"step {self.step}/{cfg.steps} ({self.seconds / 60:.1f} min): "
                          f"l1 {np.mean([h['l1'] for h in recent]):.4f} "
