@@ -228,6 +228,25 @@ def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
     assert record["dataset"]["version"] == 1 and (tmp_path / "shipped" / "tiny.pt").is_file()
 
 
+def test_patch_sampler_autoexposure_brings_scenes_to_the_product_exposure(tmp_path):
+    from gmcpt.dataset import list_examples
+    from gmcpt.domain import WorkingDomain
+    from gmcpt.gan.data import SCALE, PatchSampler
+    from gmcpt.gan.infer import EXPOSURE_TARGET
+
+    _tiny_dataset(tmp_path)
+    paths = list_examples(tmp_path, "train")
+    plain = PatchSampler(paths, crop=16)
+    exposed = PatchSampler(paths, crop=16, autoexposure=True)
+    domain = WorkingDomain()
+    for scene, same in zip(exposed.scenes, plain.scenes):
+        # noisy radiance channels back to linear (demodulation factor from the albedo channels)
+        factor = domain.factor(scene[..., 7:10])
+        noisy = domain.inverse(scene[..., 3:6] * SCALE, factor)
+        assert np.percentile(noisy.mean(axis=-1), 95) == pytest.approx(EXPOSURE_TARGET, rel=1e-3)
+        assert np.array_equal(scene[..., 7:], same[..., 7:])   # features untouched
+
+
 def test_train_cli_reports_a_missing_dataset(tmp_path, capsys):
     from gmcpt.gan.cli import main
 
