@@ -22,7 +22,7 @@ from .model import Generator, GeneratorConfig
 FORMAT = 1
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 DEFAULT_WEIGHTS = "gan-cpu"
-RETRAIN_HINT = "retrain with `python -m gmcpt train --config cpu --export {name}` (see README, 'GAN weights')"
+RETRAIN_HINT = "retrain with `python -m gmcpt train --config cpu --export {name}` (see README, 'GAN pre-completion: data, training, weights')"
 
 _cache: dict[tuple[str, float], tuple[Generator, dict]] = {}
 
