@@ -44,7 +44,7 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     """
     import torch
 
-    from ..gan.infer import autoexposure, exposed, precomplete
+    from ..gan.infer import autoexposure, precomplete
     from ..gan.weights import load_generator
 
     start = time.perf_counter()
@@ -52,16 +52,14 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     loaded = time.perf_counter()
     previous = torch.get_num_threads()
     torch.set_num_threads(int(os.environ.get("GMCPT_TORCH_THREADS", GAN_THREADS)))
-    exposure = autoexposure(frame)
-    frame = exposed(frame, exposure)
     try:
-        working, factor = precomplete(generator, frame, domain)
+        working, factor = precomplete(generator, frame, domain, autoexposure(frame))
     finally:
         torch.set_num_threads(previous)
-    observed = domain.forward(frame.radiance, factor)
+    observed = domain.forward(frame.radiance, factor)  # in the generator's working domain (exposure folded in)
     working = blend_samples(working, observed, frame.mask, working_variance(frame, domain, observed, factor))
     timings = {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}
-    return working, factor / exposure, timings
+    return working, factor, timings
 
 
 @register_method("gan", min_size=8, summary="GAN pre-completion alone (fills and denoises every pixel)")

@@ -38,13 +38,18 @@ def exposed(frame: SparseFrame, exposure: float) -> SparseFrame:
                                variance=(frame.variance * exposure ** 2).astype(np.float32))
 
 
-def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain = WorkingDomain()
-                ) -> tuple[np.ndarray, np.ndarray]:
+def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
+                exposure: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """(completed image in the working domain (H, W, 3), 0..255-like; demodulation factor (H, W, 3)).
 
-    The frame is padded (reflect) to a multiple of the generator's
-    :attr:`~gmcpt.gan.model.Generator.multiple` and cropped back.
+    The generator sees the frame scaled by ``exposure`` (see :func:`autoexposure`); the
+    exposure is folded into the returned factor, so ``domain.inverse(working, factor)`` is
+    radiance at the frame's own exposure, and ``domain.forward(frame.radiance, factor)`` is
+    the frame in the working domain the generator ran in. The frame is padded (reflect) to a
+    multiple of the generator's :attr:`~gmcpt.gan.model.Generator.multiple` and cropped back.
     """
+    if exposure != 1.0:
+        frame = exposed(frame, exposure)
     radiance, features, factor = frame_inputs(frame, domain, generator.config.use_variance)
     height, width = frame.shape
     multiple = generator.multiple
@@ -53,4 +58,4 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
     with torch.inference_mode():
         output = generator(F.pad(radiance, pad, mode=mode), F.pad(features, pad, mode=mode))
     working = output[0, :, :height, :width].permute(1, 2, 0).numpy() * SCALE
-    return np.maximum(working, 0.0).astype(np.float32), factor
+    return np.maximum(working, 0.0).astype(np.float32), factor / np.float32(exposure)

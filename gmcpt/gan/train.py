@@ -123,15 +123,14 @@ def validate(generator: Generator, examples: list[dict], domain: WorkingDomain, 
     """
     from ..metrics import psnr
     from .data import example_frame
-    from .infer import autoexposure as exposure_of, exposed, precomplete
+    from .infer import autoexposure as exposure_of, precomplete
 
     generator.eval()
     scores = []
     for example in examples:
         frame = example_frame(example)
-        exposure = exposure_of(frame) if autoexposure else 1.0
-        working, factor = precomplete(generator, exposed(frame, exposure), domain)
-        scores.append(psnr(domain.inverse(working, factor) / exposure, example["reference"]))
+        working, factor = precomplete(generator, frame, domain, exposure_of(frame) if autoexposure else 1.0)
+        scores.append(psnr(domain.inverse(working, factor), example["reference"]))
     generator.train()
     return {"val_psnr": float(np.mean(scores)), "val_psnr_each": [round(s, 3) for s in scores]}
 

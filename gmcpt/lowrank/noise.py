@@ -34,11 +34,10 @@ def local_variance(values: np.ndarray, mask: np.ndarray, radius: int = 3) -> np.
         raise ValueError(f"radius must be >= 1, got {radius}")
     size = 2 * radius + 1
     weight = np.asarray(mask, np.float64)
-    box = lambda image: uniform_filter(image, size=size, mode="reflect") * size * size  # noqa: E731
-    count = box(weight)
+    box = lambda image: uniform_filter(image, size=(size, size, 1), mode="reflect") * size * size  # noqa: E731
+    count = box(weight[..., None])[..., 0]
     masked = values * weight[..., None]
-    total = np.stack([box(masked[..., c]) for c in range(values.shape[-1])], -1)
-    squares = np.stack([box(masked[..., c] ** 2) for c in range(values.shape[-1])], -1)
+    total, squares = box(masked), box(masked ** 2)
     enough = count > 1.5
     n = np.maximum(count, 2.0)[..., None]
     variance = np.maximum(squares - total ** 2 / n, 0.0) / (n - 1)
