@@ -51,7 +51,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--methods", nargs="+", default=["interp", "gan", "pawnnm", "gan_pawnnm"])
     parser.add_argument("--rates", type=float, nargs="+", default=[0.2, 0.3, 0.4])
-    parser.add_argument("--dataset", default=str(ROOT / "data" / "procedural-v1"))
+    parser.add_argument("--dataset", default=str(ROOT / "data" / "procedural"))
     parser.add_argument("--test-scenes", type=int, default=10, help="procedural test scenes (0: none)")
     parser.add_argument("--no-bundled", dest="bundled", action="store_false")
     parser.add_argument("--res", type=int, default=256)

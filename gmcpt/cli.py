@@ -39,7 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--mask", help="sampling pattern: random, stratified, blue_noise (default: random)")
     parser.add_argument("--method", help="completion method (default: the scene's, else pawnnm); see --list-methods")
     parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="override the film resolution")
-    parser.add_argument("--feature-spp", type=int, help="primary samples per pixel of the feature pass (default 1)")
+    parser.add_argument("--feature-spp", type=int, help="primary samples per pixel of the feature pass (default 4)")
     parser.add_argument("--reference", help="reference EXR: adds MSE/PSNR/SSIM (tonemapped sRGB) and relMSE to the JSON")
     parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                         help="set a scene parameter ($NAME in the XML); repeatable")

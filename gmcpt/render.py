@@ -30,6 +30,13 @@ from .frame import SparseFrame
 from .masks import make_mask
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
+#: Primary rays per pixel of the feature pass. The traced radiance is an antialiased mean of 16 or so
+#: samples; a 1-sample albedo is aliased at texture and silhouette edges, and demodulating one by the
+#: other leaves that aliasing in every filled pixel. Measured on the 5 evaluation scenes (256x256,
+#: 16 spp, rates 0.2/0.3/0.4, mean PSNR dB; feature_spp 1 -> 4 -> 16): interp 27.19 -> 27.94 ->
+#: 28.20, pawnnm 31.90 -> 32.39, gan (weights trained on 1-spp features) 30.92 -> 31.83 -> 32.10;
+#: 4 samples cost 0.05-0.07 s on a 256x256 frame, about a tenth of a 0.4 x 16 spp render.
+DEFAULT_FEATURE_SPP = 4
 FEATURE_SEED_OFFSET = 0x5EED_F00D
 # samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
 SCATTER_MODE = dr.ReduceMode.Local
@@ -45,7 +52,7 @@ class RenderSettings:
     pattern: str = "random"
     seed: int = 0
     spp: int = 0
-    feature_spp: int = 1
+    feature_spp: int = DEFAULT_FEATURE_SPP
 
 
 def _sensor_film_size(sensor: mi.Sensor) -> tuple[int, int]:
@@ -79,7 +86,7 @@ def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int, lanes: int) -> mi.Sa
     return sampler
 
 
-def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = 1, seed: int = 0) -> dict:
+def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAULT_FEATURE_SPP, seed: int = 0) -> dict:
     """Albedo, shading normal, depth and visibility for every pixel.
 
     Returns a dict of float32 arrays: ``albedo`` and ``normal`` (H, W, 3),

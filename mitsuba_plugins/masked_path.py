@@ -7,7 +7,7 @@ from gmcpt.completion import complete, get_method
 from gmcpt.errors import GmcptError
 from gmcpt.layers import channel_names, pack
 from gmcpt.masks import PATTERNS, check_rate
-from gmcpt.render import RenderSettings, render_sparse_frame
+from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
 
 DEFAULT_COMPLETION = "pawnnm"
 
@@ -38,7 +38,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - Depth at which Russian roulette starts, for the default nested ``path``. (Default: 5)
      * - feature_spp
        - |int|
-       - Primary samples per pixel of the feature pass (albedo, normal, depth, visibility). (Default: 1)
+       - Primary samples per pixel of the feature pass (albedo, normal, depth, visibility). (Default: 4)
      * - completion
        - |string|
        - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``pawnnm``)
@@ -73,7 +73,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         if self.mask_pattern not in PATTERNS:
             raise GmcptError(f"unknown mask pattern {self.mask_pattern!r}; choose from {', '.join(PATTERNS)}")
         self.seed = int(props.get("seed", 0))
-        self.feature_spp = int(props.get("feature_spp", 1))
+        self.feature_spp = int(props.get("feature_spp", DEFAULT_FEATURE_SPP))
         if self.feature_spp < 1:
             raise GmcptError(f"feature_spp must be >= 1, got {self.feature_spp}")
         self.completion = props.get("completion", DEFAULT_COMPLETION)

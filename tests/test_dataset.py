@@ -128,3 +128,28 @@ def test_cli_rejects_bad_arguments(tmp_path, capsys):
 
     assert main(["--out", str(tmp_path / "d"), "--rate", "0.6", "0.2"]) == 2
     assert "error:" in capsys.readouterr().err
+
+
+def test_version_1_files_are_upgraded_to_the_features_of_a_fresh_build(mi, tmp_path):
+    from dataclasses import replace
+
+    from gmcpt.dataset import DatasetSpec, SplitSpec, build, example_path, load_example
+    from gmcpt.dataset.build import FEATURE_KEYS
+    from gmcpt.render import DEFAULT_FEATURE_SPP
+
+    spec = DatasetSpec(splits=(SplitSpec("train", 1, 16, 16),), pass_spp=8)
+    assert spec.feature_spp == DEFAULT_FEATURE_SPP and spec.version == 2
+    old, fresh = tmp_path / "old", tmp_path / "fresh"
+    build(old, replace(spec, version=1, feature_spp=1), workers=0, say=lambda m: None)
+    v1 = load_example(example_path(old, "train", 0))
+    assert v1["meta"]["version"] == 1
+    assert build(old, spec, workers=0, say=lambda m: None)["rendered"] == 1  # upgraded in place
+    upgraded = load_example(example_path(old, "train", 0))
+    build(fresh, spec, workers=0, say=lambda m: None)
+    rebuilt = load_example(example_path(fresh, "train", 0))
+    assert upgraded["meta"]["version"] == 2 and upgraded["meta"]["feature_spp"] == DEFAULT_FEATURE_SPP
+    for key, value in rebuilt.items():
+        if key != "meta":
+            np.testing.assert_array_equal(upgraded[key], value, err_msg=key)
+    assert any(not np.array_equal(v1[key], upgraded[key]) for key in FEATURE_KEYS)  # the features did change
+    assert json.loads((old / "manifest.json").read_text())["version"] == 2

@@ -52,3 +52,13 @@ def test_default_nested_integrator_takes_depth_settings(mi):
     assert "max_depth = 3" in str(integrator.integrator)
     with pytest.raises((RuntimeError, Exception), match="nested integrator"):
         mi.load_dict({"type": "masked_path", "max_depth": 3, "inner": {"type": "path"}})
+
+
+def test_feature_pass_defaults_to_antialiased_features(mi):
+    from gmcpt.evaluation.config import QUICK
+    from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings
+
+    assert DEFAULT_FEATURE_SPP > 1  # 1 spp aliases albedo at edges against the antialiased radiance
+    integrator = mi.load_dict({"type": "masked_path"})
+    assert integrator.feature_spp == RenderSettings().feature_spp == QUICK.feature_spp == DEFAULT_FEATURE_SPP
+    assert mi.load_dict({"type": "masked_path", "feature_spp": 1}).settings().feature_spp == 1

@@ -12,7 +12,7 @@ Per scene seed (see :mod:`gmcpt.dataset.scenes`):
    - the product's sparse frame at a rate drawn from ``rate_range`` (mask
      ``random``, 16 spp, seed = scene seed), via
      :func:`gmcpt.render.render_sparse_frame`: ``radiance``, ``mask``,
-     ``variance`` and the feature buffers;
+     ``variance`` and the feature buffers (``feature_spp`` primary rays a pixel);
    - the same call at rate 1 (``full_radiance``, ``full_variance``): every
      pixel traced with the same per-pixel estimator, so training can draw
      fresh masks at any rate; a traced pixel's value has the same
@@ -24,6 +24,12 @@ Mitsuba's shape merging, which otherwise reorders emitters from one load to
 the next (see :func:`gmcpt.dataset.scenes.build_scene`). Files of
 ``data/procedural-v1`` built before that change hold equally valid samples
 that differ bit-wise from a rebuild.
+
+Version 2 renders the features with 4 primary rays a pixel, the product's
+default since then (version 1: 1 ray). The features are the only change, and
+they depend on nothing but the scene and its seed, so a build over version-1
+files re-renders their features in place (:func:`upgrade_example`, about a
+second a scene) instead of the whole scene.
 
 Files live in ``ROOT/<split>/<seed:07d>.npz`` with a ``meta`` JSON entry
 (dataset version, seed, split, exposure, rate, settings, render seconds);
@@ -38,12 +44,13 @@ import json
 import os
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-DATASET_VERSION = 1
+DATASET_VERSION = 2
+FEATURE_KEYS = ("albedo", "normal", "depth", "visibility")
 SPLIT_SEED_BASE = {"train": 0, "val": 1_000_000, "test": 2_000_000}
 SEEDS_PER_SPLIT = 1_000_000
 REFERENCE_SEED = 0x4000_0000
@@ -79,6 +86,7 @@ class DatasetSpec:
     rate_range: tuple[float, float] = (0.15, 0.5)
     pass_spp: int = 128
     exposure_range: tuple[float, float] = (0.4, 1.2)
+    feature_spp: int = 4  # gmcpt.render.DEFAULT_FEATURE_SPP
     version: int = DATASET_VERSION
 
     def to_json(self) -> dict:
@@ -134,14 +142,16 @@ def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
     scene = build_scene(seed, split.resolution, exposure, spec.spp)
     reference = render_reference(scene, split.reference_spp, spec.pass_spp, seed)
     rate = float(np.random.default_rng([seed, 0x4A7E]).uniform(*spec.rate_range))
-    frame, _ = render_sparse_frame(scene, scene.integrator(), settings=RenderSettings(rate=rate, spp=spec.spp, seed=seed))
-    full, _ = render_sparse_frame(scene, scene.integrator(), settings=RenderSettings(rate=1.0, spp=spec.spp, seed=seed))
+    settings = RenderSettings(rate=rate, spp=spec.spp, seed=seed, feature_spp=spec.feature_spp)
+    frame, _ = render_sparse_frame(scene, scene.integrator(), settings=settings)
+    full, _ = render_sparse_frame(scene, scene.integrator(), settings=replace(settings, rate=1.0))
     arrays = {"reference": reference, "radiance": frame.radiance, "mask": frame.mask, "variance": frame.variance,
               "albedo": frame.albedo, "normal": frame.normal, "depth": frame.depth, "visibility": frame.visibility,
               "full_radiance": np.where(full.mask[..., None], full.radiance, 0.0).astype(np.float32),
               "full_variance": full.variance}
     meta = {"version": spec.version, "seed": seed, "split": split.name, "exposure": exposure, "rate": rate,
-            "resolution": split.resolution, "spp": spec.spp, "reference_spp": split.reference_spp,
+            "resolution": split.resolution, "spp": spec.spp, "feature_spp": spec.feature_spp,
+            "reference_spp": split.reference_spp,
             "full_mask_fraction": full.rendered_fraction, "seconds": time.perf_counter() - start}
     return {"arrays": arrays, "meta": meta}
 
@@ -162,15 +172,39 @@ def load_example(path: str | Path) -> dict:
     return example
 
 
-def is_complete(path: Path, version: int = DATASET_VERSION) -> bool:
-    """True if ``path`` holds a readable example of ``version``."""
+def file_version(path: Path) -> int | None:
+    """The dataset version of a readable example at ``path``; None if missing, truncated or foreign."""
     if not path.is_file():
-        return False
+        return None
     try:
         with np.load(path) as data:
-            return json.loads(str(data["meta"]))["version"] == version and all(k in data for k in ARRAY_KEYS)
-    except Exception:  # truncated or foreign file: render again
-        return False
+            return json.loads(str(data["meta"]))["version"] if all(k in data for k in ARRAY_KEYS) else None
+    except Exception:
+        return None
+
+
+def is_complete(path: Path, version: int = DATASET_VERSION) -> bool:
+    """True if ``path`` holds a readable example of ``version``."""
+    return file_version(path) == version
+
+
+def upgrade_example(path: Path, spec: DatasetSpec) -> dict:
+    """Bring a version-1 example to version 2: re-render its features at ``spec.feature_spp``.
+
+    The scene is rebuilt from the seed and exposure in the file's metadata and only the
+    feature pass runs (same seed as :func:`render_example` uses); every other array is kept.
+    """
+    from ..render import render_features
+    from .scenes import build_scene
+
+    start = time.perf_counter()
+    example = load_example(path)
+    meta = example.pop("meta")
+    scene = build_scene(meta["seed"], meta["resolution"], meta["exposure"], meta["spp"])
+    features = render_features(scene, scene.sensors()[0], spec.feature_spp, meta["seed"])
+    example.update({key: features[key].astype(np.float32) for key in FEATURE_KEYS})
+    meta.update(version=spec.version, feature_spp=spec.feature_spp, seconds=meta["seconds"] + time.perf_counter() - start)
+    return {"arrays": example, "meta": meta}
 
 
 def _update_manifest(path: Path, spec: DatasetSpec) -> None:
@@ -179,7 +213,9 @@ def _update_manifest(path: Path, spec: DatasetSpec) -> None:
     record["splits"] = {split["name"]: split for split in record["splits"]}
     if path.is_file():
         old = json.loads(path.read_text())
-        for key in ("version", "spp", "rate_range", "pass_spp", "exposure_range"):
+        if old.get("version") == 1 and spec.version == 2:  # upgraded in place (see upgrade_example)
+            old.update(version=2, feature_spp=spec.feature_spp)
+        for key in ("version", "spp", "rate_range", "pass_spp", "exposure_range", "feature_spp"):
             if json.dumps(old.get(key)) != json.dumps(record[key]):
                 raise ValueError(f"{path.parent} was built with {key} = {old.get(key)}, this build has {record[key]}")
         record["splits"] = {**old.get("splits", {}), **record["splits"]}
@@ -197,9 +233,14 @@ def _init_worker(threads: int) -> None:
 
 def _work(job) -> tuple[int, str, float]:
     root, seed, split, spec = job
-    example = render_example(seed, split, spec)
-    save_example(example_path(root, split.name, seed), example)
-    return seed, split.name, example["meta"]["seconds"]
+    path = example_path(root, split.name, seed)
+    start = time.perf_counter()
+    if file_version(path) == 1 and spec.version == 2:
+        example = upgrade_example(path, spec)
+    else:
+        example = render_example(seed, split, spec)
+    save_example(path, example)
+    return seed, split.name, time.perf_counter() - start
 
 
 def build(root: str | Path, spec: DatasetSpec, workers: int = 1, threads: int = 0,

@@ -13,6 +13,8 @@ class EvalConfig:
     name : "quick" or "full"; printed in the report.
     procedural : how many held-out procedural scenes (test split seeds) join the bundled ones.
     resolution, spp, reference_spp, rates, seed : the quality protocol (METHOD.md section 6).
+    feature_spp : primary samples per pixel of the feature pass, for the completion methods and for
+        OIDN's albedo and normal (the product's default, ``gmcpt.render.DEFAULT_FEATURE_SPP``).
     variants : completion variants of the quality tables (keys of :data:`VARIANTS`).
     patch_sizes, patch_rates : the PSNR-against-patch-size sweep of PAWNNM (paper Fig. 12).
     grid_rate : rate of the image grids.
@@ -31,6 +33,7 @@ class EvalConfig:
     reference_spp: int = 4096
     rates: tuple[float, ...] = (0.2, 0.3, 0.4)
     seed: int = 0
+    feature_spp: int = 4
     variants: tuple[str, ...] = ("interp", "liu", "nnm", "pawnnm", "gan", "gan_pawnnm")
     patch_sizes: tuple[int, ...] = (5, 6, 7, 8)
     patch_rates: tuple[float, ...] = (0.3,)

@@ -9,7 +9,8 @@ README_END = "<!-- results:end -->"
 
 def _settings_line(run: dict) -> str:
     c = run["config"]
-    return (f"{c['resolution']}x{c['resolution']}, {c['spp']} spp per traced pixel, `random` mask, seed {c['seed']}, "
+    return (f"{c['resolution']}x{c['resolution']}, {c['spp']} spp per traced pixel, {c.get('feature_spp', 1)}-spp feature pass, "
+            f"`random` mask, seed {c['seed']}, "
             f"references {c['reference_spp']} spp; metrics on tonemapped sRGB (clamp to [0, 1], sRGB curve) "
             "except relMSE (linear); FLIP is `flip-evaluator`'s LDR mean (0 = identical).")
 
@@ -83,7 +84,7 @@ def results_markdown(run: dict) -> str:
         "",
         "Every contender ran at several settings in this run: full-frame path tracing at "
         f"{', '.join(map(str, c['path_spp']))} spp; the same + Intel Open Image Denoise (`pyoidn`, CPU, HDR, "
-        "with the 1-spp albedo and normal of the feature pass, whose time is counted); the completion methods at "
+        "with the albedo and normal of the feature pass, whose time is counted); the completion methods at "
         f"rates {', '.join(f'{r:g}' for r in c['budget_rates'])} x {', '.join(map(str, c['budget_spp']))} spp "
         "(features pass, masked render and completion counted). Renders are timed "
         f"{c['repeats']} times, the fastest counts. For each budget, each contender's best setting that fits it: "

@@ -46,7 +46,7 @@ def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     integrator = scene.integrator()
     integrator = getattr(integrator, "integrator", integrator)  # the path tracer masked_path wraps
     sensor = scene.sensors()[0]
-    features, features_s = fastest(lambda: render_features(scene, sensor), config.repeats)
+    features, features_s = fastest(lambda: render_features(scene, sensor, config.feature_spp), config.repeats)
     loaded = LoadedScene(eval_scene.name, scene, integrator, reference, features, features_s)
     loaded.images["reference"] = reference
     return loaded, noise
@@ -56,7 +56,7 @@ def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig)
     """(frame, render timings) of the fastest of ``config.repeats`` masked renders."""
     from ..render import RenderSettings, render_sparse_frame
 
-    settings = RenderSettings(rate=rate, spp=spp, seed=config.seed)
+    settings = RenderSettings(rate=rate, spp=spp, seed=config.seed, feature_spp=config.feature_spp)
     best = None
     for _ in range(max(1, config.repeats)):
         frame, timings = render_sparse_frame(loaded.scene, loaded.integrator, settings=settings)

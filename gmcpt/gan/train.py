@@ -56,7 +56,7 @@ class TrainConfig:
         generator at (:func:`gmcpt.gan.infer.autoexposure`) rather than at their dataset exposure.
     """
 
-    dataset: str = "data/procedural-v1"
+    dataset: str = "data/procedural"
     steps: int = 4000
     batch: int = 8
     crop: int = 64
