@@ -37,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--spp", type=int, help="samples per traced pixel (default: the scene's sampler)")
     parser.add_argument("--seed", type=int, help="seed of mask and samplers (default: scene's, else 0)")
     parser.add_argument("--mask", help="sampling pattern: random, stratified, blue_noise (default: random)")
-    parser.add_argument("--method", help="completion method (default: the scene's, else pawnnm); see --list-methods")
+    parser.add_argument("--method", help="completion method (default: the scene's, else gan_pawnnm); see --list-methods")
     parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="override the film resolution")
     parser.add_argument("--feature-spp", type=int, help="primary samples per pixel of the feature pass (default 4)")
     parser.add_argument("--reference", help="reference EXR: adds MSE/PSNR/SSIM (tonemapped sRGB) and relMSE to the JSON")

@@ -9,7 +9,7 @@ from gmcpt.layers import channel_names, pack
 from gmcpt.masks import PATTERNS, check_rate
 from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
 
-DEFAULT_COMPLETION = "pawnnm"
+DEFAULT_COMPLETION = "gan_pawnnm"
 
 
 class MaskedPathIntegrator(mi.SamplingIntegrator):
@@ -41,7 +41,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - Primary samples per pixel of the feature pass (albedo, normal, depth, visibility). (Default: 4)
      * - completion
        - |string|
-       - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``pawnnm``)
+       - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``gan_pawnnm``, the full method)
      * - (Nested plugin)
        - :paramtype:`integrator`
        - The integrator that computes radiance along each traced ray. (Default: ``path``)

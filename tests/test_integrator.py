@@ -18,7 +18,7 @@ def test_bundled_scene_renders_through_mi_render(mi, scene_file):
     frame, image = unpack(tensor)
     assert frame.mask.sum() == round(0.25 * 1600)
     assert np.isfinite(image).all() and image.mean() > 0.01
-    assert integrator.completion == "pawnnm"  # the default: fills the others and denoises the traced pixels
+    assert integrator.completion == "gan_pawnnm"  # the default, the full method: fills the others and denoises the traced pixels
     assert (image[~frame.mask].sum(axis=-1) > 0).mean() > 0.5
     assert not np.allclose(image[frame.mask], frame.radiance[frame.mask])
     assert abs(image[frame.mask].mean() / frame.radiance[frame.mask].mean() - 1) < 0.1

@@ -61,7 +61,7 @@ def results_markdown(run: dict) -> str:
         "## Table 1: the full method against the Liu-style baseline (paper Table 1)",
         "",
         "SSIM and MSE (tonemapped sRGB) at 20/30/40 % sampling. `liu` is classical pre-completion + NNM on image "
-        "features only; `pawnnm` is the product's default; `gan_pawnnm` the paper's full method.",
+        "features only; `pawnnm` the classical method; `gan_pawnnm` the paper's full method and the product's default.",
         "",
         report.variant_table(quality, ["liu", "pawnnm", "gan_pawnnm"], ["ssim", "mse"], rates),
         "",
