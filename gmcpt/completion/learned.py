@@ -31,7 +31,6 @@ from ..lowrank.noise import blend_samples, working_variance
 from . import Completion, register_method
 
 GAN_THREADS = 1
-GAN_PAWNNM_BLEND = 0.0
 
 #: The low-rank stage after the GAN pre-completion runs 2 iterations, not the 11 that ``pawnnm`` runs
 #: after its classical fill: each iteration pulls the estimate towards the patch groups' low-rank fixed
@@ -81,20 +80,13 @@ def complete_gan(frame: SparseFrame, *, domain: WorkingDomain = WorkingDomain(),
 @register_method("gan_pawnnm", min_size=max(8, LOW_RANK_DEFAULT.patch_size),
                  summary="GAN pre-completion + block matching + PAWNNM (the paper's full method)")
 def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDomain(), weights: str | None = None,
-                        params=None, blend: float = GAN_PAWNNM_BLEND) -> Completion:
-    """GAN pre-completion, then PAWNNM low-rank refinement.
+                        params=None) -> Completion:
+    """GAN pre-completion, then PAWNNM low-rank refinement (``params``, default :data:`GAN_PAWNNM_PARAMS`).
 
-    ``blend`` is the weight of the GAN pre-completion in the output,
-    ``blend * gan + (1 - blend) * pawnnm`` (linear radiance); 0, the default,
-    is the paper's pipeline as printed. ``params`` defaults to
-    :data:`GAN_PAWNNM_PARAMS`. Measured with an earlier gan-cpu (1-spp features)
-    and 11 PAWNNM iterations (256x256, 16 spp, rates 0.2/0.3/0.4, PSNR
-    dB; blend 0 / 0.25 / 0.5): cornell-box 31.48/31.18/30.18,
-    33.67/33.14/31.62, 35.19/34.26/32.27; still-life 30.67/31.12/31.10,
-    31.48/31.90/31.77, 31.85/32.20/31.96; breakfast-room-open
-    24.67/23.56/22.36, 25.38/24.21/22.93, 25.76/24.60/23.24. (Before the
-    PAWNNM retune, on 128x128 validation scenes, 0.5 had been best: 27.96 dB
-    against 26.35 dB for 0.)
+    The output is the low-rank stage's, as in the paper. Mixing the GAN output back in
+    (``b * gan + (1 - b) * low-rank``) was measured with an earlier gan-cpu and 11 iterations and
+    lost on every bundled scene but the still life (cornell-box at rate 0.3: b = 0 33.67 dB,
+    0.25 33.14, 0.5 31.62; breakfast-room-open 25.38 / 24.21 / 22.93), so there is no such option.
     """
     from .lowrank import LOW_RANK_DOMAIN, refine_low_rank
 
@@ -103,7 +95,5 @@ def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDo
     # the low-rank stage works in its own domain (see LOW_RANK_DOMAIN)
     low_rank_working = LOW_RANK_DOMAIN.forward(gan_image, LOW_RANK_DOMAIN.factor(frame.albedo))
     result = refine_low_rank(frame, low_rank_working, LOW_RANK_DOMAIN, params or GAN_PAWNNM_PARAMS)
-    if blend:
-        result.image = (blend * gan_image + (1 - blend) * result.image).astype(np.float32)
     result.timings.update(timings)
     return result
