@@ -38,6 +38,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--seed", type=int, help="seed of mask and samplers (default: scene's, else 0)")
     parser.add_argument("--mask", help="sampling pattern: random, stratified, blue_noise (default: random)")
     parser.add_argument("--method", help="completion method (default: the scene's, else gan_pawnnm); see --list-methods")
+    parser.add_argument("--weights", help="GAN weights for the gan methods: a shipped name or a .pt path "
+                        "(default: the scene's, else gan-cpu)")
     parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="override the film resolution")
     parser.add_argument("--feature-spp", type=int, help="primary samples per pixel of the feature pass (default 4)")
     parser.add_argument("--reference", help="reference EXR: adds MSE/PSNR/SSIM (tonemapped sRGB) and relMSE to the JSON")
@@ -68,11 +70,27 @@ def _validate(args) -> None:
         raise GmcptError(f"unknown mask pattern {args.mask!r}; choose from {', '.join(PATTERNS)}")
     if args.method is not None:
         get_method(args.method)
+    if args.weights is not None:
+        if args.method is not None and not get_method(args.method).takes("weights"):
+            raise GmcptError(f"--weights applies to the GAN methods only, not to --method {args.method}")
+        from .gan.weights import load_generator
+        load_generator(args.weights)
     if args.res is not None and min(args.res) < 1:
         raise GmcptError(f"--res must be positive, got {args.res[0]} {args.res[1]}")
     for define in args.defines:
         if "=" not in define:
             raise GmcptError(f"-D expects NAME=VALUE, got {define!r}")
+
+
+def _weights_record(integrator) -> dict:
+    """The GAN weights a method used (name and sha256), or nothing for the methods without a network."""
+    from .completion import get_method
+    from .gan.weights import DEFAULT_WEIGHTS, load_generator
+
+    if not get_method(integrator.completion).takes("weights"):
+        return {}
+    name = integrator.weights or DEFAULT_WEIGHTS
+    return {"weights": name, "weights_sha256": load_generator(name)[1].get("sha256")}
 
 
 def _outputs(out: str):
@@ -95,7 +113,7 @@ def run(args, say=lambda message: None) -> dict:
     parameters = dict(define.split("=", 1) for define in args.defines)
     scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
     integrator = masked_integrator(scene, rate=args.rate, mask=args.mask, seed=args.seed,
-                                   feature_spp=args.feature_spp, completion=args.method)
+                                   feature_spp=args.feature_spp, completion=args.method, weights=args.weights)
     # every check on the input happens before the first progress line
     size = scene.sensors()[0].film().crop_size()
     width, height = int(size[0]), int(size[1])
@@ -112,13 +130,14 @@ def run(args, say=lambda message: None) -> dict:
             raise GmcptError(message + " (broken scene data?); --allow-nonfinite drops them and goes on")
         print(f"warning: {message}; dropped them", file=sys.stderr)
     say(f"completing with {integrator.completion!r}")
-    result = complete(frame, integrator.completion)
+    result = complete(frame, integrator.completion, **integrator.completion_options())
     timings.update(result.timings)
     record = {
         "scene": str(Path(args.scene).resolve()),
         "output": str(Path(args.out).resolve()),
         "parameters": {"rate": settings.rate, "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
                        "feature_spp": settings.feature_spp, "method": integrator.completion,
+                       **_weights_record(integrator),
                        "resolution": [width, height], "scene_parameters": parameters,
                        "integrator": " ".join(str(integrator.integrator).split())},
         "versions": library_versions(),

@@ -87,16 +87,20 @@ def masked_integrator(scene: mi.Scene, **overrides) -> mi.Integrator:
     """
     from mitsuba_plugins.masked_path import MaskedPathIntegrator
 
+    from .completion import get_method
+
     current = scene.integrator()
     overrides = {key: value for key, value in overrides.items() if value is not None}
     if isinstance(current, MaskedPathIntegrator):
         settings = {"rate": current.rate, "mask": current.mask_pattern, "seed": current.seed,
-                    "feature_spp": current.feature_spp, "completion": current.completion}
+                    "feature_spp": current.feature_spp, "completion": current.completion, "weights": current.weights}
         nested = current.integrator
     else:
         settings, nested = {}, current
     settings.update(overrides)
-    description = {"type": "masked_path", **settings}
+    if "completion" in overrides and "weights" not in overrides and not get_method(settings["completion"]).takes("weights"):
+        settings.pop("weights", None)  # a scene's GAN weights do not follow to a method that has none
+    description = {"type": "masked_path", **{key: value for key, value in settings.items() if value is not None}}
     if nested is not None:
         description["integrator"] = nested
     return mi.load_dict(description)

@@ -42,6 +42,10 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
      * - completion
        - |string|
        - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``gan_pawnnm``, the full method)
+     * - weights
+       - |string|
+       - Generator weights of the GAN methods: a shipped name or a ``.pt`` path, checked at load time.
+         (Default: the shipped ``gan-cpu``)
      * - (Nested plugin)
        - :paramtype:`integrator`
        - The integrator that computes radiance along each traced ray. (Default: ``path``)
@@ -77,7 +81,14 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         if self.feature_spp < 1:
             raise GmcptError(f"feature_spp must be >= 1, got {self.feature_spp}")
         self.completion = props.get("completion", DEFAULT_COMPLETION)
-        get_method(self.completion)  # fail at load time on an unknown name
+        method = get_method(self.completion)  # fail at load time on an unknown name
+        self.weights = props.get("weights", "") or None
+        if self.weights is not None:
+            if not method.takes("weights"):
+                raise GmcptError(f"weights apply to the GAN methods only, not to completion {self.completion!r}")
+            from gmcpt.gan.weights import load_generator
+
+            load_generator(self.weights)  # fail at load time on a missing or corrupt file
         nested = [props[name] for name in props.keys() if isinstance(props[name], mi.Integrator)]
         if len(nested) > 1:
             raise GmcptError("masked_path takes at most one nested integrator")
@@ -92,6 +103,10 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         self.last_frame = None
         self.last_timings = {}
 
+    def completion_options(self) -> dict:
+        """Keyword options for :func:`gmcpt.completion.complete` beside the method name."""
+        return {} if self.weights is None else {"weights": self.weights}
+
     def settings(self, seed: int = 0, spp: int = 0) -> RenderSettings:
         return RenderSettings(rate=self.rate, pattern=self.mask_pattern, seed=self.seed + int(seed),
                               spp=int(spp), feature_spp=self.feature_spp)
@@ -103,7 +118,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         if isinstance(sensor, int):
             sensor = scene.sensors()[sensor]
         frame, timings = render_sparse_frame(scene, self.integrator, sensor, self.settings(seed, spp))
-        result = complete(frame, self.completion)
+        result = complete(frame, self.completion, **self.completion_options())
         self.last_frame, self.last_timings = frame, {**timings, **result.timings}
         return mi.TensorXf(pack(frame, result.image))
 
@@ -115,7 +130,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
     def to_string(self) -> str:
         return (f"MaskedPathIntegrator[rate={self.rate}, mask={self.mask_pattern!r}, seed={self.seed}, "
-                f"feature_spp={self.feature_spp}, completion={self.completion!r},\n"
+                f"feature_spp={self.feature_spp}, completion={self.completion!r}, weights={self.weights!r},\n"
                 f"  integrator={self.integrator}]")
 
 

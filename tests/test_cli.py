@@ -31,6 +31,7 @@ def test_writes_exr_png_json(rendered):
     record = json.loads(out.with_suffix(".json").read_text())
     assert record["parameters"]["rate"] == 0.4 and record["parameters"]["spp"] == 2
     assert record["parameters"]["method"] == "gan_pawnnm"  # the default: the full method
+    assert record["parameters"]["weights"] == "gan-cpu" and len(record["parameters"]["weights_sha256"]) == 64
     assert record["rendered_fraction"] == pytest.approx(0.4, abs=1e-3)
     assert {"features_s", "render_s", "completion_s", "total_s"} <= record["timings"].keys()
     assert {"mitsuba", "drjit", "torch", "numpy", "gmcpt"} <= record["versions"].keys()
@@ -82,6 +83,8 @@ def _bad_input_cases(tmp_path):
     corrupt.write_bytes(b"not an exr file")
     a_directory = tmp_path / "adir.exr"
     a_directory.mkdir()
+    truncated_weights = tmp_path / "truncated.pt"
+    truncated_weights.write_bytes((ROOT / "gmcpt" / "gan" / "weights" / "gan-cpu.pt").read_bytes()[:3000])
     return {
         "rate zero": ([CORNELL, "--rate", "0"], "rate must be in (0, 1]"),
         "rate negative": ([CORNELL, "--rate", "-0.5"], "rate must be in (0, 1]"),
@@ -100,13 +103,16 @@ def _bad_input_cases(tmp_path):
         "corrupt reference": ([CORNELL, "--reference", corrupt], "cannot read EXR"),
         "bad resolution": ([CORNELL, "--res", "0", "10"], "--res must be positive"),
         "image smaller than a patch": ([CORNELL, "--method", "pawnnm", "--res", "5", "5"], "smaller than method"),
+        "corrupt weights": ([CORNELL, "--weights", truncated_weights], "are corrupt or incompatible"),
+        "missing weights": ([CORNELL, "--weights", tmp_path / "absent.pt"], "GAN weights not found"),
+        "weights for a method without": ([CORNELL, "--method", "pawnnm", "--weights", "gan-cpu"], "GAN methods only"),
     }
 
 
 CASES = ["rate zero", "rate negative", "rate above one", "rate nan", "spp zero", "spp not a number",
          "missing scene", "malformed scene", "scene Mitsuba rejects", "unknown method", "unknown mask",
          "missing output dir", "output is a directory", "output not exr", "corrupt reference", "bad resolution",
-         "image smaller than a patch"]
+         "image smaller than a patch", "corrupt weights", "missing weights", "weights for a method without"]
 
 
 @pytest.mark.parametrize("case", CASES)

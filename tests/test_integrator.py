@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from conftest import CORNELL, STILL_LIFE
+from gmcpt.errors import GmcptError
 
 
 @pytest.mark.parametrize("scene_file", [CORNELL, STILL_LIFE], ids=["cornell-box", "still-life"])
@@ -62,3 +63,33 @@ def test_feature_pass_defaults_to_antialiased_features(mi):
     integrator = mi.load_dict({"type": "masked_path"})
     assert integrator.feature_spp == RenderSettings().feature_spp == QUICK.feature_spp == DEFAULT_FEATURE_SPP
     assert mi.load_dict({"type": "masked_path", "feature_spp": 1}).settings().feature_spp == 1
+
+
+def test_weights_property_is_checked_at_load_and_reaches_the_gan(mi, tmp_path):
+    from gmcpt.gan.weights import weights_path
+
+    truncated = tmp_path / "truncated.pt"
+    truncated.write_bytes(weights_path("gan-cpu").read_bytes()[:3000])
+    for bad, message in [({"weights": str(truncated)}, "corrupt or incompatible"),
+                         ({"weights": str(tmp_path / "absent.pt")}, "not found"),
+                         ({"weights": "gan-cpu", "completion": "pawnnm"}, "GAN methods only")]:
+        with pytest.raises((GmcptError, RuntimeError), match=message):
+            mi.load_dict({"type": "masked_path", **bad})
+    assert mi.load_dict({"type": "masked_path"}).completion_options() == {}
+    # other weights (an untrained generator of the same shape) change the completed pixels
+    import torch
+    from gmcpt.gan.model import Generator
+    from gmcpt.gan.weights import load_generator, save_weights
+    from gmcpt.layers import unpack
+    from gmcpt.scene import masked_integrator
+
+    torch.manual_seed(0)
+    other = tmp_path / "untrained.pt"
+    save_weights(other, Generator(load_generator("gan-cpu")[0].config), {})
+    scene = mi.load_file(str(CORNELL), res=40, spp=4, rate=0.25)
+    images = {}
+    for weights in ("gan-cpu", str(other)):
+        integrator = masked_integrator(scene, weights=weights)
+        assert integrator.completion_options() == {"weights": weights}
+        frame, images[weights] = unpack(np.asarray(mi.render(scene, integrator=integrator)))
+    assert not np.allclose(images["gan-cpu"][~frame.mask], images[str(other)][~frame.mask])

@@ -43,6 +43,12 @@ class Method:
     min_size: int
     summary: str
 
+    def takes(self, option: str) -> bool:
+        """True if the method accepts the keyword option ``option`` (e.g. ``weights``)."""
+        import inspect
+
+        return option in inspect.signature(self.function).parameters
+
 
 _REGISTRY: dict[str, Method] = {}
 
