@@ -52,7 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _validate(args) -> None:
-    from .completion import get_method
+    from .completion import check_weights, get_method
     from .imageio import check_writable
     from .masks import PATTERNS, check_rate
 
@@ -71,10 +71,7 @@ def _validate(args) -> None:
     if args.method is not None:
         get_method(args.method)
     if args.weights is not None:
-        if args.method is not None and not get_method(args.method).takes("weights"):
-            raise GmcptError(f"--weights applies to the GAN methods only, not to --method {args.method}")
-        from .gan.weights import load_generator
-        load_generator(args.weights)
+        check_weights(args.method, args.weights)
     if args.res is not None and min(args.res) < 1:
         raise GmcptError(f"--res must be positive, got {args.res[0]} {args.res[1]}")
     for define in args.defines:

@@ -26,17 +26,10 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .frame import SparseFrame
+from .frame import DEFAULT_FEATURE_SPP, SparseFrame  # noqa: F401  (DEFAULT_FEATURE_SPP re-exported)
 from .masks import make_mask
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
-#: Primary rays per pixel of the feature pass. The traced radiance is an antialiased mean of 16 or so
-#: samples; a 1-sample albedo is aliased at texture and silhouette edges, and demodulating one by the
-#: other leaves that aliasing in every filled pixel. Measured on the 5 evaluation scenes (256x256,
-#: 16 spp, rates 0.2/0.3/0.4, mean PSNR dB; feature_spp 1 -> 4 -> 16): interp 27.19 -> 27.94 ->
-#: 28.20, pawnnm 31.90 -> 32.39, gan (weights trained on 1-spp features) 30.92 -> 31.83 -> 32.10;
-#: 4 samples cost 0.05-0.07 s on a 256x256 frame, about a tenth of a 0.4 x 16 spp render.
-DEFAULT_FEATURE_SPP = 4
 FEATURE_SEED_OFFSET = 0x5EED_F00D
 # samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
 SCATTER_MODE = dr.ReduceMode.Local
@@ -95,8 +88,8 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
     height, width = _sensor_film_size(sensor)
     lanes = height * width * feature_spp
     sampler = _seeded_sampler(sensor, feature_spp, seed + FEATURE_SEED_OFFSET, lanes)
-    lane = dr.arange(mi.UInt32, lanes)
-    ray, _ = _primary_rays(sensor, sampler, lane // feature_spp, width, feature_spp)
+    pixel = dr.arange(mi.UInt32, lanes) // feature_spp
+    ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
     si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
     hit = si.is_valid()
     bsdf = si.bsdf(ray)
@@ -113,7 +106,7 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
     if feature_spp > 1:
         means = [dr.zeros(mi.Float, height * width) for _ in values]
         for target, value in zip(means, values):
-            dr.scatter_reduce(dr.ReduceOp.Add, target, value / feature_spp, lane // feature_spp, mode=SCATTER_MODE)
+            dr.scatter_reduce(dr.ReduceOp.Add, target, value / feature_spp, pixel, mode=SCATTER_MODE)
         values = means
     dr.eval(values)  # one kernel for all buffers
     columns = [np.asarray(value, dtype=np.float32).reshape(height, width) for value in values]

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import mitsuba as mi
 
-from gmcpt.completion import complete, get_method
+from gmcpt.completion import check_weights, complete, get_method
 from gmcpt.errors import GmcptError
 from gmcpt.layers import channel_names, pack
 from gmcpt.masks import PATTERNS, check_rate
@@ -81,14 +81,10 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         if self.feature_spp < 1:
             raise GmcptError(f"feature_spp must be >= 1, got {self.feature_spp}")
         self.completion = props.get("completion", DEFAULT_COMPLETION)
-        method = get_method(self.completion)  # fail at load time on an unknown name
+        get_method(self.completion)  # fail at load time on an unknown name
         self.weights = props.get("weights", "") or None
         if self.weights is not None:
-            if not method.takes("weights"):
-                raise GmcptError(f"weights apply to the GAN methods only, not to completion {self.completion!r}")
-            from gmcpt.gan.weights import load_generator
-
-            load_generator(self.weights)  # fail at load time on a missing or corrupt file
+            check_weights(self.completion, self.weights)  # fail at load time on a missing or corrupt file
         nested = [props[name] for name in props.keys() if isinstance(props[name], mi.Integrator)]
         if len(nested) > 1:
             raise GmcptError("masked_path takes at most one nested integrator")

@@ -77,6 +77,18 @@ def get_method(name: str) -> Method:
     return _REGISTRY[name]
 
 
+def check_weights(method: str | None, weights: str) -> None:
+    """Raise (one line) unless ``method`` takes generator weights and ``weights`` loads.
+
+    ``method`` None checks the file alone (the method is not known yet).
+    """
+    if method is not None and not get_method(method).takes("weights"):
+        raise GmcptError(f"weights apply to the GAN methods only, not to completion {method!r}")
+    from ..gan.weights import load_generator
+
+    load_generator(weights)
+
+
 def check_size(method: str, height: int, width: int) -> None:
     """Raise if an image of this size is too small for ``method`` (e.g. its patch)."""
     needed = get_method(method).min_size

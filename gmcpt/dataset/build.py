@@ -49,6 +49,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..frame import DEFAULT_FEATURE_SPP
+
 DATASET_VERSION = 2
 FEATURE_KEYS = ("albedo", "normal", "depth", "visibility")
 SPLIT_SEED_BASE = {"train": 0, "val": 1_000_000, "test": 2_000_000}
@@ -86,7 +88,7 @@ class DatasetSpec:
     rate_range: tuple[float, float] = (0.15, 0.5)
     pass_spp: int = 128
     exposure_range: tuple[float, float] = (0.4, 1.2)
-    feature_spp: int = 4  # gmcpt.render.DEFAULT_FEATURE_SPP
+    feature_spp: int = DEFAULT_FEATURE_SPP
     version: int = DATASET_VERSION
 
     def to_json(self) -> dict:
@@ -202,7 +204,7 @@ def upgrade_example(path: Path, spec: DatasetSpec) -> dict:
     meta = example.pop("meta")
     scene = build_scene(meta["seed"], meta["resolution"], meta["exposure"], meta["spp"])
     features = render_features(scene, scene.sensors()[0], spec.feature_spp, meta["seed"])
-    example.update({key: features[key].astype(np.float32) for key in FEATURE_KEYS})
+    example.update({key: features[key] for key in FEATURE_KEYS})
     meta.update(version=spec.version, feature_spp=spec.feature_spp, seconds=meta["seconds"] + time.perf_counter() - start)
     return {"arrays": example, "meta": meta}
 

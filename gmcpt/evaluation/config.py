@@ -3,6 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+from ..frame import DEFAULT_FEATURE_SPP
+
 
 @dataclass(frozen=True)
 class EvalConfig:
@@ -14,7 +16,7 @@ class EvalConfig:
     procedural : how many held-out procedural scenes (test split seeds) join the bundled ones.
     resolution, spp, reference_spp, rates, seed : the quality protocol (METHOD.md section 6).
     feature_spp : primary samples per pixel of the feature pass, for the completion methods and for
-        OIDN's albedo and normal (the product's default, ``gmcpt.render.DEFAULT_FEATURE_SPP``).
+        OIDN's albedo and normal (the product's default, :data:`gmcpt.frame.DEFAULT_FEATURE_SPP`).
     variants : completion variants of the quality tables (keys of :data:`VARIANTS`).
     patch_sizes, patch_rates : the PSNR-against-patch-size sweep of PAWNNM (paper Fig. 12).
     grid_rate : rate of the image grids.
@@ -33,7 +35,7 @@ class EvalConfig:
     reference_spp: int = 4096
     rates: tuple[float, ...] = (0.2, 0.3, 0.4)
     seed: int = 0
-    feature_spp: int = 4
+    feature_spp: int = DEFAULT_FEATURE_SPP
     variants: tuple[str, ...] = ("interp", "liu", "nnm", "pawnnm", "gan", "gan_pawnnm")
     patch_sizes: tuple[int, ...] = (5, 6, 7, 8)
     patch_rates: tuple[float, ...] = (0.3,)

@@ -13,6 +13,7 @@ per-pixel estimator the product uses for the pixels it traces).
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -79,9 +80,8 @@ class PatchSampler:
             example = load_example(path)
             factor = domain.factor(example["albedo"])
             traced = np.ones(example["full_radiance"].shape[:2], bool)
-            full = SparseFrame(radiance=example["full_radiance"], mask=traced, variance=example["full_variance"],
-                               albedo=example["albedo"], normal=example["normal"], depth=example["depth"],
-                               visibility=example["visibility"], spp=int(example["meta"]["spp"]))
+            full = dataclasses.replace(example_frame(example), radiance=example["full_radiance"], mask=traced,
+                                       variance=example["full_variance"])
             exposure = exposure_of(full) if autoexposure else 1.0
             full = exposed(full, exposure)
             parts = [domain.forward(example["reference"] * exposure, factor) / SCALE,
