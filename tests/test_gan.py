@@ -58,6 +58,43 @@ def test_guided_base_is_the_classical_feature_guided_fill():
         GeneratorConfig(base="bilinear")
 
 
+def test_kernel_head_is_a_weighted_mean_of_traced_samples_and_the_fill():
+    from gmcpt.gan.model import KernelHead
+
+    torch.manual_seed(0)
+    head = KernelHead(6, 5)
+    torch.nn.init.normal_(head.conv.weight, std=0.5)   # a trained-looking head: arbitrary logits
+    with torch.no_grad():
+        head.conv.weight[-12:].zero_(); head.conv.bias[-12:].zero_()   # correction 0
+    x = torch.randn(1, 6, 12, 12)
+    mask = (torch.rand(1, 1, 24, 24) < 0.3).float()
+    radiance, fill = torch.rand(1, 3, 24, 24) * mask, torch.rand(1, 3, 24, 24)
+    # a constant image comes back constant: the weights are a convex combination
+    torch.testing.assert_close(head(x, torch.full_like(radiance, 0.6) * mask, mask, torch.full_like(fill, 0.6)),
+                               torch.full_like(radiance, 0.6))
+    # what sits under untraced pixels never reaches the output
+    out = head(x, radiance, mask, fill)
+    torch.testing.assert_close(head(x, radiance + 5.0 * (1 - mask), mask, fill), out)
+    # a traced sample reaches the pixels of its 5x5 window, and no others
+    y, x0 = 12, 12
+    mask[0, 0, y, x0] = 1
+    out = head(x, radiance, mask, fill)
+    bumped = radiance.clone(); bumped[0, :, y, x0] += 1.0
+    changed = (head(x, bumped, mask, fill) - out).abs().amax(1)[0] > 1e-6
+    assert changed[y - 2:y + 3, x0 - 2:x0 + 3].all() and changed.sum() == 25
+    # with no traced pixel in reach, the output is the fill
+    empty = torch.zeros_like(mask)
+    torch.testing.assert_close(head(x, radiance * 0, empty, fill), fill)
+    # a whole generator with this head runs end to end
+    generator = Generator(GeneratorConfig(widths=(8, 8, 8), condition_width=4, output="kernel", kernel_size=5))
+    radiance, features = _inputs(batch=1, size=16)
+    assert torch.isfinite(generator(radiance, features)).all()
+    with pytest.raises(ValueError, match="generator output must be one of"):
+        GeneratorConfig(output="pixels")
+    with pytest.raises(ValueError, match="kernel_size must be a positive odd number"):
+        GeneratorConfig(output="kernel", kernel_size=4)
+
+
 def test_feature_modulation_is_scale_plus_one_and_shift():
     block = ModulatedResBlock(2, 1)
     with torch.no_grad():
