@@ -265,6 +265,26 @@ def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
     assert record["dataset"]["version"] == 1 and (tmp_path / "shipped" / "tiny.pt").is_file()
 
 
+def test_progress_before_the_critic_starts_says_so_without_warnings(tmp_path):
+    import warnings
+
+    from gmcpt.gan.train import Trainer, load_config
+
+    data = tmp_path / "data"
+    _tiny_dataset(data)
+    config = load_config("cpu", {"train.dataset": str(data), "train.steps": 4, "train.max_train_scenes": 0,
+                                 "train.batch": 2, "train.crop": 16, "train.eval_every": 1, "train.critic_start": 2,
+                                 "train.critic_every": 1, "critic.widths": [8, 8], "generator.widths": [8, 8, 8],
+                                 "generator.encoder_blocks": [1, 1, 1], "generator.condition_width": 4})
+    messages = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # np.nanmean of nothing used to warn "Mean of empty slice"
+        Trainer(config, tmp_path / "run", messages.append).run()
+    progress = [m for m in messages if m.startswith("step ")]
+    assert "wdist - (critic not started)" in progress[0] and "wdist -0" not in progress[0]
+    assert "critic not started" not in progress[-1] and "wdist " in progress[-1]
+
+
 def test_patch_sampler_autoexposure_brings_scenes_to_the_product_exposure(tmp_path):
     from gmcpt.dataset import list_examples
     from gmcpt.domain import WorkingDomain

@@ -298,10 +298,11 @@ class Trainer:
             if self.val and (self.step % cfg.eval_every == 0 or last):
                 self.history.append({"step": self.step, **validate(self.generator, self.val, self.domain, cfg.autoexposure)})
                 recent = [h for h in self.history[-cfg.eval_every - 1:] if "l1" in h]
+                critic = [h["wdist"] for h in recent if "wdist" in h]  # none before critic_start
                 self.say(f"step {self.step}/{cfg.steps} ({self.seconds / 60:.1f} min): "
                          f"l1 {np.mean([h['l1'] for h in recent]):.4f} "
-                         f"wdist {np.nanmean([h.get('wdist', np.nan) for h in recent]):.3f} "
-                         f"val PSNR {self.history[-1]['val_psnr']:.2f} dB")
+                         + (f"wdist {np.mean(critic):.3f} " if critic else "wdist - (critic not started) ")
+                         + f"val PSNR {self.history[-1]['val_psnr']:.2f} dB")
             if self.step % cfg.checkpoint_every == 0 or last:
                 self.save_checkpoint()
                 plot_curves(self.history, self.out / "curves.png", f"{self.out.name}")
