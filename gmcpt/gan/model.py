@@ -45,7 +45,8 @@ class GeneratorConfig:
     widths : channels at 1/2, 1/4 and 1/8 resolution (the top level runs on 2x2 pixel blocks).
     encoder_blocks, decoder_blocks : residual blocks per level (decoder: levels 0 and 1).
     condition_width : channels of the conditioning feature map.
-    use_variance : add log(1 + variance) of the traced samples as a feature.
+    use_variance : add the standard deviation of each traced pixel's mean (working domain / 255, clipped
+        at 1; :func:`gmcpt.gan.data.working_std`) as a feature.
     base : the fixed fill the network corrects: ``"push_pull"`` (feature-blind pyramid) or
         ``"guided"`` (:func:`gmcpt.completion.classical.guided_fill`, runs on the CPU in numpy).
     output : ``"residual"``: the network adds a correction to the fill; ``"kernel"``: it predicts,
