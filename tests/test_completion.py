@@ -40,6 +40,28 @@ def test_interp_keeps_samples_and_fills_well():
     assert psnr_linear(result.image, clean) > 35
 
 
+def test_guided_fill_without_keeping_samples_smooths_them_and_keeps_edges():
+    from gmcpt.completion.classical import guided_fill
+
+    rng = np.random.default_rng(3)
+    height, width = 40, 40
+    left = np.arange(width) < width // 2
+    truth = np.where(left[None, :, None], 0.9, 0.1) * np.ones((height, width, 3), np.float32)
+    noisy = (truth + rng.normal(0, 0.05, truth.shape)).astype(np.float32)
+    mask = rng.random((height, width)) < 0.3
+    features = np.zeros((height, width, 8), np.float32)
+    features[:, left, 3] = 1   # normal x on the left, z on the right
+    features[:, ~left, 5] = 1
+    features[..., 6] = 1       # depth
+    kept = guided_fill(noisy, mask, features)
+    smoothed = guided_fill(noisy, mask, features, keep_samples=False)
+    assert np.array_equal(kept[mask], noisy[mask])
+    error = lambda image: np.sqrt(np.mean((image[mask] - truth[mask]) ** 2))  # noqa: E731
+    assert error(smoothed) < 0.5 * error(kept)
+    assert np.array_equal(smoothed[~mask], kept[~mask])
+    assert np.abs(smoothed - truth).max() < 0.2   # no bleeding across the normal edge (a 0.8 step)
+
+
 def test_interp_respects_feature_edges():
     """Two regions with different normals and radiance: the fill must not blur across."""
     frame, _ = synthetic_frame(rate=0.3)

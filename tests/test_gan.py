@@ -40,20 +40,27 @@ def test_generator_starts_from_the_fill_and_is_small():
     torch.testing.assert_close(out, push_pull(radiance, features[:, :1]))
 
 
-def test_guided_base_is_the_classical_feature_guided_fill():
+@pytest.mark.parametrize("base, keep_samples", [("guided", True), ("guided_smooth", False)])
+def test_guided_bases_are_the_classical_feature_guided_fill(base, keep_samples):
     from dataclasses import replace
 
     from gmcpt.completion.classical import guided_fill
 
-    config = replace(SMALL, base="guided")
+    config = replace(SMALL, base=base)
     radiance, features = _inputs(batch=2, size=24, config=config)
     out = Generator(config)(radiance, features)   # zero-initialised tail: the base itself
     for i in range(2):
         image = radiance[i].permute(1, 2, 0).numpy()
         aux = features[i].permute(1, 2, 0).numpy()
-        expected = guided_fill(image, aux[..., 0] > 0, aux[..., 1:9])
+        expected = guided_fill(image, aux[..., 0] > 0, aux[..., 1:9], keep_samples=keep_samples)
         np.testing.assert_allclose(out[i].detach().permute(1, 2, 0).numpy(), expected, atol=1e-6)
     assert not torch.allclose(out, push_pull(radiance, features[:, :1]))
+    traced = features[:, :1].expand_as(radiance) > 0
+    changed = (out[traced] != radiance[traced]).float().mean()
+    assert changed == 0 if keep_samples else changed > 0.1   # the smooth base averages traced pixels too (those with like neighbours)
+
+
+def test_guided_base_config_is_checked():
     with pytest.raises(ValueError, match="generator base must be one of"):
         GeneratorConfig(base="bilinear")
 

@@ -77,7 +77,7 @@ def _shift(array: np.ndarray, dy: int, dx: int, pad: int) -> np.ndarray:
 
 
 def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
-                params: GuidedFillParams = GuidedFillParams()) -> np.ndarray:
+                params: GuidedFillParams = GuidedFillParams(), keep_samples: bool = True) -> np.ndarray:
     """Fill the pixels outside ``mask`` from those inside it.
 
     Parameters
@@ -86,10 +86,13 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     mask : (H, W) bool.
     features : (H, W, 8) albedo (3), normal (3), depth, visibility.
     params : bandwidths.
+    keep_samples : True keeps the traced pixels as they are; False gives them the same
+        feature-weighted average of the traced pixels around them (themselves included) as the
+        others get, which smooths their noise.
 
     Returns
     -------
-    (H, W, C) float32 image equal to ``values`` on the mask.
+    (H, W, C) float32 image, equal to ``values`` on the mask if ``keep_samples``.
     """
     rate = max(mask.mean(), 1e-6)
     radius = params.radius or max(1, math.ceil(1.5 / math.sqrt(rate)))
@@ -123,6 +126,8 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     confident = denominator > params.min_weight
     guided = numerator / np.maximum(denominator, 1e-12)[..., None]
     filled = np.where(confident[..., None], guided, fallback)
+    if not keep_samples:
+        return np.where(mask[..., None] & ~confident[..., None], values, filled).astype(np.float32)
     return np.where(mask[..., None], values, filled).astype(np.float32)
 
 

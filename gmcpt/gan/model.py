@@ -47,8 +47,9 @@ class GeneratorConfig:
     condition_width : channels of the conditioning feature map.
     use_variance : add the standard deviation of each traced pixel's mean (working domain / 255, clipped
         at 1; :func:`gmcpt.gan.data.working_std`) as a feature.
-    base : the fixed fill the network corrects: ``"push_pull"`` (feature-blind pyramid) or
-        ``"guided"`` (:func:`gmcpt.completion.classical.guided_fill`, runs on the CPU in numpy).
+    base : the fixed fill the network corrects: ``"push_pull"`` (feature-blind pyramid),
+        ``"guided"`` (:func:`gmcpt.completion.classical.guided_fill`, runs on the CPU in numpy) or
+        ``"guided_smooth"`` (the same, with the traced pixels smoothed too rather than kept).
     output : ``"residual"``: the network adds a correction to the fill; ``"kernel"``: it predicts,
         for every pixel, weights over the traced samples of a ``kernel_size`` square window and
         the fill (a softmax over those that exist) and adds a small correction to their weighted
@@ -113,18 +114,21 @@ def push_pull(values: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
     return weights * values + (1 - weights) * up
 
 
-def guided_base(radiance: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
-    """The feature-guided fill of each (B, 3, H, W) ``radiance`` from its (B, F, H, W) ``features``."""
+def guided_base(radiance: torch.Tensor, features: torch.Tensor, keep_samples: bool = True) -> torch.Tensor:
+    """The feature-guided fill of each (B, 3, H, W) ``radiance`` from its (B, F, H, W) ``features``
+    (``keep_samples=False``: the traced pixels are smoothed by the same weights, see ``guided_fill``)."""
     from ..completion.classical import guided_fill
 
     values = radiance.detach().permute(0, 2, 3, 1).cpu().numpy()
     aux = features.detach().permute(0, 2, 3, 1).cpu().numpy()
-    filled = [guided_fill(values[i], aux[i, ..., 0] > 0, aux[i, ..., 1:FEATURE_CHANNELS]) for i in range(len(values))]
+    filled = [guided_fill(values[i], aux[i, ..., 0] > 0, aux[i, ..., 1:FEATURE_CHANNELS], keep_samples=keep_samples)
+              for i in range(len(values))]
     return torch.from_numpy(np.stack(filled)).permute(0, 3, 1, 2).to(radiance)
 
 
 #: The fixed fills a generator can start from.
-BASES = {"push_pull": lambda radiance, features: push_pull(radiance, features[:, :1]), "guided": guided_base}
+BASES = {"push_pull": lambda radiance, features: push_pull(radiance, features[:, :1]), "guided": guided_base,
+         "guided_smooth": lambda radiance, features: guided_base(radiance, features, keep_samples=False)}
 
 #: How the last layer turns into an image (:class:`GeneratorConfig`.output).
 OUTPUTS = ("residual", "kernel")
