@@ -6,14 +6,26 @@ end) and *compressed* with ``log1p`` scaled to an 8-bit-like range, so that
 fireflies do not dominate distances and singular-value thresholds behave as
 on an 8-bit photograph (the scale the paper's w0 = 80.5 was set on).
 
-``y = SCALE * log1p(x / factor)`` with ``factor = albedo + eps`` where
-``max(albedo) >= ALBEDO_MIN`` and 1 elsewhere (glass, emitters, background).
+``y = SCALE * log1p(x / factor)``. Each feature ray has a factor of its own:
+``albedo + eps`` where it hits a surface with a diffuse albedo of at least
+:data:`ALBEDO_MIN`, 1 elsewhere (glass, metal, emitters, background); a pixel's
+factor is the mean over its rays, ``albedo + coverage * eps + (1 - coverage)``
+with ``coverage`` the fraction of rays of the first kind (the feature pass
+records it). Without a coverage buffer a pixel is either demodulated
+(``max(albedo) >= ALBEDO_MIN``) or not, and a silhouette pixel against the sky,
+whose albedo is a small mean of a few surface rays and many misses, gets a
+tiny factor for radiance that is mostly sky's: measured on the held-out
+procedural scene ``proc-2000000`` at rate 0.2, the horizon alone then held 65%
+of ``gan``'s squared error.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+
+#: Diffuse albedo (largest channel) below which a ray's radiance is not divided by it.
+ALBEDO_MIN = 0.02
 
 
 @dataclass(frozen=True)
@@ -27,14 +39,22 @@ class WorkingDomain:
     scale : multiplier after ``log1p``; 92 maps demodulated radiance 0..15 to 0..255.
     """
 
-    albedo_min: float = 0.02
+    albedo_min: float = ALBEDO_MIN
     albedo_eps: float = 0.02
     scale: float = 92.0
 
-    def factor(self, albedo: np.ndarray) -> np.ndarray:
-        """(H, W, 3) demodulation factor from an (H, W, 3) albedo buffer."""
-        meaningful = albedo.max(axis=-1, keepdims=True) >= self.albedo_min
-        return np.where(meaningful, albedo + self.albedo_eps, 1.0).astype(np.float32)
+    def factor(self, albedo: np.ndarray, coverage: np.ndarray | None = None) -> np.ndarray:
+        """(H, W, 3) demodulation factor from an (H, W, 3) albedo buffer and, if there is one, the
+        (H, W) fraction of each pixel's feature rays that hit a diffuse surface (``coverage``)."""
+        if coverage is None:
+            meaningful = albedo.max(axis=-1, keepdims=True) >= self.albedo_min
+            return np.where(meaningful, albedo + self.albedo_eps, 1.0).astype(np.float32)
+        covered = np.clip(coverage, 0.0, 1.0)[..., None]
+        return (albedo + covered * self.albedo_eps + (1.0 - covered)).astype(np.float32)
+
+    def frame_factor(self, frame) -> np.ndarray:
+        """The demodulation factor of a :class:`~gmcpt.frame.SparseFrame`."""
+        return self.factor(frame.albedo, frame.coverage)
 
     def forward(self, radiance: np.ndarray, factor: np.ndarray) -> np.ndarray:
         """Linear HDR radiance -> working domain."""
@@ -46,7 +66,7 @@ class WorkingDomain:
 
     def encode(self, frame) -> tuple[np.ndarray, np.ndarray]:
         """A SparseFrame's samples in the working domain: ``(working, factor)``."""
-        factor = self.factor(frame.albedo)
+        factor = self.frame_factor(frame)
         return self.forward(frame.radiance, factor), factor
 
     def variance(self, radiance: np.ndarray, variance: np.ndarray, factor: np.ndarray) -> np.ndarray:

@@ -27,12 +27,15 @@ class SparseFrame:
     radiance : (H, W, 3) linear RGB, the box estimate of each traced pixel, 0 elsewhere.
     mask : (H, W) bool, True where the pixel was path traced.
     variance : (H, W) variance of the traced pixel mean (average over RGB), 0 elsewhere.
-    albedo : (H, W, 3) diffuse reflectance at the first hit (0 for misses / non-diffuse).
+    albedo : (H, W, 3) diffuse reflectance at the first hit, in [0, 1] (0 for misses and for BSDFs without
+        a diffuse lobe: glass, metal).
     normal : (H, W, 3) world-space shading normal at the first hit (0 for misses).
     depth : (H, W) hit distance divided by the largest in the image; misses are 1.
     visibility : (H, W) fraction of shadow rays from the first hit that reach a light.
     spp : samples per traced pixel.
     info : free-form metadata (mask pattern, seed, counts of dropped samples, ...).
+    coverage : (H, W) fraction of the feature rays that hit a surface with a diffuse albedo (see
+        :mod:`gmcpt.domain`), or None where it was not recorded.
     """
 
     radiance: np.ndarray
@@ -44,11 +47,14 @@ class SparseFrame:
     visibility: np.ndarray
     spp: int = 1
     info: dict = field(default_factory=dict)
+    coverage: np.ndarray | None = None
 
     def __post_init__(self):
         h, w = self.mask.shape
         expected = {"radiance": 3, "variance": None, "albedo": 3, "normal": 3,
                     "depth": None, "visibility": None}
+        if self.coverage is not None:
+            expected["coverage"] = None
         for name, channels in expected.items():
             shape = (h, w) if channels is None else (h, w, channels)
             array = getattr(self, name)

@@ -10,15 +10,17 @@ Channels, in order (names as tev and Blender group them, ``layer.channel``)::
     depth.Y                    hit distance / largest in the image (misses: 1)
     visibility.Y               fraction of shadow rays reaching a light
     variance.Y                 variance of each traced pixel's mean
+    coverage.Y                 fraction of feature rays on a diffuse surface (see gmcpt.domain)
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .domain import ALBEDO_MIN
 from .frame import SparseFrame
 
 LAYERS = (("", "RGB"), ("sparse", "RGB"), ("mask", "Y"), ("albedo", "RGB"), ("normal", "XYZ"),
-          ("depth", "Y"), ("visibility", "Y"), ("variance", "Y"))
+          ("depth", "Y"), ("visibility", "Y"), ("variance", "Y"), ("coverage", "Y"))
 
 
 def channel_names() -> list[str]:
@@ -26,11 +28,18 @@ def channel_names() -> list[str]:
     return [f"{layer}.{c}" if layer else c for layer, channels in LAYERS for c in channels]
 
 
+def _coverage(frame: SparseFrame) -> np.ndarray:
+    """The frame's coverage, or the 0/1 one that :meth:`WorkingDomain.factor` assumes without it."""
+    if frame.coverage is not None:
+        return frame.coverage
+    return (frame.albedo.max(axis=-1) >= ALBEDO_MIN).astype(np.float32)
+
+
 def pack(frame: SparseFrame, image: np.ndarray) -> np.ndarray:
-    """Stack the completed image and the frame's buffers into (H, W, 16) float32."""
+    """Stack the completed image and the frame's buffers into (H, W, 17) float32."""
     parts = [image, np.where(frame.mask[..., None], frame.radiance, 0.0), frame.mask[..., None],
              frame.albedo, frame.normal, frame.depth[..., None], frame.visibility[..., None],
-             frame.variance[..., None]]
+             frame.variance[..., None], _coverage(frame)[..., None]]
     return np.concatenate([np.asarray(p, dtype=np.float32) for p in parts], axis=-1)
 
 
@@ -40,8 +49,9 @@ def unpack(tensor: np.ndarray, spp: int = 1) -> tuple[SparseFrame, np.ndarray]:
     expected = len(channel_names())
     if array.ndim != 3 or array.shape[-1] != expected:
         raise ValueError(f"expected an (H, W, {expected}) tensor, got shape {array.shape}")
-    image, sparse, mask, albedo, normal, depth, visibility, variance = np.split(
+    image, sparse, mask, albedo, normal, depth, visibility, variance, coverage = np.split(
         array, np.cumsum([len(c) for _, c in LAYERS])[:-1], axis=-1)
     frame = SparseFrame(radiance=sparse, mask=mask[..., 0] > 0.5, variance=variance[..., 0], albedo=albedo,
-                        normal=normal, depth=depth[..., 0], visibility=visibility[..., 0], spp=spp)
+                        normal=normal, depth=depth[..., 0], visibility=visibility[..., 0], spp=spp,
+                        coverage=coverage[..., 0])
     return frame, image

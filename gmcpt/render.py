@@ -26,6 +26,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from .domain import ALBEDO_MIN
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame  # noqa: F401  (DEFAULT_FEATURE_SPP re-exported)
 from .masks import make_mask
 
@@ -83,7 +84,14 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
     """Albedo, shading normal, depth and visibility for every pixel.
 
     Returns a dict of float32 arrays: ``albedo`` and ``normal`` (H, W, 3),
-    ``depth`` and ``visibility`` (H, W).
+    ``depth``, ``visibility`` and ``coverage`` (H, W).
+
+    ``albedo`` is the diffuse reflectance of BSDFs that have a diffuse lobe,
+    clipped to [0, 1], and 0 for the others: Mitsuba's default
+    ``eval_diffuse_reflectance`` (the BSDF times pi at normal incidence) gives
+    a rough metal an "albedo" of 5 to 70 where its highlight faces the camera.
+    ``coverage`` is the fraction of the pixel's rays whose albedo is at least
+    :data:`~gmcpt.domain.ALBEDO_MIN` (the rays that demodulation divides).
     """
     height, width = _sensor_film_size(sensor)
     lanes = height * width * feature_spp
@@ -93,7 +101,9 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
     si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
     hit = si.is_valid()
     bsdf = si.bsdf(ray)
-    albedo = dr.select(hit, bsdf.eval_diffuse_reflectance(si, hit), 0.0)
+    diffuse = hit & mi.has_flag(bsdf.flags(), mi.BSDFFlags.DiffuseReflection)
+    albedo = dr.select(diffuse, dr.clip(bsdf.eval_diffuse_reflectance(si, diffuse), 0.0, 1.0), 0.0)
+    covered = dr.select(dr.max(albedo) >= ALBEDO_MIN, 1.0, 0.0)
     normal = dr.select(hit, si.sh_frame.n, 0.0)
     distance = dr.select(hit, si.t, 0.0)
     _, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, hit)
@@ -102,7 +112,7 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
     # Average each pixel's samples inside the kernel (as trace_pixels sums its radiance): one value per
     # pixel comes back. Measured on 256x256 at 4 spp: 0.035-0.045 s instead of 0.055-0.06 s with a
     # numpy mean over per-sample buffers.
-    values = [*albedo, *normal, distance, visible, hit_weight]
+    values = [*albedo, *normal, distance, visible, hit_weight, covered]
     if feature_spp > 1:
         means = [dr.zeros(mi.Float, height * width) for _ in values]
         for target, value in zip(means, values):
@@ -111,13 +121,14 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
     dr.eval(values)  # one kernel for all buffers
     columns = [np.asarray(value, dtype=np.float32).reshape(height, width) for value in values]
     albedo, normal = np.stack(columns[0:3], axis=-1), np.stack(columns[3:6], axis=-1)
-    distance, visible, hit_fraction = columns[6:]
+    distance, visible, hit_fraction, coverage = columns[6:]
     distance = distance / np.maximum(hit_fraction, 1e-6)
     max_distance = float(distance.max()) if (hit_fraction > 0).any() else 1.0
     depth = np.where(hit_fraction > 0, distance / max(max_distance, 1e-12), 1.0)
     if feature_spp > 1:  # a mean of unit normals: renormalise (one sample is unit already, or 0 on a miss)
         normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-6)
-    return {"albedo": albedo, "normal": normal, "depth": depth.astype(np.float32), "visibility": visible}
+    return {"albedo": albedo, "normal": normal, "depth": depth.astype(np.float32), "visibility": visible,
+            "coverage": coverage}
 
 
 def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,

@@ -55,7 +55,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
     pixel and a box estimate per pixel; feature buffers are computed for every
     pixel in the same call. The completion method then fills the rest.
 
-    ``mi.render`` returns an ``(H, W, 16)`` tensor: the completed RGB first,
+    ``mi.render`` returns an ``(H, W, 17)`` tensor: the completed RGB first,
     then the layers named by :meth:`aov_names` (sparse RGB, mask, albedo,
     normal, depth, visibility, variance); see :mod:`gmcpt.layers`.
 

@@ -114,3 +114,21 @@ def test_frame_validates_shapes():
     frame, _ = synthetic_frame()
     with pytest.raises(GmcptError, match="albedo"):
         dataclasses.replace(frame, albedo=np.zeros((3, 3, 3), np.float32))
+
+
+def test_demodulation_factor_is_the_mean_of_the_rays_factors():
+    from gmcpt.domain import WorkingDomain
+
+    domain = WorkingDomain()
+    eps = domain.albedo_eps
+    # one pixel fully on a 0.4 albedo surface, one on the background, one with 1 ray of 4 on the surface
+    albedo = np.array([[[0.4] * 3, [0.0] * 3, [0.1] * 3]], np.float32)
+    coverage = np.array([[1.0, 0.0, 0.25]], np.float32)
+    factor = domain.factor(albedo, coverage)[0, :, 0]
+    np.testing.assert_allclose(factor, [0.4 + eps, 1.0, (0.4 + eps + 3 * 1.0) / 4], rtol=1e-6)
+    # without a coverage buffer a pixel is demodulated or not: the silhouette pixel gets a tiny factor
+    assert np.allclose(domain.factor(albedo)[0, :, 0], [0.4 + eps, 1.0, 0.1 + eps])
+    frame, _ = synthetic_frame()
+    covered = dataclasses.replace(frame, coverage=np.full(frame.shape, 0.5, np.float32))
+    assert np.allclose(domain.frame_factor(covered), domain.factor(frame.albedo, covered.coverage))
+    assert np.array_equal(domain.frame_factor(frame), domain.factor(frame.albedo))

@@ -130,26 +130,32 @@ def test_cli_rejects_bad_arguments(tmp_path, capsys):
     assert "error:" in capsys.readouterr().err
 
 
-def test_version_1_files_are_upgraded_to_the_features_of_a_fresh_build(mi, tmp_path):
+@pytest.mark.parametrize("old_version", [1, 2])
+def test_older_files_are_upgraded_to_the_features_of_a_fresh_build(mi, tmp_path, old_version):
     from dataclasses import replace
 
-    from gmcpt.dataset import DatasetSpec, SplitSpec, build, example_path, load_example
-    from gmcpt.dataset.build import FEATURE_KEYS
+    from gmcpt.dataset import DATASET_VERSION, DatasetSpec, SplitSpec, build, example_path, load_example
+    from gmcpt.dataset.build import FEATURE_KEYS, save_example
     from gmcpt.render import DEFAULT_FEATURE_SPP
 
     spec = DatasetSpec(splits=(SplitSpec("train", 1, 16, 16),), pass_spp=8)
-    assert spec.feature_spp == DEFAULT_FEATURE_SPP and spec.version == 2
+    assert spec.feature_spp == DEFAULT_FEATURE_SPP and spec.version == DATASET_VERSION == 3
     old, fresh = tmp_path / "old", tmp_path / "fresh"
-    build(old, replace(spec, version=1, feature_spp=1), workers=0, say=lambda m: None)
-    v1 = load_example(example_path(old, "train", 0))
-    assert v1["meta"]["version"] == 1
+    build(old, replace(spec, version=old_version, feature_spp=1), workers=0, say=lambda m: None)
+    path = example_path(old, "train", 0)
+    stale = load_example(path)
+    del stale["coverage"]  # versions 1 and 2 had no coverage buffer
+    meta = stale.pop("meta")
+    save_example(path, {"arrays": stale, "meta": meta})
+    assert load_example(path)["meta"]["version"] == old_version
     assert build(old, spec, workers=0, say=lambda m: None)["rendered"] == 1  # upgraded in place
-    upgraded = load_example(example_path(old, "train", 0))
+    upgraded = load_example(path)
     build(fresh, spec, workers=0, say=lambda m: None)
     rebuilt = load_example(example_path(fresh, "train", 0))
-    assert upgraded["meta"]["version"] == 2 and upgraded["meta"]["feature_spp"] == DEFAULT_FEATURE_SPP
+    assert upgraded["meta"]["version"] == 3 and upgraded["meta"]["feature_spp"] == DEFAULT_FEATURE_SPP
+    assert set(upgraded) == set(rebuilt)
     for key, value in rebuilt.items():
         if key != "meta":
             np.testing.assert_array_equal(upgraded[key], value, err_msg=key)
-    assert any(not np.array_equal(v1[key], upgraded[key]) for key in FEATURE_KEYS)  # the features did change
-    assert json.loads((old / "manifest.json").read_text())["version"] == 2
+    assert any(not np.array_equal(stale[key], upgraded[key]) for key in FEATURE_KEYS if key in stale)
+    assert json.loads((old / "manifest.json").read_text())["version"] == 3

@@ -1,3 +1,5 @@
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -14,6 +16,10 @@ def test_pack_unpack_roundtrip():
     back, image = unpack(tensor, spp=frame.spp)
     assert np.array_equal(image, clean) and np.array_equal(back.mask, frame.mask)
     assert np.array_equal(back.albedo, frame.albedo) and np.array_equal(back.depth, frame.depth)
+    # a frame without a coverage buffer comes back with the 0/1 one its demodulation assumed
+    assert np.array_equal(back.coverage, frame.albedo.max(-1) >= 0.02)
+    covered = dataclasses.replace(frame, coverage=np.linspace(0, 1, frame.mask.size, dtype=np.float32).reshape(frame.shape))
+    assert np.array_equal(unpack(pack(covered, clean))[0].coverage, covered.coverage)
 
 
 def test_exr_roundtrip_keeps_layer_names(tmp_path):

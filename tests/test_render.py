@@ -84,3 +84,41 @@ def test_nonfinite_samples_do_not_spread(mi, cornell):
     assert np.isfinite(frame.radiance).all() and np.isfinite(frame.variance).all()
     result = complete(frame, "interp")
     assert np.isfinite(result.image).all()
+
+
+def _sphere_scene(mi, bsdf: dict):
+    """A sphere filling the middle of a 32x32 view against an empty background, lit by a constant sky."""
+    return mi.load_dict({
+        "type": "scene", "integrator": {"type": "path"},
+        "sensor": {"type": "perspective", "fov": 40,
+                   "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 4], target=[0, 0, 0], up=[0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": 32, "height": 32}, "sampler": {"type": "independent"}},
+        "sphere": {"type": "sphere", "radius": 0.8, "bsdf": bsdf},
+        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": 1.0}}})
+
+
+def test_albedo_is_diffuse_reflectance_only(mi):
+    """A rough metal has no diffuse albedo (Mitsuba's default estimate gives it values far above 1)."""
+    from gmcpt.render import render_features
+
+    rough_metal = {"type": "roughconductor", "alpha": 0.05}
+    metal = render_features(s := _sphere_scene(mi, rough_metal), s.sensors()[0], feature_spp=4)
+    assert np.all(metal["albedo"] == 0) and np.all(metal["coverage"] == 0)
+    red = {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.7, 0.2, 0.1]}}
+    matte = render_features(s := _sphere_scene(mi, red), s.sensors()[0], feature_spp=4)
+    inside = matte["coverage"] == 1
+    np.testing.assert_allclose(matte["albedo"][inside], np.broadcast_to([0.7, 0.2, 0.1], (inside.sum(), 3)), rtol=1e-5)
+    assert matte["albedo"].max() <= 1
+
+
+def test_coverage_is_the_fraction_of_rays_on_the_diffuse_surface(mi):
+    from gmcpt.render import render_features
+
+    gray = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.5}}
+    features = render_features(s := _sphere_scene(mi, gray), s.sensors()[0], feature_spp=16)
+    coverage, albedo = features["coverage"], features["albedo"][..., 0]
+    assert coverage[16, 16] == 1 and coverage[0, 0] == 0
+    silhouette = (coverage > 0) & (coverage < 1)
+    assert silhouette.sum() > 20  # the sphere's rim: partly sphere, partly background
+    # the albedo buffer averages over all rays (0 on a miss), so on the rim it is coverage x 0.5
+    np.testing.assert_allclose(albedo[silhouette], 0.5 * coverage[silhouette], rtol=1e-5)

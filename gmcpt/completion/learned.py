@@ -93,7 +93,7 @@ def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDo
     working, factor, timings = gan_precompletion(frame, domain, weights)
     gan_image = domain.inverse(working, factor)
     # the low-rank stage works in its own domain (see LOW_RANK_DOMAIN)
-    low_rank_working = LOW_RANK_DOMAIN.forward(gan_image, LOW_RANK_DOMAIN.factor(frame.albedo))
+    low_rank_working = LOW_RANK_DOMAIN.forward(gan_image, LOW_RANK_DOMAIN.frame_factor(frame))
     result = refine_low_rank(frame, low_rank_working, LOW_RANK_DOMAIN, params or GAN_PAWNNM_PARAMS)
     result.timings.update(timings)
     return result

@@ -29,7 +29,10 @@ Version 2 renders the features with 4 primary rays a pixel, the product's
 default since then (version 1: 1 ray). The features are the only change, and
 they depend on nothing but the scene and its seed, so a build over version-1
 files re-renders their features in place (:func:`upgrade_example`, about a
-second a scene) instead of the whole scene.
+second a scene) instead of the whole scene. Version 3 changed the features
+again (albedo only for BSDFs with a diffuse lobe, clipped to [0, 1], and the
+``coverage`` buffer: see :func:`gmcpt.render.render_features`); older files are
+upgraded the same way.
 
 Files live in ``ROOT/<split>/<seed:07d>.npz`` with a ``meta`` JSON entry
 (dataset version, seed, split, exposure, rate, settings, render seconds);
@@ -51,13 +54,15 @@ import numpy as np
 
 from ..frame import DEFAULT_FEATURE_SPP
 
-DATASET_VERSION = 2
-FEATURE_KEYS = ("albedo", "normal", "depth", "visibility")
+DATASET_VERSION = 3
+FEATURE_KEYS = ("albedo", "normal", "depth", "visibility", "coverage")
 SPLIT_SEED_BASE = {"train": 0, "val": 1_000_000, "test": 2_000_000}
 SEEDS_PER_SPLIT = 1_000_000
 REFERENCE_SEED = 0x4000_0000
 ARRAY_KEYS = ("reference", "radiance", "mask", "variance", "albedo", "normal", "depth", "visibility",
-              "full_radiance", "full_variance")
+              "full_radiance", "full_variance", "coverage")
+#: Arrays of files older than version 3 (which added ``coverage``).
+VERSION_2_KEYS = ARRAY_KEYS[:-1]
 
 
 @dataclass(frozen=True)
@@ -150,7 +155,7 @@ def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
     arrays = {"reference": reference, "radiance": frame.radiance, "mask": frame.mask, "variance": frame.variance,
               "albedo": frame.albedo, "normal": frame.normal, "depth": frame.depth, "visibility": frame.visibility,
               "full_radiance": np.where(full.mask[..., None], full.radiance, 0.0).astype(np.float32),
-              "full_variance": full.variance}
+              "full_variance": full.variance, "coverage": frame.coverage}
     meta = {"version": spec.version, "seed": seed, "split": split.name, "exposure": exposure, "rate": rate,
             "resolution": split.resolution, "spp": spec.spp, "feature_spp": spec.feature_spp,
             "reference_spp": split.reference_spp,
@@ -169,7 +174,7 @@ def save_example(path: Path, example: dict) -> None:
 def load_example(path: str | Path) -> dict:
     """``{"meta": dict, **arrays}`` of one dataset file."""
     with np.load(path) as data:
-        example = {key: data[key] for key in ARRAY_KEYS}
+        example = {key: data[key] for key in ARRAY_KEYS if key in data}
         example["meta"] = json.loads(str(data["meta"]))
     return example
 
@@ -180,7 +185,8 @@ def file_version(path: Path) -> int | None:
         return None
     try:
         with np.load(path) as data:
-            return json.loads(str(data["meta"]))["version"] if all(k in data for k in ARRAY_KEYS) else None
+            version = json.loads(str(data["meta"]))["version"]
+            return version if all(k in data for k in (ARRAY_KEYS if version >= 3 else VERSION_2_KEYS)) else None
     except Exception:
         return None
 
@@ -190,8 +196,13 @@ def is_complete(path: Path, version: int = DATASET_VERSION) -> bool:
     return file_version(path) == version
 
 
+def is_upgradable(version: int | None, spec: DatasetSpec) -> bool:
+    """True if a file of ``version`` differs from ``spec``'s only in its features (see the module docstring)."""
+    return version is not None and version < spec.version == DATASET_VERSION
+
+
 def upgrade_example(path: Path, spec: DatasetSpec) -> dict:
-    """Bring a version-1 example to version 2: re-render its features at ``spec.feature_spp``.
+    """Bring an older example to ``spec.version``: re-render its features at ``spec.feature_spp``.
 
     The scene is rebuilt from the seed and exposure in the file's metadata and only the
     feature pass runs (same seed as :func:`render_example` uses); every other array is kept.
@@ -215,8 +226,8 @@ def _update_manifest(path: Path, spec: DatasetSpec) -> None:
     record["splits"] = {split["name"]: split for split in record["splits"]}
     if path.is_file():
         old = json.loads(path.read_text())
-        if old.get("version") == 1 and spec.version == 2:  # upgraded in place (see upgrade_example)
-            old.update(version=2, feature_spp=spec.feature_spp)
+        if is_upgradable(old.get("version"), spec):  # upgraded in place (see upgrade_example)
+            old.update(version=spec.version, feature_spp=spec.feature_spp)
         for key in ("version", "spp", "rate_range", "pass_spp", "exposure_range", "feature_spp"):
             if json.dumps(old.get(key)) != json.dumps(record[key]):
                 raise ValueError(f"{path.parent} was built with {key} = {old.get(key)}, this build has {record[key]}")
@@ -237,7 +248,7 @@ def _work(job) -> tuple[int, str, float]:
     root, seed, split, spec = job
     path = example_path(root, split.name, seed)
     start = time.perf_counter()
-    if file_version(path) == 1 and spec.version == 2:
+    if is_upgradable(file_version(path), spec):
         example = upgrade_example(path, spec)
     else:
         example = render_example(seed, split, spec)

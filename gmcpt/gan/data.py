@@ -44,7 +44,7 @@ def working_std(domain: WorkingDomain, radiance: np.ndarray, variance: np.ndarra
 def frame_inputs(frame: SparseFrame, domain: WorkingDomain, use_variance: bool
                  ) -> tuple[torch.Tensor, torch.Tensor, np.ndarray]:
     """(radiance (1, 3, H, W), features (1, F, H, W), factor (H, W, 3)) of a sparse frame."""
-    factor = domain.factor(frame.albedo)
+    factor = domain.frame_factor(frame)
     working = np.where(frame.mask[..., None], domain.forward(frame.radiance, factor), 0.0) / SCALE
     std = working_std(domain, frame.radiance, frame.variance, factor, frame.mask) if use_variance else None
     features = feature_stack(frame.mask, frame.albedo, frame.normal, frame.depth, frame.visibility, std)
@@ -56,7 +56,8 @@ def example_frame(example: dict) -> SparseFrame:
     """The product-identical sparse frame stored in a dataset example."""
     return SparseFrame(radiance=example["radiance"], mask=example["mask"].astype(bool), variance=example["variance"],
                        albedo=example["albedo"], normal=example["normal"], depth=example["depth"],
-                       visibility=example["visibility"], spp=int(example["meta"]["spp"]))
+                       visibility=example["visibility"], spp=int(example["meta"]["spp"]),
+                       coverage=example.get("coverage"))
 
 
 class PatchSampler:
@@ -78,7 +79,7 @@ class PatchSampler:
         self.scenes = []
         for path in paths:
             example = load_example(path)
-            factor = domain.factor(example["albedo"])
+            factor = domain.factor(example["albedo"], example.get("coverage"))
             traced = np.ones(example["full_radiance"].shape[:2], bool)
             full = dataclasses.replace(example_frame(example), radiance=example["full_radiance"], mask=traced,
                                        variance=example["full_variance"])
