@@ -28,6 +28,12 @@ import numpy as np
 ALBEDO_MIN = 0.02
 
 
+def pixel_coverage(albedo: np.ndarray, albedo_min: float = ALBEDO_MIN) -> np.ndarray:
+    """(H, W) float32 coverage of a frame that has none recorded: 1 where the pixel's albedo is
+    meaningful (``max(albedo) >= albedo_min``), 0 elsewhere."""
+    return (albedo.max(axis=-1) >= albedo_min).astype(np.float32)
+
+
 @dataclass(frozen=True)
 class WorkingDomain:
     """Parameters of the forward/inverse transform.
@@ -47,7 +53,7 @@ class WorkingDomain:
         """(H, W, 3) demodulation factor from an (H, W, 3) albedo buffer and, if there is one, the
         (H, W) fraction of each pixel's feature rays that hit a diffuse surface (``coverage``)."""
         if coverage is None:
-            meaningful = albedo.max(axis=-1, keepdims=True) >= self.albedo_min
+            meaningful = pixel_coverage(albedo, self.albedo_min)[..., None] > 0
             return np.where(meaningful, albedo + self.albedo_eps, 1.0).astype(np.float32)
         covered = np.clip(coverage, 0.0, 1.0)[..., None]
         return (albedo + covered * self.albedo_eps + (1.0 - covered)).astype(np.float32)

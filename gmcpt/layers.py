@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .domain import ALBEDO_MIN
+from .domain import pixel_coverage
 from .frame import SparseFrame
 
 LAYERS = (("", "RGB"), ("sparse", "RGB"), ("mask", "Y"), ("albedo", "RGB"), ("normal", "XYZ"),
@@ -28,18 +28,13 @@ def channel_names() -> list[str]:
     return [f"{layer}.{c}" if layer else c for layer, channels in LAYERS for c in channels]
 
 
-def _coverage(frame: SparseFrame) -> np.ndarray:
-    """The frame's coverage, or the 0/1 one that :meth:`WorkingDomain.factor` assumes without it."""
-    if frame.coverage is not None:
-        return frame.coverage
-    return (frame.albedo.max(axis=-1) >= ALBEDO_MIN).astype(np.float32)
-
-
 def pack(frame: SparseFrame, image: np.ndarray) -> np.ndarray:
     """Stack the completed image and the frame's buffers into (H, W, 17) float32."""
+    # a frame without a coverage buffer gets the 0/1 one its demodulation assumed (WorkingDomain.factor)
+    coverage = frame.coverage if frame.coverage is not None else pixel_coverage(frame.albedo)
     parts = [image, np.where(frame.mask[..., None], frame.radiance, 0.0), frame.mask[..., None],
              frame.albedo, frame.normal, frame.depth[..., None], frame.visibility[..., None],
-             frame.variance[..., None], _coverage(frame)[..., None]]
+             frame.variance[..., None], coverage[..., None]]
     return np.concatenate([np.asarray(p, dtype=np.float32) for p in parts], axis=-1)
 
 

@@ -79,10 +79,10 @@ class PatchSampler:
         self.scenes = []
         for path in paths:
             example = load_example(path)
-            factor = domain.factor(example["albedo"], example.get("coverage"))
             traced = np.ones(example["full_radiance"].shape[:2], bool)
             full = dataclasses.replace(example_frame(example), radiance=example["full_radiance"], mask=traced,
                                        variance=example["full_variance"])
+            factor = domain.frame_factor(full)
             exposure = exposure_of(full) if autoexposure else 1.0
             full = exposed(full, exposure)
             parts = [domain.forward(example["reference"] * exposure, factor) / SCALE,
