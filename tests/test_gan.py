@@ -311,6 +311,37 @@ def test_patch_sampler_autoexposure_brings_scenes_to_the_product_exposure(tmp_pa
         assert np.array_equal(scene[..., 7:], same[..., 7:])   # features untouched
 
 
+def test_coverage_feature_is_the_frames_buffer_or_the_0_1_rule(tmp_path):
+    import dataclasses
+
+    from gmcpt.dataset import list_examples
+    from gmcpt.domain import WorkingDomain
+    from gmcpt.gan.data import PatchSampler, frame_inputs
+    from tests.conftest import synthetic_frame
+
+    frame, _ = synthetic_frame(16, 16)
+    coverage = np.linspace(0, 1, 256, dtype=np.float32).reshape(16, 16)
+    with_buffer = dataclasses.replace(frame, coverage=coverage)
+    config = GeneratorConfig(use_coverage=True)
+    _, plain, _ = frame_inputs(with_buffer, WorkingDomain(), use_variance=True)
+    _, features, _ = frame_inputs(with_buffer, WorkingDomain(), use_variance=True, use_coverage=True)
+    assert features.shape[1] == config.feature_channels == plain.shape[1] + 1
+    assert torch.equal(features[:, :-1], plain)
+    assert np.array_equal(features[0, -1].numpy(), coverage)
+    _, rule, _ = frame_inputs(dataclasses.replace(frame, coverage=None), WorkingDomain(), True, True)
+    assert np.array_equal(rule[0, -1].numpy(), (frame.albedo.max(-1) >= 0.02).astype(np.float32))
+
+    _tiny_dataset(tmp_path)
+    sampler = PatchSampler(list_examples(tmp_path, "train"), crop=16)
+    _, batch, _ = sampler.batch(np.random.default_rng(0), 4, use_variance=True, use_coverage=True)
+    assert batch.shape[1] == config.feature_channels
+    # the tiny dataset's files have no coverage buffer: the 0/1 rule over the crop's albedo channels
+    assert torch.equal(batch[:, -1], (batch[:, 1:4].amax(1) >= 0.02).float())
+    generator = Generator(dataclasses.replace(SMALL, use_coverage=True))
+    radiance, _ = _inputs(batch=4)
+    assert generator(radiance, batch[:, :generator.config.feature_channels]).shape == (4, 3, 16, 16)
+
+
 def test_train_cli_reports_a_missing_dataset(tmp_path, capsys):
     from gmcpt.gan.cli import main
 

@@ -1,6 +1,6 @@
 """``python -m gmcpt dataset``: render (or resume) the procedural dataset.
 
-    python -m gmcpt dataset --out data/procedural --train 150 --val 10 --test 6
+    python -m gmcpt dataset --out data/procedural --train 300 --val 10 --test 6
 
 Each split's scenes come from its own seed range; an interrupted build resumes.
 """

@@ -5,7 +5,7 @@ The generator sees (all in the working domain of :mod:`gmcpt.domain`, divided by
 - ``radiance`` (3): sparse demodulated, log-compressed radiance, 0 where not traced;
 - ``features``: mask, albedo (3), normal (3), depth, visibility and, when the
   config asks, the standard deviation of each traced pixel's mean (delta
-  method, 0 elsewhere, clipped at 1).
+  method, 0 elsewhere, clipped at 1) and the feature pass's coverage.
 
 Training draws a fresh random mask per crop at a rate drawn from
 ``rate_range``, over the dataset's full-frame 16-spp render (the same
@@ -19,18 +19,17 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..domain import WorkingDomain
+from ..domain import WorkingDomain, pixel_coverage
 from ..frame import SparseFrame
 
 SCALE = 255.0
 
 
 def feature_stack(mask: np.ndarray, albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray,
-                  visibility: np.ndarray, std: np.ndarray | None) -> np.ndarray:
-    """(H, W, F) float32 features in the generator's channel order."""
+                  visibility: np.ndarray, std: np.ndarray | None, coverage: np.ndarray | None = None) -> np.ndarray:
+    """(H, W, F) float32 features in the generator's channel order (``std`` and ``coverage`` where given)."""
     parts = [mask[..., None].astype(np.float32), albedo, normal, depth[..., None], visibility[..., None]]
-    if std is not None:
-        parts.append(std[..., None])
+    parts += [extra[..., None] for extra in (std, coverage) if extra is not None]
     return np.concatenate(parts, axis=-1).astype(np.float32)
 
 
@@ -41,13 +40,19 @@ def working_std(domain: WorkingDomain, radiance: np.ndarray, variance: np.ndarra
     return np.where(mask, np.minimum(std, 1.0), 0.0).astype(np.float32)
 
 
-def frame_inputs(frame: SparseFrame, domain: WorkingDomain, use_variance: bool
+def frame_coverage(frame: SparseFrame) -> np.ndarray:
+    """(H, W) float32 coverage of a frame: its own buffer, or the 0/1 rule of frames without one."""
+    return pixel_coverage(frame.albedo) if frame.coverage is None else frame.coverage.astype(np.float32)
+
+
+def frame_inputs(frame: SparseFrame, domain: WorkingDomain, use_variance: bool, use_coverage: bool = False
                  ) -> tuple[torch.Tensor, torch.Tensor, np.ndarray]:
     """(radiance (1, 3, H, W), features (1, F, H, W), factor (H, W, 3)) of a sparse frame."""
     factor = domain.frame_factor(frame)
     working = np.where(frame.mask[..., None], domain.forward(frame.radiance, factor), 0.0) / SCALE
     std = working_std(domain, frame.radiance, frame.variance, factor, frame.mask) if use_variance else None
-    features = feature_stack(frame.mask, frame.albedo, frame.normal, frame.depth, frame.visibility, std)
+    coverage = frame_coverage(frame) if use_coverage else None
+    features = feature_stack(frame.mask, frame.albedo, frame.normal, frame.depth, frame.visibility, std, coverage)
     to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(2, 0, 1)))[None].float()  # noqa: E731
     return to_tensor(working.astype(np.float32)), to_tensor(features), factor
 
@@ -63,9 +68,9 @@ def example_frame(example: dict) -> SparseFrame:
 class PatchSampler:
     """Random training crops from dataset examples, with fresh masks.
 
-    Each scene is kept in memory as one (H, W, 15) array: reference (3) and
+    Each scene is kept in memory as one (H, W, 16) array: reference (3) and
     full-frame noisy radiance (3) in the working domain / 255, noise std (1),
-    albedo (3), normal (3), depth, visibility.
+    albedo (3), normal (3), depth, visibility, coverage.
     """
 
     def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
@@ -89,10 +94,10 @@ class PatchSampler:
                      domain.forward(full.radiance, factor) / SCALE,
                      working_std(domain, full.radiance, full.variance, factor, traced)[..., None],
                      example["albedo"], example["normal"], example["depth"][..., None],
-                     example["visibility"][..., None]]
+                     example["visibility"][..., None], frame_coverage(full)[..., None]]
             self.scenes.append(np.concatenate(parts, -1).astype(np.float32))
 
-    def batch(self, rng: np.random.Generator, size: int, use_variance: bool
+    def batch(self, rng: np.random.Generator, size: int, use_variance: bool, use_coverage: bool = False
               ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """(radiance (B, 3, c, c), features (B, F, c, c), target (B, 3, c, c))."""
         crops = []
@@ -110,6 +115,7 @@ class PatchSampler:
         radiance = data[..., 3:6] * mask[..., None]
         std = data[..., 6] * mask if use_variance else None
         features = np.stack([feature_stack(mask[i], data[i, ..., 7:10], data[i, ..., 10:13], data[i, ..., 13],
-                                           data[i, ..., 14], None if std is None else std[i]) for i in range(size)])
+                                           data[i, ..., 14], None if std is None else std[i],
+                                           data[i, ..., 15] if use_coverage else None) for i in range(size)])
         to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(0, 3, 1, 2))).float()  # noqa: E731
         return to_tensor(radiance), to_tensor(features), to_tensor(data[..., 0:3])

@@ -50,7 +50,8 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
     """
     if exposure != 1.0:
         frame = exposed(frame, exposure)
-    radiance, features, factor = frame_inputs(frame, domain, generator.config.use_variance)
+    radiance, features, factor = frame_inputs(frame, domain, generator.config.use_variance,
+                                               generator.config.use_coverage)
     height, width = frame.shape
     multiple = generator.multiple
     pad = (0, -width % multiple, 0, -height % multiple)

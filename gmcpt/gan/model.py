@@ -3,7 +3,7 @@
 Generator (METHOD.md section 3, after Xu et al. 2019): a three-level U-Net of
 residual blocks on 2x2 pixel blocks (space-to-depth). A conditioning net turns the auxiliary features (mask,
 albedo, normal, depth, visibility and, optionally, the standard deviation of
-the traced samples) into a shared feature map; every residual block maps it,
+the traced samples and the coverage of the feature pass) into a shared feature map; every residual block maps it,
 pooled to the block's resolution, to a per-channel scale and shift applied
 after each convolution (``h * (scale + 1) + shift``). The network starts from
 a fixed fill of the sparse input (no parameters; ``base``: a push-pull
@@ -47,6 +47,9 @@ class GeneratorConfig:
     condition_width : channels of the conditioning feature map.
     use_variance : add the standard deviation of each traced pixel's mean (working domain / 255, clipped
         at 1; :func:`gmcpt.gan.data.working_std`) as a feature.
+    use_coverage : add the feature pass's ``coverage`` (the fraction of a pixel's feature rays on a
+        diffuse surface, :func:`gmcpt.render.render_features`) as a feature: at a silhouette it says how
+        much of the pixel the albedo describes.
     base : the fixed fill the network corrects: ``"push_pull"`` (feature-blind pyramid),
         ``"guided"`` (:func:`gmcpt.completion.classical.guided_fill`, runs on the CPU in numpy) or
         ``"guided_smooth"`` (the same, with the traced pixels smoothed too rather than kept).
@@ -62,6 +65,7 @@ class GeneratorConfig:
     decoder_blocks: tuple[int, int] = (1, 1)
     condition_width: int = 24
     use_variance: bool = True
+    use_coverage: bool = False
     base: str = "push_pull"
     output: str = "residual"
     kernel_size: int = 9
@@ -76,7 +80,7 @@ class GeneratorConfig:
 
     @property
     def feature_channels(self) -> int:
-        return FEATURE_CHANNELS + int(self.use_variance)
+        return FEATURE_CHANNELS + int(self.use_variance) + int(self.use_coverage)
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -256,7 +256,8 @@ class Trainer:
             for group in optimizer.param_groups:
                 group["lr"] = base * self._learning_rate_scale()
         radiance, features, target = (t.to(self.device) for t in
-                                      self.sampler.batch(self.rng, cfg.batch, self.config.generator.use_variance))
+                                      self.sampler.batch(self.rng, cfg.batch, self.config.generator.use_variance,
+                                                         self.config.generator.use_coverage))
         fake = self.generator(radiance, features)
         record = {}
         adversarial = self.step >= cfg.critic_start
