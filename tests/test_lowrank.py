@@ -268,6 +268,22 @@ def test_local_variance_needs_two_samples_and_valid_input():
         local_variance(np.ones((9, 9, 3)), mask, radius=0)
 
 
+def test_shrunk_variance_pulls_a_pixel_towards_its_rendered_neighbours():
+    from gmcpt.lowrank.noise import shrunk_variance
+
+    variance = np.full((9, 9), 4.0, np.float32)
+    variance[4, 4] = 0.0          # every sample of this pixel missed the light
+    mask = np.ones((9, 9), bool)
+    mask[0, :] = False            # not rendered: never read, 0 in the result
+    shrunk = shrunk_variance(np.where(mask, variance, 1e9), mask, weight=0.5, radius=1)
+    assert shrunk[4, 4] == pytest.approx(0.5 * (8 * 4.0) / 9)
+    assert shrunk[6, 6] == pytest.approx(4.0) and not shrunk[0].any()
+    assert shrunk[1, 4] == pytest.approx(4.0)   # the window's unrendered row does not count
+    assert np.array_equal(shrunk_variance(variance, mask, weight=0.0), np.where(mask, variance, 0))
+    with pytest.raises(ValueError, match="weight"):
+        shrunk_variance(variance, mask, weight=1.5)
+
+
 def test_one_sample_frames_are_denoised_not_kept():
     """At 1 spp the frame has no sample variance; the completion must still smooth the noisy samples."""
     import dataclasses
