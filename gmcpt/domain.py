@@ -34,6 +34,12 @@ def pixel_coverage(albedo: np.ndarray, albedo_min: float = ALBEDO_MIN) -> np.nda
     return (albedo.max(axis=-1) >= albedo_min).astype(np.float32)
 
 
+def frame_coverage(frame) -> np.ndarray:
+    """(H, W) float32 coverage of a :class:`~gmcpt.frame.SparseFrame`: its own buffer, or the 0/1 rule
+    (:func:`pixel_coverage`) that :meth:`WorkingDomain.factor` assumes for frames without one."""
+    return pixel_coverage(frame.albedo) if frame.coverage is None else frame.coverage.astype(np.float32)
+
+
 @dataclass(frozen=True)
 class WorkingDomain:
     """Parameters of the forward/inverse transform.

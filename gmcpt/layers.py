@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .domain import pixel_coverage
+from .domain import frame_coverage
 from .frame import SparseFrame
 
 LAYERS = (("", "RGB"), ("sparse", "RGB"), ("mask", "Y"), ("albedo", "RGB"), ("normal", "XYZ"),
@@ -30,11 +30,9 @@ def channel_names() -> list[str]:
 
 def pack(frame: SparseFrame, image: np.ndarray) -> np.ndarray:
     """Stack the completed image and the frame's buffers into (H, W, 17) float32."""
-    # a frame without a coverage buffer gets the 0/1 one its demodulation assumed (WorkingDomain.factor)
-    coverage = frame.coverage if frame.coverage is not None else pixel_coverage(frame.albedo)
     parts = [image, np.where(frame.mask[..., None], frame.radiance, 0.0), frame.mask[..., None],
              frame.albedo, frame.normal, frame.depth[..., None], frame.visibility[..., None],
-             frame.variance[..., None], coverage[..., None]]
+             frame.variance[..., None], frame_coverage(frame)[..., None]]
     return np.concatenate([np.asarray(p, dtype=np.float32) for p in parts], axis=-1)
 
 

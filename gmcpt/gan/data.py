@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..domain import WorkingDomain, pixel_coverage
+from ..domain import WorkingDomain, frame_coverage
 from ..frame import SparseFrame
 
 SCALE = 255.0
@@ -38,11 +38,6 @@ def working_std(domain: WorkingDomain, radiance: np.ndarray, variance: np.ndarra
     """Standard deviation of traced pixels in the working domain / 255, clipped to [0, 1]."""
     std = np.sqrt(np.maximum(domain.variance(radiance, variance, factor), 0.0)) / SCALE
     return np.where(mask, np.minimum(std, 1.0), 0.0).astype(np.float32)
-
-
-def frame_coverage(frame: SparseFrame) -> np.ndarray:
-    """(H, W) float32 coverage of a frame: its own buffer, or the 0/1 rule of frames without one."""
-    return pixel_coverage(frame.albedo) if frame.coverage is None else frame.coverage.astype(np.float32)
 
 
 def frame_inputs(frame: SparseFrame, domain: WorkingDomain, use_variance: bool, use_coverage: bool = False
