@@ -209,11 +209,19 @@ def test_weights_round_trip_and_metadata(tmp_path):
     record = save_weights(tmp_path / "w.pt", generator, {"config": {"x": 1}, "dataset": {"version": 1}})
     assert record["sha256"] == sha256(tmp_path / "w.pt")
     assert json.loads((tmp_path / "w.json").read_text())["dataset"]["version"] == 1
-    torch.load(tmp_path / "w.pt", weights_only=True)   # plain tensors and strings only
+    payload = torch.load(tmp_path / "w.pt", weights_only=True)   # plain tensors and strings only
+    stored = [t for t in payload["state_dict"].values() if t.is_floating_point()]
+    assert stored and all(t.dtype == torch.float16 for t in stored)
+    assert json.loads((tmp_path / "w.json").read_text())["stored_dtype"] == "float16"
     loaded, meta = load_generator(tmp_path / "w.pt")
+    assert all(p.dtype == torch.float32 for p in loaded.parameters())
+    rounded = Generator(SMALL)   # the generator as stored: its weights rounded to half precision
+    rounded.load_state_dict({k: v.half().float() if v.is_floating_point() else v
+                             for k, v in generator.state_dict().items()})
     radiance, features = _inputs()
-    torch.testing.assert_close(loaded(radiance, features), generator(radiance, features).detach())
+    torch.testing.assert_close(loaded(radiance, features), rounded(radiance, features).detach())
     assert meta["config"] == {"x": 1}
+
 
 
 def test_missing_or_corrupt_weights_give_one_line_with_the_fix(tmp_path):
