@@ -224,6 +224,18 @@ def test_weights_round_trip_and_metadata(tmp_path):
 
 
 
+def test_weights_too_large_for_half_precision_are_stored_as_they_are(tmp_path):
+    from gmcpt.gan.weights import load_generator, save_weights
+
+    generator = Generator(SMALL)
+    with torch.no_grad():
+        generator.tail.weight[0, 0, 0, 0] = 1e6   # beyond float16's range (65504)
+    save_weights(tmp_path / "big.pt", generator, {})
+    stored = torch.load(tmp_path / "big.pt", weights_only=True)["state_dict"]
+    assert stored["tail.weight"].dtype == torch.float32 and stored["tail.bias"].dtype == torch.float16
+    loaded, _ = load_generator(tmp_path / "big.pt")
+    assert loaded.tail.weight[0, 0, 0, 0].item() == 1e6
+
 def test_missing_or_corrupt_weights_give_one_line_with_the_fix(tmp_path):
     from gmcpt.gan.weights import load_generator, save_weights
 
