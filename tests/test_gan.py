@@ -223,7 +223,6 @@ def test_weights_round_trip_and_metadata(tmp_path):
     assert meta["config"] == {"x": 1}
 
 
-
 def test_weights_too_large_for_half_precision_are_stored_as_they_are(tmp_path):
     from gmcpt.gan.weights import load_generator, save_weights
 
@@ -235,6 +234,7 @@ def test_weights_too_large_for_half_precision_are_stored_as_they_are(tmp_path):
     assert stored["tail.weight"].dtype == torch.float32 and stored["tail.bias"].dtype == torch.float16
     loaded, _ = load_generator(tmp_path / "big.pt")
     assert loaded.tail.weight[0, 0, 0, 0].item() == 1e6
+
 
 def test_missing_or_corrupt_weights_give_one_line_with_the_fix(tmp_path):
     from gmcpt.gan.weights import load_generator, save_weights
