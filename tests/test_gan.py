@@ -197,6 +197,32 @@ def test_hybrid_loss_uses_the_paper_weights():
     expected = (0.005 * terms["tex"] + 0.0095 * terms["per"] + 0.95 * terms["sharp"] + 0.095 * terms["ssim"]
                 + weights.l1 * terms["l1"])
     assert float(total) == pytest.approx(expected, rel=1e-5) and terms["tex"] == -2.0
+    assert "display" not in terms   # off unless a config weights it
+
+
+def test_display_loss_compares_tonemapped_images_and_joins_the_total_when_weighted():
+    from gmcpt.metrics import tonemap
+
+    linear = torch.tensor([0.0, 0.002, 0.2, 0.9, 3.0]).reshape(1, 1, 1, 5)
+    assert np.allclose(losses.srgb(linear).numpy(), tonemap(linear.numpy()), atol=1e-6)
+    bright = linear + torch.tensor([0.0, 0.0, 0.0, 0.0, 5.0]).reshape(1, 1, 1, 5)   # only above the clamp
+    assert float(losses.display_loss(bright, linear)) == 0.0
+    darker = linear * 0.5
+    expected = np.abs(tonemap(darker.numpy()) - tonemap(linear.numpy())).mean()
+    assert float(losses.display_loss(darker, linear)) == pytest.approx(expected, rel=1e-5)
+    dark = torch.zeros(1, 1, 1, 1, requires_grad=True)   # the curve's steep start keeps a finite gradient
+    losses.display_loss(dark + 0.0, torch.full((1, 1, 1, 1), 0.5)).backward()
+    assert torch.isfinite(dark.grad).all() and float(dark.grad) < 0
+
+    weights = losses.LossWeights(display=2.0)
+    out, target = torch.rand(1, 3, 16, 16), torch.rand(1, 3, 16, 16)
+    extractor = losses.FixedFeatureExtractor()
+    with pytest.raises(ValueError, match="linear radiance"):
+        losses.hybrid_loss(out, target, None, extractor(out), extractor(target), weights)
+    total, terms = losses.hybrid_loss(out, target, None, extractor(out), extractor(target), weights, (out, target))
+    plain, _ = losses.hybrid_loss(out, target, None, extractor(out), extractor(target), losses.LossWeights())
+    assert terms["display"] == pytest.approx(float(losses.display_loss(out, target)))
+    assert float(total) == pytest.approx(float(plain) + 2.0 * terms["display"], rel=1e-5)
 
 
 # ----------------------------------------------------------------------------- weights
@@ -292,6 +318,30 @@ def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
     assert record["dataset"]["version"] == 1 and (tmp_path / "shipped" / "tiny.pt").is_file()
 
 
+def test_extra_datasets_join_the_training_scenes_and_the_weights_record_them(tmp_path, monkeypatch):
+    from gmcpt.gan import cli, weights
+    from gmcpt.gan.train import Trainer, load_config
+
+    main, extra = tmp_path / "data", tmp_path / "interiors"
+    _tiny_dataset(main)
+    _tiny_dataset(extra, count=3)
+    overrides = {"train.dataset": str(main), "train.steps": 1, "train.max_train_scenes": 1, "train.batch": 2,
+                 "train.crop": 16, "train.eval_every": 1, "critic.widths": [8, 8], "generator.widths": [8, 8, 8],
+                 "generator.encoder_blocks": [1, 1, 1], "generator.condition_width": 4,
+                 "train.extra_datasets": [str(extra)]}
+    trainer = Trainer(load_config("cpu", overrides), tmp_path / "run", lambda m: None)
+    assert trainer.train_sets == [(str(main), [0]), (str(extra), [0, 1, 2])]
+    assert len(trainer.sampler.scenes) == 4
+    trainer.run()
+    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    record = cli.export(trainer, "tiny", "python -m gmcpt train ...")
+    assert record["dataset"]["train_scenes"] == 1
+    assert [(e["path"], e["train_scenes"]) for e in record["dataset"]["extra_datasets"]] == [(str(extra), 3)]
+    with pytest.raises(ValueError, match="no training scenes"):
+        Trainer(load_config("cpu", {**overrides, "train.extra_datasets": [str(tmp_path / "missing")]}),
+                tmp_path / "run2", lambda m: None)
+
+
 def test_progress_before_the_critic_starts_says_so_without_warnings(tmp_path):
     import warnings
 
@@ -328,7 +378,25 @@ def test_patch_sampler_autoexposure_brings_scenes_to_the_product_exposure(tmp_pa
         factor = domain.factor(scene[..., 7:10])
         noisy = domain.inverse(scene[..., 3:6] * SCALE, factor)
         assert np.percentile(noisy.mean(axis=-1), 95) == pytest.approx(EXPOSURE_TARGET, rel=1e-3)
-        assert np.array_equal(scene[..., 7:], same[..., 7:])   # features untouched
+        assert np.array_equal(scene[..., 7:16], same[..., 7:16])   # features untouched
+
+
+def test_sampled_targets_map_back_to_the_reference_at_its_own_exposure(tmp_path):
+    from gmcpt.dataset import list_examples, load_example
+    from gmcpt.domain import WorkingDomain
+    from gmcpt.gan.data import PatchSampler, working_to_radiance
+
+    _tiny_dataset(tmp_path)
+    paths = list_examples(tmp_path, "train")
+    to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(2, 0, 1)))[None]  # noqa: E731
+    for autoexposure in (False, True):
+        sampler = PatchSampler(paths, crop=16, autoexposure=autoexposure)
+        for scene, path in zip(sampler.scenes, paths):
+            back = working_to_radiance(to_tensor(scene[..., 0:3]), to_tensor(scene[..., 16:19]), WorkingDomain())
+            reference = load_example(path)["reference"]
+            assert np.allclose(back[0].numpy().transpose(1, 2, 0), reference, rtol=1e-4, atol=1e-5)
+        batch = sampler.batch(np.random.default_rng(0), 2, use_variance=True)
+        assert batch.to_radiance.shape == batch.target.shape
 
 
 def test_coverage_feature_is_the_frames_buffer_or_the_0_1_rule(tmp_path):
@@ -353,7 +421,7 @@ def test_coverage_feature_is_the_frames_buffer_or_the_0_1_rule(tmp_path):
 
     _tiny_dataset(tmp_path)
     sampler = PatchSampler(list_examples(tmp_path, "train"), crop=16)
-    _, batch, _ = sampler.batch(np.random.default_rng(0), 4, use_variance=True, use_coverage=True)
+    batch = sampler.batch(np.random.default_rng(0), 4, use_variance=True, use_coverage=True).features
     assert batch.shape[1] == config.feature_channels
     # the tiny dataset's files have no coverage buffer: the 0/1 rule over the crop's albedo channels
     assert torch.equal(batch[:, -1], (batch[:, 1:4].amax(1) >= 0.02).float())

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -60,12 +61,29 @@ def example_frame(example: dict) -> SparseFrame:
                        coverage=example.get("coverage"))
 
 
+def working_to_radiance(working: torch.Tensor, to_radiance: torch.Tensor, domain: WorkingDomain) -> torch.Tensor:
+    """Linear radiance of (B, 3, H, W) working-domain / 255 images; ``to_radiance`` is the per-pixel factor
+    :class:`PatchSampler` gives (the demodulation factor divided by the exposure), so the result is at
+    the scene's own exposure, as the metrics see it. Differentiable."""
+    return to_radiance * torch.expm1(working * (SCALE / domain.scale))
+
+
+class TrainingBatch(NamedTuple):
+    """Crops of one training step, each (B, C, c, c)."""
+
+    radiance: torch.Tensor     # sparse working-domain radiance / 255
+    features: torch.Tensor
+    target: torch.Tensor       # reference, working domain / 255
+    to_radiance: torch.Tensor  # (B, 3, c, c) factor of :func:`working_to_radiance`
+
+
 class PatchSampler:
     """Random training crops from dataset examples, with fresh masks.
 
-    Each scene is kept in memory as one (H, W, 16) array: reference (3) and
+    Each scene is kept in memory as one (H, W, 19) array: reference (3) and
     full-frame noisy radiance (3) in the working domain / 255, noise std (1),
-    albedo (3), normal (3), depth, visibility, coverage.
+    albedo (3), normal (3), depth, visibility, coverage, and the factor back to linear radiance at
+    the scene's dataset exposure (3).
     """
 
     def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
@@ -89,12 +107,12 @@ class PatchSampler:
                      domain.forward(full.radiance, factor) / SCALE,
                      working_std(domain, full.radiance, full.variance, factor, traced)[..., None],
                      example["albedo"], example["normal"], example["depth"][..., None],
-                     example["visibility"][..., None], frame_coverage(full)[..., None]]
+                     example["visibility"][..., None], frame_coverage(full)[..., None], factor / exposure]
             self.scenes.append(np.concatenate(parts, -1).astype(np.float32))
 
     def batch(self, rng: np.random.Generator, size: int, use_variance: bool, use_coverage: bool = False
-              ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """(radiance (B, 3, c, c), features (B, F, c, c), target (B, 3, c, c))."""
+              ) -> TrainingBatch:
+        """``size`` random crops with fresh masks (radiance and target (B, 3, c, c), features (B, F, c, c))."""
         crops = []
         for _ in range(size):
             scene = self.scenes[rng.integers(len(self.scenes))]
@@ -113,4 +131,5 @@ class PatchSampler:
                                            data[i, ..., 14], None if std is None else std[i],
                                            data[i, ..., 15] if use_coverage else None) for i in range(size)])
         to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(0, 3, 1, 2))).float()  # noqa: E731
-        return to_tensor(radiance), to_tensor(features), to_tensor(data[..., 0:3])
+        return TrainingBatch(to_tensor(radiance), to_tensor(features), to_tensor(data[..., 0:3]),
+                             to_tensor(data[..., 16:19]))

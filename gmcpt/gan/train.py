@@ -27,6 +27,7 @@ import numpy as np
 import torch
 
 from ..domain import WorkingDomain
+from .data import working_to_radiance
 from .losses import (FixedFeatureExtractor, LossWeights, critic_loss, gradient_penalty, hybrid_loss, l2_loss,
                      wasserstein_distance)
 from .model import Critic, CriticConfig, Generator, GeneratorConfig, parameter_count
@@ -51,7 +52,9 @@ class TrainConfig:
     seed : seeds torch and the batch sampler.
     threads : torch CPU threads (0: torch's default).
     eval_every, checkpoint_every : in steps.
-    max_train_scenes : use only the first N training scenes (0: all).
+    max_train_scenes : use only the first N training scenes of ``dataset`` (0: all).
+    extra_datasets : further dataset folders (e.g. a ``--layout interior`` build) whose whole
+        ``train`` split joins the training scenes; validation stays ``dataset``'s.
     autoexposure : train (and validate) on scenes brought to the exposure the product runs the
         generator at (:func:`gmcpt.gan.infer.autoexposure`) rather than at their dataset exposure.
     """
@@ -71,6 +74,7 @@ class TrainConfig:
     eval_every: int = 250
     checkpoint_every: int = 250
     max_train_scenes: int = 0
+    extra_datasets: tuple[str, ...] = ()
     device: str = "cpu"
     autoexposure: bool = False
 
@@ -203,7 +207,15 @@ class Trainer:
                 raise ValueError(f"{cfg.dataset} has {len(train_paths)} training scenes, the config asks for "
                                  f"{cfg.max_train_scenes}; finish the dataset build first")
             train_paths = train_paths[:cfg.max_train_scenes]
-        self.train_seeds = [int(p.stem) for p in train_paths]
+        #: (dataset folder, its training seeds) for ``dataset`` and each of ``extra_datasets``
+        self.train_sets = [(cfg.dataset, [int(p.stem) for p in train_paths])]
+        for extra in cfg.extra_datasets:
+            extra_paths = list_examples(extra, "train")
+            if not extra_paths:
+                raise ValueError(f"{extra} has no training scenes; build it first (python -m gmcpt dataset)")
+            train_paths = train_paths + extra_paths
+            self.train_sets.append((extra, [int(p.stem) for p in extra_paths]))
+        self.train_seeds = [seed for _, seeds in self.train_sets for seed in seeds]
         self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range, cfg.autoexposure)
         self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")]
         self.rng = np.random.default_rng([cfg.seed, 0x7EA1])
@@ -255,9 +267,9 @@ class Trainer:
         for optimizer, base in ((self.opt_g, cfg.lr_g), (self.opt_d, cfg.lr_d)):
             for group in optimizer.param_groups:
                 group["lr"] = base * self._learning_rate_scale()
-        radiance, features, target = (t.to(self.device) for t in
-                                      self.sampler.batch(self.rng, cfg.batch, self.config.generator.use_variance,
-                                                         self.config.generator.use_coverage))
+        radiance, features, target, to_radiance = (
+            t.to(self.device) for t in self.sampler.batch(self.rng, cfg.batch, self.config.generator.use_variance,
+                                                          self.config.generator.use_coverage))
         fake = self.generator(radiance, features)
         record = {}
         adversarial = self.step >= cfg.critic_start
@@ -276,7 +288,11 @@ class Trainer:
             target_features = [f.detach() for f in self.critic.features(target, features)]
         else:
             out_features, target_features = self.extractor(fake), self.extractor(target)
-        loss_g, terms = hybrid_loss(fake, target, fake_score, out_features, target_features, weights)
+        linear = None
+        if weights.display:
+            linear = (working_to_radiance(fake, to_radiance, self.domain),
+                      working_to_radiance(target, to_radiance, self.domain))
+        loss_g, terms = hybrid_loss(fake, target, fake_score, out_features, target_features, weights, linear)
         self.critic.requires_grad_(True)
         self.opt_g.zero_grad(set_to_none=True)
         loss_g.backward()
