@@ -288,7 +288,7 @@ def _tiny_dataset(root, count=2, size=24):
             arrays = {"reference": clean, "radiance": frame.radiance, "mask": frame.mask, "variance": frame.variance,
                       "albedo": frame.albedo, "normal": frame.normal, "depth": frame.depth,
                       "visibility": frame.visibility, "full_radiance": clean * 1.05, "full_variance": frame.variance + 1e-3}
-            meta = {"version": 1, "seed": base + index, "split": split, "spp": 16, "rate": 0.3}
+            meta = {"version": 1, "seed": base + index, "split": split, "spp": 16, "reference_spp": 512, "rate": 0.3}
             save_example(root / split / f"{base + index:07d}.npz", {"arrays": arrays, "meta": meta})
     (root / "manifest.json").write_text(json.dumps({"version": 1}))
 
@@ -379,6 +379,34 @@ def test_patch_sampler_autoexposure_brings_scenes_to_the_product_exposure(tmp_pa
         noisy = domain.inverse(scene[..., 3:6] * SCALE, factor)
         assert np.percentile(noisy.mean(axis=-1), 95) == pytest.approx(EXPOSURE_TARGET, rel=1e-3)
         assert np.array_equal(scene[..., 7:16], same[..., 7:16])   # features untouched
+
+
+def test_reference_noise_estimate_and_the_training_filter_on_it(tmp_path):
+    from gmcpt.dataset import list_examples, load_example
+    from gmcpt.gan.data import PatchSampler, reference_noise_psnr
+
+    flat = {"meta": {"spp": 16, "reference_spp": 512}, "reference": np.full((4, 4, 3), 0.5, np.float32),
+            "full_variance": np.full((4, 4), 1e-3, np.float32)}
+    slope = 1.055 / 2.4 * 0.5 ** (1 / 2.4 - 1)
+    assert reference_noise_psnr(flat) == pytest.approx(-10 * np.log10(1e-3 * 16 / 512 * slope ** 2), rel=1e-5)
+    more_samples = {**flat, "meta": {"spp": 16, "reference_spp": 2048}}
+    assert reference_noise_psnr(more_samples) == pytest.approx(reference_noise_psnr(flat) + 10 * np.log10(4), rel=1e-5)
+    assert reference_noise_psnr({**flat, "reference": flat["reference"] + 1.0}) == float("inf")   # all clipped
+
+    from gmcpt.dataset.build import save_example
+
+    _tiny_dataset(tmp_path, count=3)
+    paths = list_examples(tmp_path, "train")
+    for noise, path in zip((1.0, 10.0, 100.0), paths):   # one scene's reference 10x noisier than the next
+        example = load_example(path)
+        meta = example.pop("meta")
+        example["full_variance"] = example["full_variance"] * noise
+        save_example(path, {"arrays": example, "meta": meta})
+    estimates = sorted(reference_noise_psnr(load_example(p)) for p in paths)
+    threshold = (estimates[0] + estimates[1]) / 2
+    sampler = PatchSampler(paths, crop=16, min_reference_psnr=threshold)
+    assert len(sampler.scenes) == 2 and len(sampler.skipped) == 1
+    assert reference_noise_psnr(load_example(sampler.skipped[0])) == estimates[0]
 
 
 def test_sampled_targets_map_back_to_the_reference_at_its_own_exposure(tmp_path):

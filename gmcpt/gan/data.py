@@ -61,6 +61,23 @@ def example_frame(example: dict) -> SparseFrame:
                        coverage=example.get("coverage"))
 
 
+def reference_noise_psnr(example: dict) -> float:
+    """Estimated PSNR (dB, tonemapped sRGB as :func:`gmcpt.metrics.psnr`) of a dataset example's reference
+    against the noise-free image.
+
+    The reference averages ``reference_spp`` samples a pixel; the 16-spp full-frame render's variance of
+    the mean, scaled by ``spp / reference_spp``, estimates its variance, which the slope of the tonemap
+    (0 above the clamp) carries to display values. Heavy-tailed radiance makes the 16-spp variance
+    itself noisy, so this ranks scenes rather than measures one.
+    """
+    meta = example["meta"]
+    variance = example["full_variance"][..., None] * meta["spp"] / meta["reference_spp"]
+    linear = np.clip(example["reference"], 1e-6, None)
+    slope = np.where(linear <= 0.0031308, 12.92, 1.055 / 2.4 * linear ** (1 / 2.4 - 1))
+    error = float(np.mean(variance * np.where(linear > 1.0, 0.0, slope) ** 2))
+    return float("inf") if error <= 0 else 10.0 * float(np.log10(1.0 / error))
+
+
 def working_to_radiance(working: torch.Tensor, to_radiance: torch.Tensor, domain: WorkingDomain) -> torch.Tensor:
     """Linear radiance of (B, 3, H, W) working-domain / 255 images; ``to_radiance`` is the per-pixel factor
     :class:`PatchSampler` gives (the demodulation factor divided by the exposure), so the result is at
@@ -87,16 +104,20 @@ class PatchSampler:
     """
 
     def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
-                 rate_range: tuple[float, float] = (0.15, 0.5), autoexposure: bool = False):
+                 rate_range: tuple[float, float] = (0.15, 0.5), autoexposure: bool = False,
+                 min_reference_psnr: float = 0.0):
         from ..dataset import load_example
         from .infer import autoexposure as exposure_of, exposed
 
         if not paths:
             raise ValueError("no training examples")
         self.crop, self.rate_range = crop, rate_range
-        self.scenes = []
+        self.scenes, self.skipped = [], []
         for path in paths:
             example = load_example(path)
+            if min_reference_psnr and reference_noise_psnr(example) < min_reference_psnr:
+                self.skipped.append(path)  # its reference is noisier than what the generator should learn
+                continue
             traced = np.ones(example["full_radiance"].shape[:2], bool)
             full = dataclasses.replace(example_frame(example), radiance=example["full_radiance"], mask=traced,
                                        variance=example["full_variance"])

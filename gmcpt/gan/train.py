@@ -53,6 +53,8 @@ class TrainConfig:
     threads : torch CPU threads (0: torch's default).
     eval_every, checkpoint_every : in steps.
     max_train_scenes : use only the first N training scenes of ``dataset`` (0: all).
+    min_reference_psnr : leave out training scenes whose reference is estimated noisier than this
+        (dB, :func:`gmcpt.gan.data.reference_noise_psnr`; 0: keep all).
     extra_datasets : further dataset folders (e.g. a ``--layout interior`` build) whose whole
         ``train`` split joins the training scenes; validation stays ``dataset``'s.
     autoexposure : train (and validate) on scenes brought to the exposure the product runs the
@@ -75,6 +77,7 @@ class TrainConfig:
     checkpoint_every: int = 250
     max_train_scenes: int = 0
     extra_datasets: tuple[str, ...] = ()
+    min_reference_psnr: float = 0.0
     device: str = "cpu"
     autoexposure: bool = False
 
@@ -216,12 +219,15 @@ class Trainer:
             train_paths = train_paths + extra_paths
             self.train_sets.append((extra, [int(p.stem) for p in extra_paths]))
         self.train_seeds = [seed for _, seeds in self.train_sets for seed in seeds]
-        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range, cfg.autoexposure)
+        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range, cfg.autoexposure,
+                                    cfg.min_reference_psnr)
         self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")]
         self.rng = np.random.default_rng([cfg.seed, 0x7EA1])
         self.step, self.history, self.seconds = 0, [], 0.0
+        skipped = f" ({len(self.sampler.skipped)} left out: noisy references)" if self.sampler.skipped else ""
         say(f"generator {parameter_count(self.generator) / 1e6:.3f} M parameters, critic "
-            f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes, {len(self.val)} val")
+            f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes{skipped}, "
+            f"{len(self.val)} val")
 
     # ---------------------------------------------------------------- checkpoints
     @property
