@@ -85,6 +85,16 @@ def shrunk_variance(variance: np.ndarray, mask: np.ndarray, weight: float = VARI
     return np.where(mask, np.maximum(shrunk, 0.0), 0.0).astype(np.float32)
 
 
+def local_noise_scale(variance: np.ndarray, mask: np.ndarray, radius: int = 5, power: float = 0.5) -> np.ndarray:
+    """(H, W) relative noise level: the mean variance of the rendered pixels around each pixel, divided
+    by that map's frame mean, to the ``power`` (all ones where the frame has no variance)."""
+    nearby = _masked_mean(np.asarray(variance, np.float64)[..., None], np.asarray(mask, bool), radius)[..., 0]
+    mean = float(nearby.mean())
+    if not mean > 0:
+        return np.ones(nearby.shape, np.float32)
+    return (np.maximum(nearby, 1e-6 * mean) / mean) ** power
+
+
 def _masked_mean(values: np.ndarray, mask: np.ndarray, radius: int) -> np.ndarray:
     """(H, W, C) mean of ``values`` over the pixels of ``mask`` in each window (0 where it has none)."""
     size = 2 * radius + 1
