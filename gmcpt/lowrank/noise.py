@@ -92,7 +92,7 @@ def local_noise_scale(variance: np.ndarray, mask: np.ndarray, radius: int = 5, p
     mean = float(nearby.mean())
     if not mean > 0:
         return np.ones(nearby.shape, np.float32)
-    return (np.maximum(nearby, 1e-6 * mean) / mean) ** power
+    return ((np.maximum(nearby, 1e-6 * mean) / mean) ** power).astype(np.float32)
 
 
 def _masked_mean(values: np.ndarray, mask: np.ndarray, radius: int) -> np.ndarray:

@@ -470,13 +470,12 @@ def complete_low_rank(pre_completed, observed, mask, *, variance=None, guide=Non
                       params.rendered_weight, params.filled_weight).to(**f32)
     use_guide = guide is not None and params.feature_weight > 0
     g = torch.as_tensor(np.moveaxis(guide, -1, 0), **f32) if use_guide else None
+    rendered_variance = None if variance is None else np.where(mask, variance, 0.0)
+    var = scale = None
     if params.data_term == "soft" and variance is not None:
-        var = torch.as_tensor(np.where(mask, variance, 0.0).reshape(-1), **f32)
-    else:
-        var = None
-    scale = None
+        var = torch.as_tensor(rendered_variance.reshape(-1), **f32)
     if variance is not None and params.noise_power > 0:
-        scale = torch.as_tensor(local_noise_scale(np.where(mask, variance, 0.0), mask, params.noise_radius,
+        scale = torch.as_tensor(local_noise_scale(rendered_variance, mask, params.noise_radius,
                                                   params.noise_power).reshape(-1), **f32)
 
     ys = reference_positions(h, p, params.step).to(dev)
@@ -508,11 +507,12 @@ def complete_low_rank(pre_completed, observed, mask, *, variance=None, guide=Non
         img = x.reshape(h, w, ch)
         for grp in groups[share]:
             t0 = time.perf_counter()
-            weight = wt if scale is None else wt * scale[pixel_indices(grp, w, p)].mean((1, 2))[:, None]
+            pix = pixel_indices(grp, w, p)
+            weight = wt if scale is None else wt * scale[pix].mean((1, 2))[:, None]
             est = low_rank_estimate(gather_groups(img, grp, p), weight, eps=params.eps,
                                     threshold=params.threshold)
             t1 = time.perf_counter()
-            aggregate(est, pixel_indices(grp, w, p), num)
+            aggregate(est, pix, num)
             t_svd, t_agg = t_svd + t1 - t0, t_agg + time.perf_counter() - t1
         return num, t_svd, t_agg
 
