@@ -223,7 +223,7 @@ DEFAULT = LowRankParams()
 #: dataset's validation split 29.61 -> 29.77 dB, on the 5 evaluation scenes (rendered, rates
 #: 0.2/0.3/0.4) 32.65/33.30/33.93 -> 32.77/33.57/34.22 (power 1: 32.76/33.60/34.25, the breakfast room
 #: -0.2 dB).
-#: Then (2026-11-24) ``wiener`` 0 -> 2, the collaborative Wiener pass: ``pawnnm`` on the validation split
+#: Then (2026-11-23) ``wiener`` 0 -> 2, the collaborative Wiener pass: ``pawnnm`` on the validation split
 #: 29.77 -> 30.41 dB (noise scale 1: 30.33, 4: 30.46, 8: 30.43; ``gan_pawnnm`` 31.50 -> 31.59; scale 1:
 #: 31.59, 4: 31.52), on the 5 evaluation scenes 32.77/33.57/34.22 -> 32.85/33.71/34.48, ``gan_pawnnm``
 #: 33.97/34.51/35.00 -> 34.09/34.66/35.17; +0.1 s on a 256x256 frame. The pass reuses the last
