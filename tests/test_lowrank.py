@@ -355,13 +355,16 @@ def test_group_wiener_keeps_clean_groups_and_averages_noise_the_pilot_does_not_e
     # no noise: every component the pilot has is kept, the observations come back
     torch.testing.assert_close(group_wiener(pilot, observed, torch.zeros_like(pilot), 2.0), observed,
                                rtol=0, atol=1e-3)
-    # a pilot whose patches all agree has no variation to keep: each patch becomes the group's mean
+    # a pilot whose patches all agree has no variation to keep: every patch becomes one mean patch
     flat = pilot[:, :1].expand_as(pilot)
     out = group_wiener(flat, observed, torch.ones_like(pilot), 2.0)
-    torch.testing.assert_close(out, observed.mean(1, keepdim=True).expand_as(out), rtol=0, atol=1e-4)
-    # noise far above the pilot's variation: pulled to the mean; far below: kept
+    torch.testing.assert_close(out, out[:, :1].expand_as(out), rtol=0, atol=1e-3)
+    # noise far above the pilot's variation and its error: the pilot's mean patch; far below: kept
     loud = group_wiener(pilot, observed, torch.full_like(pilot, 1e6), 2.0)
-    assert (loud - observed.mean(1, keepdim=True)).abs().max() < 1.0
+    assert (loud - pilot.mean(1, keepdim=True)).abs().max() < 0.1
+    # a pilot far off (its mean patch 30 above, noise of the mean 1/8): the observed mean wins
+    off = group_wiener(pilot + 30, observed, torch.ones_like(pilot), 2.0)
+    assert (off.mean(1) - observed.mean(1)).abs().mean() < 1.0
     quiet = group_wiener(pilot, observed, torch.full_like(pilot, 1e-4), 2.0)
     assert (quiet - observed).abs().max() < 0.05
 

@@ -224,12 +224,12 @@ DEFAULT = LowRankParams()
 #: 0.2/0.3/0.4) 32.65/33.30/33.93 -> 32.77/33.57/34.22 (power 1: 32.76/33.60/34.25, the breakfast room
 #: -0.2 dB).
 #: Then (2026-11-23) ``wiener`` 0 -> 2, the collaborative Wiener pass: ``pawnnm`` on the validation split
-#: 29.77 -> 30.41 dB (noise scale 1: 30.33, 4: 30.46, 8: 30.43; ``gan_pawnnm`` 31.50 -> 31.59; scale 1:
-#: 31.59, 4: 31.52), on the 5 evaluation scenes 32.77/33.57/34.22 -> 32.85/33.71/34.48, ``gan_pawnnm``
-#: 33.97/34.51/35.00 -> 34.09/34.66/35.17; +0.1 s on a 256x256 frame. The pass reuses the last
-#: iteration's groups: re-matching on the result scored the same on validation (30.42 and 31.58 dB) for
-#: +0.25 s. On a reference grid of step 3 instead of 5: +0.04 dB for twice the time; 32 patches a
-#: group: +0.1 dB for four times.
+#: 29.77 -> 30.41 dB, ``gan_pawnnm`` 31.50 -> 31.59 (noise scale 1: 30.33 and 31.59, 4: 30.46 and 31.52,
+#: 8: 30.43 and 31.42); on the 5 evaluation scenes 32.77/33.57/34.22 -> 32.84/33.74/34.57 and
+#: 33.97/34.51/35.00 -> 34.06/34.62/35.06, for +0.1 s on a 256x256 frame. The pass reuses the last
+#: iteration's groups: re-matching on the result scored the same on validation for +0.25 s. On a
+#: reference grid of step 3 instead of 5: +0.04 dB for twice the time; 32 patches a group: +0.1 dB for
+#: four times.
 
 #: NNM ablation: constant threshold (w0 is then a singular value, not its square), one for the frame,
 #: no Wiener pass: the rule of the paper's Table 2 against PAWNNM's weights and nothing of ours.
@@ -567,7 +567,7 @@ def complete_low_rank(pre_completed, observed, mask, *, variance=None, guide=Non
                 groups, den = regroup()
             t0 = time.perf_counter()
             noisy = torch.where(phi[:, None], m, x).reshape(h, w, ch)
-            noise = torch.as_tensor(rendered_variance, **f32)[..., None]
+            noise = torch.as_tensor(rendered_variance, **f32)[..., None].expand(h, w, ch)
 
             def wiener(share):
                 num = torch.zeros(h * w, ch, **f32)

@@ -13,12 +13,20 @@ energy along component ``i`` is its eigenvalue ``lambda_i``, and white noise
 of per-entry variance ``sigma^2`` puts ``d * sigma^2`` of energy on every
 component. The estimate is
 
-    Y_hat = V diag(lambda / (lambda + s * d * sigma^2)) V^T Y + mean(Y)
+    Y_hat = V diag(lambda / (lambda + s * d * sigma^2)) V^T Y + mean
 
 with ``sigma^2`` the group's mean per-entry variance (0 at untraced pixels)
-and ``s`` the noise scale (:attr:`~gmcpt.lowrank.LowRankParams.wiener`). It is a
-linear filter of the samples, so the pilot's own errors (residual noise,
-blotches) do not pass into the result, only its sense of which patches agree.
+and ``s`` the noise scale (:attr:`~gmcpt.lowrank.LowRankParams.wiener`). The
+mean patch is the pilot's, moved towards the observed mean patch by a second
+Wiener factor, ``tau^2 / (tau^2 + sigma_k^2 / K)`` per entry, where
+``sigma_k^2 / K`` is the noise of that mean and ``tau^2`` the pilot's error
+seen in it (the mean squared difference of the two mean patches less that
+noise). Keeping the observed mean unfiltered instead scored the same PSNR
+but left its noise, 1/K of the samples', in flat regions (mean SSIM of the 5
+evaluation scenes 0.933-0.937 for ``gan_pawnnm`` against 0.938-0.946).
+
+The result is a filter of the samples: the pilot's own errors (residual noise,
+blotches) pass into it only as far as the samples do not contradict them.
 """
 from __future__ import annotations
 
@@ -45,10 +53,15 @@ def group_wiener(pilot: torch.Tensor, observed: torch.Tensor, noise: torch.Tenso
     """
     from .pawnnm import _eigh
 
-    centred_pilot = pilot - pilot.mean(1, keepdim=True)
-    mean = observed.mean(1, keepdim=True)
+    tiny = torch.finfo(pilot.dtype).tiny
+    pilot_mean, observed_mean = pilot.mean(1, keepdim=True), observed.mean(1, keepdim=True)
+    centred_pilot = pilot - pilot_mean
     lam, vectors = _eigh(centred_pilot @ centred_pilot.mT)             # (G, K), (G, K, K)
     lam = lam.clamp_min(0.0)
     noise_energy = noise_scale * pilot.shape[-1] * noise.mean((1, 2))[:, None]
-    factor = lam / (lam + noise_energy).clamp_min(torch.finfo(lam.dtype).tiny)
-    return ((vectors * factor[:, None, :]) @ vectors.mT) @ (observed - mean) + mean
+    factor = lam / (lam + noise_energy).clamp_min(tiny)
+    mean_noise = noise.mean(1, keepdim=True) / pilot.shape[1]            # (G, 1, d)
+    difference = observed_mean - pilot_mean
+    tau2 = ((difference ** 2).mean(-1, keepdim=True) - mean_noise.mean(-1, keepdim=True)).clamp_min(0.0)
+    mean = pilot_mean + torch.where(mean_noise > 0, tau2 / (tau2 + mean_noise).clamp_min(tiny), 1.0) * difference
+    return ((vectors * factor[:, None, :]) @ vectors.mT) @ (observed - observed_mean) + mean
