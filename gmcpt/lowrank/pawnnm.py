@@ -224,9 +224,10 @@ DEFAULT = LowRankParams()
 #: 0.2/0.3/0.4) 32.65/33.30/33.93 -> 32.77/33.57/34.22 (power 1: 32.76/33.60/34.25, the breakfast room
 #: -0.2 dB).
 #: Then (2026-11-23) ``wiener`` 0 -> 2, the collaborative Wiener pass: ``pawnnm`` on the validation split
-#: 29.77 -> 30.41 dB, ``gan_pawnnm`` 31.50 -> 31.59 (with the samples' mean patch unfiltered and
-#: re-matched groups, noise scale 1: 30.33 and 31.59, 2: 30.46 and 31.57, 4: 30.46 and 31.52, 8: 30.43
-#: and 31.42); on the 5 evaluation scenes 32.77/33.57/34.22 -> 32.84/33.74/34.57 and
+#: 29.77 -> 30.41 dB, ``gan_pawnnm`` 31.50 -> 31.59 (before the mean patch's own factor, with re-matched
+#: groups: on a step-3 grid, noise scale 1: 30.33 and 31.58, 2: 30.46 and 31.57, 4: 30.51 and 31.52; on
+#: the step-5 grid ``pawnnm`` 2: 30.41, 4: 30.46, 8: 30.43, ``gan_pawnnm`` 1: 31.59, 2: 31.57, 4: 31.52);
+#: on the 5 evaluation scenes 32.77/33.57/34.22 -> 32.84/33.74/34.57 and
 #: 33.97/34.51/35.00 -> 34.06/34.62/35.06, for +0.1 s on a 256x256 frame. The pass reuses the last
 #: iteration's groups: re-matching on the result scored the same on validation for +0.25 s. On a
 #: reference grid of step 3 instead of 5: +0.04 dB for twice the time; 32 patches a group: +0.1 dB for
