@@ -50,6 +50,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import torch
 
+from .linalg import stable_eigh
 from .matching import block_match
 from .noise import local_noise_scale
 from .patches import aggregate, coverage, gather_groups, pixel_indices, reference_positions
@@ -245,27 +246,6 @@ def _shrink_factor(s: torch.Tensor, w: float, eps: float, threshold: str) -> tor
     return torch.where(s > 0, shrunk / s.clamp_min(torch.finfo(s.dtype).tiny), 0.0)
 
 
-def _eigh(gram: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Batched ``torch.linalg.eigh``, redone in float64 for the matrices float32 LAPACK gets wrong.
-
-    On a near-rank-1 Gram matrix with many (near-)repeated zero eigenvalues,
-    float32 ``eigh`` on the CPU can return NaN eigenvectors without raising
-    (measured: torch 2.13, a group of 15 identical patches and one other),
-    and a NaN then spreads through the image; or it raises. Those matrices
-    are decomposed again in float64.
-    """
-    try:
-        lam, vec = torch.linalg.eigh(gram)
-    except torch.linalg.LinAlgError:
-        lam, vec = torch.linalg.eigh(gram.double())
-        return lam.to(gram.dtype), vec.to(gram.dtype)
-    bad = ~(torch.isfinite(lam).all(-1) & torch.isfinite(vec).flatten(1).all(-1))
-    if bad.any():
-        lam64, vec64 = torch.linalg.eigh(gram[bad].double())
-        lam[bad], vec[bad] = lam64.to(lam.dtype), vec64.to(vec.dtype)
-    return lam, vec
-
-
 def low_rank_estimate(groups: torch.Tensor, w: float | torch.Tensor, *, eps: float = 1e-8,
                       threshold: str = "weighted") -> torch.Tensor:
     """Weighted singular value thresholding of a batch of group matrices.
@@ -292,11 +272,11 @@ def low_rank_estimate(groups: torch.Tensor, w: float | torch.Tensor, *, eps: flo
     y = groups - mean
     k, d = y.shape[1:]
     if k <= d:   # X^T X = V S^2 V^T  ->  X_hat^T = V f(S) V^T X^T
-        lam, v = _eigh(y @ y.mT)                              # (G, K, K)
+        lam, v = stable_eigh(y @ y.mT)                        # (G, K, K)
         f = _shrink_factor(lam.clamp_min(0).sqrt(), w, eps, threshold)
         est = ((v * f[:, None, :]) @ v.mT) @ y
     else:        # X X^T = U S^2 U^T  ->  X_hat^T = X^T U f(S) U^T
-        lam, u = _eigh(y.mT @ y)                              # (G, d, d)
+        lam, u = stable_eigh(y.mT @ y)                        # (G, d, d)
         f = _shrink_factor(lam.clamp_min(0).sqrt(), w, eps, threshold)
         est = y @ ((u * f[:, None, :]) @ u.mT)
     return est.add_(mean)

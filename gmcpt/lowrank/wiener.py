@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import torch
 
+from .linalg import stable_eigh
+
 
 def group_wiener(pilot: torch.Tensor, observed: torch.Tensor, noise: torch.Tensor,
                  noise_scale: float) -> torch.Tensor:
@@ -51,12 +53,10 @@ def group_wiener(pilot: torch.Tensor, observed: torch.Tensor, noise: torch.Tenso
     torch.Tensor
         ``(G, K, d)`` filtered groups.
     """
-    from .pawnnm import _eigh
-
     tiny = torch.finfo(pilot.dtype).tiny
     pilot_mean, observed_mean = pilot.mean(1, keepdim=True), observed.mean(1, keepdim=True)
     centred_pilot = pilot - pilot_mean
-    lam, vectors = _eigh(centred_pilot @ centred_pilot.mT)             # (G, K), (G, K, K)
+    lam, vectors = stable_eigh(centred_pilot @ centred_pilot.mT)       # (G, K), (G, K, K)
     lam = lam.clamp_min(0.0)
     noise_energy = noise_scale * pilot.shape[-1] * noise.mean((1, 2))[:, None]
     factor = lam / (lam + noise_energy).clamp_min(tiny)
