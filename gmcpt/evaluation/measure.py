@@ -150,7 +150,8 @@ def stage_timings(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
                    "render_s": render_timings["render_s"],
                    "pre_completion_s": timings.get("pre_completion_s", 0.0),
                    "block_matching_s": timings.get("block_matching_s", 0.0), "svd_s": timings.get("svd_s", 0.0),
-                   "aggregation_s": timings.get("aggregation_s", 0.0), "completion_s": timings["completion_s"]}
+                   "aggregation_s": timings.get("aggregation_s", 0.0), "wiener_s": timings.get("wiener_s", 0.0),
+                   "completion_s": timings["completion_s"]}
             row["total_s"] = row["features_s"] + row["render_s"] + row["completion_s"]
             rows.append(row)
             say(f"  timings {eval_scene.name} {resolution}px {label}: total {row['total_s']:.2f} s")
