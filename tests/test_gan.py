@@ -470,7 +470,7 @@ def test_presets_load():
 
     cpu, gpu = load_config("cpu"), load_config("gpu")
     assert cpu.train.device == "cpu" and gpu.train.device == "cuda"
-    assert cpu.generator.base == "guided" and gpu.generator.base == "push_pull"
+    assert cpu.generator.base == gpu.generator.base == "guided_smooth"
     assert cpu.loss == losses.LossWeights()
 
 
