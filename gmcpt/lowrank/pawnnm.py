@@ -522,6 +522,19 @@ def complete_low_rank(pre_completed, observed, mask, *, variance=None, guide=Non
             t_svd, t_agg = t_svd + t1 - t0, t_agg + time.perf_counter() - t1
         return num, t_svd, t_agg
 
+    def wiener(share):
+        num = torch.zeros(h * w, ch, **f32)
+        pilot = x.reshape(h, w, ch)
+        for grp in groups[share]:
+            est = group_wiener(gather_groups(pilot, grp, p), gather_groups(noisy, grp, p),
+                               gather_groups(noise, grp, p), params.wiener)
+            aggregate(est, pixel_indices(grp, w, p), num)
+        return num
+
+    def average(num):
+        """The aggregated patch estimates as an image; pixels no group covers keep the current value."""
+        return torch.where((den > 0)[:, None], num / den.clamp_min(1.0)[:, None], x)
+
     try:
         for it in range(params.iterations):
             if it % params.rematch_every == 0:
@@ -536,7 +549,7 @@ def complete_low_rank(pre_completed, observed, mask, *, variance=None, guide=Non
             timing["aggregation_s"] += wall * sum(r[2] for r in res) / busy
 
             t0 = time.perf_counter()
-            x_hat = torch.where((den > 0)[:, None], num / den.clamp_min(1.0)[:, None], x)
+            x_hat = average(num)
             x_new = _data_term(x_hat, m, phi, var, params, last=it == params.iterations - 1)
             if params.momentum and it < params.iterations - 1:
                 x_new = torch.where(phi[:, None], x_new, x_new + params.momentum * (x_new - x))
@@ -550,17 +563,7 @@ def complete_low_rank(pre_completed, observed, mask, *, variance=None, guide=Non
             t0 = time.perf_counter()
             noisy = torch.where(phi[:, None], m, x).reshape(h, w, ch)
             noise = torch.as_tensor(rendered_variance, **f32)[..., None].expand(h, w, ch)
-
-            def wiener(share):
-                num = torch.zeros(h * w, ch, **f32)
-                pilot = x.reshape(h, w, ch)
-                for grp in groups[share]:
-                    est = group_wiener(gather_groups(pilot, grp, p), gather_groups(noisy, grp, p),
-                                       gather_groups(noise, grp, p), params.wiener)
-                    aggregate(est, pixel_indices(grp, w, p), num)
-                return num
-
-            x = torch.where((den > 0)[:, None], sum(run(wiener)) / den.clamp_min(1.0)[:, None], x)
+            x = average(sum(run(wiener)))
             timing["wiener_s"] = time.perf_counter() - t0
     finally:
         run.close()
