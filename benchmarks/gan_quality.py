@@ -65,7 +65,7 @@ def main() -> int:
     import gmcpt  # noqa: F401
     import mitsuba as mi
     from gmcpt.completion import complete
-    from gmcpt.evaluation.baselines import denoise_oidn
+    from gmcpt.denoise import denoise_oidn
     from gmcpt.metrics import all_metrics
     from gmcpt.render import RenderSettings, render_features, render_sparse_frame
 

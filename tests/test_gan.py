@@ -409,6 +409,45 @@ def test_reference_noise_estimate_and_the_training_filter_on_it(tmp_path):
     assert reference_noise_psnr(load_example(sampler.skipped[0])) == estimates[0]
 
 
+def test_reference_denoiser_removes_speckle_and_keeps_the_level():
+    pytest.importorskip("pyoidn")
+    from gmcpt.denoise import clean_reference
+
+    size = 64
+    clean = np.full((size, size, 3), 0.4, np.float32)
+    clean[:, size // 2:] = 0.1                                     # two flat regions
+    speckled = (clean * np.random.default_rng(3).gamma(2.0, 0.5, clean.shape)).astype(np.float32)
+    example = {"reference": speckled, "albedo": np.full_like(clean, 0.5),
+               "normal": np.broadcast_to(np.float32([0, 0, 1]), clean.shape).copy()}
+    cleaned = clean_reference(example, "oidn")
+    assert np.mean((cleaned - clean) ** 2) < 0.1 * np.mean((speckled - clean) ** 2)
+    for half in (slice(4, size // 2 - 4), slice(size // 2 + 4, size - 4)):
+        assert cleaned[:, half].mean() == pytest.approx(clean[:, half].mean(), rel=0.05)
+    assert cleaned.min() >= 0 and np.array_equal(clean_reference(example, "oidn"), cleaned)
+    assert clean_reference(example, "none") is speckled
+    with pytest.raises(ValueError, match="reference denoiser"):
+        clean_reference(example, "median")
+
+
+def test_patch_sampler_trains_on_the_denoised_references(tmp_path):
+    pytest.importorskip("pyoidn")
+    from gmcpt.dataset import list_examples, load_example
+    from gmcpt.denoise import clean_reference
+    from gmcpt.domain import WorkingDomain
+    from gmcpt.gan.data import PatchSampler, working_to_radiance
+
+    _tiny_dataset(tmp_path)
+    paths = list_examples(tmp_path, "train")
+    to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(2, 0, 1)))[None]  # noqa: E731
+    sampler = PatchSampler(paths, crop=16, reference_denoiser="oidn")
+    for scene, path in zip(sampler.scenes, paths):
+        target = working_to_radiance(to_tensor(scene[..., 0:3]), to_tensor(scene[..., 16:19]), WorkingDomain())
+        example = load_example(path)
+        expected = clean_reference(example, "oidn")
+        assert not np.allclose(expected, example["reference"], atol=1e-3)
+        assert np.allclose(target[0].numpy().transpose(1, 2, 0), expected, rtol=1e-4, atol=1e-5)
+
+
 def test_sampled_targets_map_back_to_the_reference_at_its_own_exposure(tmp_path):
     from gmcpt.dataset import list_examples, load_example
     from gmcpt.domain import WorkingDomain

@@ -1,11 +1,10 @@
-"""The contenders that are not completion methods: full-frame path tracing, and path tracing + OIDN."""
+"""The contenders that are not completion methods: full-frame path tracing (and, with
+:func:`gmcpt.denoise.denoise_oidn` on it, path tracing + OIDN)."""
 from __future__ import annotations
 
 import time
 
 import numpy as np
-
-from ..errors import GmcptError
 
 
 def render_full(scene, integrator, spp: int, seed: int) -> np.ndarray:
@@ -16,17 +15,6 @@ def render_full(scene, integrator, spp: int, seed: int) -> np.ndarray:
     image = mi.render(scene, integrator=integrator, spp=spp, seed=seed)
     dr.eval(image)
     return np.asarray(image, dtype=np.float32)[..., :3]
-
-
-def denoise_oidn(image: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.ndarray:
-    """Intel Open Image Denoise on the CPU (``pyoidn``, weights inside its wheel), HDR, with albedo and normal."""
-    try:
-        import pyoidn
-    except ImportError:
-        raise GmcptError("the path tracing + OIDN baseline needs pyoidn: pip install -e '.[dev]'") from None
-    contiguous = lambda array: np.ascontiguousarray(array, dtype=np.float32)  # noqa: E731
-    return np.asarray(pyoidn.denoise(contiguous(image), contiguous(albedo), contiguous(normal), hdr=True),
-                      dtype=np.float32)
 
 
 def fastest(function, repeats: int):

@@ -12,8 +12,9 @@ from typing import Callable
 
 import numpy as np
 
+from ..denoise import denoise_oidn
 from ..metrics import all_metrics
-from .baselines import denoise_oidn, fastest, render_full
+from .baselines import fastest, render_full
 from .config import SECOND_REFERENCE_SEED, VARIANTS, EvalConfig, Variant, patch_variant
 
 Say = Callable[[str], None]

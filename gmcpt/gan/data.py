@@ -97,7 +97,8 @@ class TrainingBatch(NamedTuple):
 class PatchSampler:
     """Random training crops from dataset examples, with fresh masks.
 
-    Each scene is kept in memory as one (H, W, 19) array: reference (3) and
+    Each scene is kept in memory as one (H, W, 19) array: reference (3; denoised first by
+    ``reference_denoiser``, :func:`gmcpt.denoise.clean_reference`) and
     full-frame noisy radiance (3) in the working domain / 255, noise std (1),
     albedo (3), normal (3), depth, visibility, coverage, and the factor back to linear radiance at
     the scene's dataset exposure (3).
@@ -105,8 +106,9 @@ class PatchSampler:
 
     def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
                  rate_range: tuple[float, float] = (0.15, 0.5), autoexposure: bool = False,
-                 min_reference_psnr: float = 0.0):
+                 min_reference_psnr: float = 0.0, reference_denoiser: str = "none"):
         from ..dataset import load_example
+        from ..denoise import clean_reference
         from .infer import autoexposure as exposure_of, exposed
 
         if not paths:
@@ -124,7 +126,7 @@ class PatchSampler:
             factor = domain.frame_factor(full)
             exposure = exposure_of(full) if autoexposure else 1.0
             full = exposed(full, exposure)
-            parts = [domain.forward(example["reference"] * exposure, factor) / SCALE,
+            parts = [domain.forward(clean_reference(example, reference_denoiser) * exposure, factor) / SCALE,
                      domain.forward(full.radiance, factor) / SCALE,
                      working_std(domain, full.radiance, full.variance, factor, traced)[..., None],
                      example["albedo"], example["normal"], example["depth"][..., None],

@@ -55,6 +55,9 @@ class TrainConfig:
     max_train_scenes : use only the first N training scenes of ``dataset`` (0: all).
     min_reference_psnr : leave out training scenes whose reference is estimated noisier than this
         (dB, :func:`gmcpt.gan.data.reference_noise_psnr`; 0: keep all).
+    reference_denoiser : ``"oidn"``: denoise each training scene's reference before training
+        (:func:`gmcpt.denoise.clean_reference`; the validation references stay as rendered);
+        ``"none"``: train on the references as rendered.
     extra_datasets : further dataset folders (e.g. a ``--layout interior`` build) whose whole
         ``train`` split joins the training scenes; validation stays ``dataset``'s.
     autoexposure : train (and validate) on scenes brought to the exposure the product runs the
@@ -78,6 +81,7 @@ class TrainConfig:
     max_train_scenes: int = 0
     extra_datasets: tuple[str, ...] = ()
     min_reference_psnr: float = 0.0
+    reference_denoiser: str = "none"
     device: str = "cpu"
     autoexposure: bool = False
 
@@ -220,7 +224,7 @@ class Trainer:
             self.train_sets.append((extra, [int(p.stem) for p in extra_paths]))
         self.train_seeds = [seed for _, seeds in self.train_sets for seed in seeds]
         self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range, cfg.autoexposure,
-                                    cfg.min_reference_psnr)
+                                    cfg.min_reference_psnr, cfg.reference_denoiser)
         self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")]
         self.rng = np.random.default_rng([cfg.seed, 0x7EA1])
         self.step, self.history, self.seconds = 0, [], 0.0
