@@ -1,5 +1,6 @@
 """GAN pre-completion: model, loss terms, weights I/O, training loop, completion methods."""
 import json
+import math
 
 import numpy as np
 import pytest
@@ -40,19 +41,22 @@ def test_generator_starts_from_the_fill_and_is_small():
     torch.testing.assert_close(out, push_pull(radiance, features[:, :1]))
 
 
-@pytest.mark.parametrize("base, keep_samples", [("guided", True), ("guided_smooth", False)])
-def test_guided_bases_are_the_classical_feature_guided_fill(base, keep_samples):
+@pytest.mark.parametrize("base, keep_samples, radius_scale",
+                         [("guided", True, 1.0), ("guided_smooth", False, 1.0), ("guided_smooth", False, 2.0)])
+def test_guided_bases_are_the_classical_feature_guided_fill(base, keep_samples, radius_scale):
     from dataclasses import replace
 
-    from gmcpt.completion.classical import guided_fill
+    from gmcpt.completion.classical import GuidedFillParams, guided_fill
 
-    config = replace(SMALL, base=base)
+    config = replace(SMALL, base=base, base_radius_scale=radius_scale)
     radiance, features = _inputs(batch=2, size=24, config=config)
     out = Generator(config)(radiance, features)   # zero-initialised tail: the base itself
     for i in range(2):
         image = radiance[i].permute(1, 2, 0).numpy()
         aux = features[i].permute(1, 2, 0).numpy()
-        expected = guided_fill(image, aux[..., 0] > 0, aux[..., 1:9], keep_samples=keep_samples)
+        mask = aux[..., 0] > 0
+        radius = math.ceil(radius_scale * 1.5 / math.sqrt(mask.mean()))   # the window the scale widens
+        expected = guided_fill(image, mask, aux[..., 1:9], GuidedFillParams(radius=radius), keep_samples)
         np.testing.assert_allclose(out[i].detach().permute(1, 2, 0).numpy(), expected, atol=1e-6)
     assert not torch.allclose(out, push_pull(radiance, features[:, :1]))
     traced = features[:, :1].expand_as(radiance) > 0
@@ -63,6 +67,8 @@ def test_guided_bases_are_the_classical_feature_guided_fill(base, keep_samples):
 def test_guided_base_config_is_checked():
     with pytest.raises(ValueError, match="generator base must be one of"):
         GeneratorConfig(base="bilinear")
+    with pytest.raises(ValueError, match="base_radius_scale must be > 0"):
+        GeneratorConfig(base="guided", base_radius_scale=0.0)
 
 
 def test_kernel_head_is_a_weighted_mean_of_traced_samples_and_the_fill():
@@ -316,6 +322,40 @@ def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
     monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
     record = cli.export(again, "tiny", "python -m gmcpt train ...")
     assert record["dataset"]["version"] == 1 and (tmp_path / "shipped" / "tiny.pt").is_file()
+
+
+def test_weight_average_follows_each_step_resumes_and_is_what_gets_exported(tmp_path, monkeypatch):
+    from gmcpt.gan import cli, weights
+    from gmcpt.gan.train import Trainer, load_config
+
+    data = tmp_path / "data"
+    _tiny_dataset(data)
+    overrides = {"train.dataset": str(data), "train.steps": 2, "train.max_train_scenes": 0, "train.batch": 2,
+                 "train.crop": 16, "train.eval_every": 2, "train.checkpoint_every": 1, "train.ema": 0.75,
+                 "critic.widths": [8, 8], "generator.widths": [8, 8, 8], "generator.encoder_blocks": [1, 1, 1],
+                 "generator.condition_width": 4}
+    trainer = Trainer(load_config("cpu", overrides), tmp_path / "run", lambda m: None)
+    before = {k: v.clone() for k, v in trainer.averaged.state_dict().items()}
+    trainer.train_step()
+    after = trainer.generator.state_dict()
+    for name, average in trainer.averaged.state_dict().items():
+        torch.testing.assert_close(average, 0.75 * before[name] + 0.25 * after[name])
+    assert trainer.trained is trainer.averaged
+    assert not all(torch.equal(a, b) for a, b in zip(trainer.averaged.state_dict().values(), after.values()))
+
+    done = Trainer(load_config("cpu", overrides), tmp_path / "run", lambda m: None)
+    done.run()
+    resumed = Trainer(load_config("cpu", overrides), tmp_path / "run", lambda m: None)
+    assert resumed.load_checkpoint()
+    for a, b in zip(resumed.averaged.state_dict().values(), done.averaged.state_dict().values()):
+        assert torch.equal(a, b)
+    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    cli.export(resumed, "tiny", "python -m gmcpt train ...")
+    exported, _ = weights.load_generator(str(tmp_path / "shipped" / "tiny.pt"))
+    for a, b in zip(exported.state_dict().values(), done.averaged.state_dict().values()):
+        torch.testing.assert_close(a, b, atol=1e-3, rtol=1e-3)   # stored in half precision
+    with pytest.raises(ValueError, match="train.ema must be in"):
+        Trainer(load_config("cpu", {**overrides, "train.ema": 1.0}), tmp_path / "bad", lambda m: None)
 
 
 def test_extra_datasets_join_the_training_scenes_and_the_weights_record_them(tmp_path, monkeypatch):

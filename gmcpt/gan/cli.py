@@ -61,7 +61,7 @@ def export(trainer, name: str, command: str) -> dict:
                             "val_seeds": [e["meta"]["seed"] for e in trainer.val],
                             **({"extra_datasets": extras} if extras else {})},
                 "training": trainer.summary(), "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    return save_weights(WEIGHTS_DIR / f"{name}.pt", trainer.generator, metadata)
+    return save_weights(WEIGHTS_DIR / f"{name}.pt", trainer.trained, metadata)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -53,6 +53,7 @@ class GeneratorConfig:
     base : the fixed fill the network corrects: ``"push_pull"`` (feature-blind pyramid),
         ``"guided"`` (:func:`gmcpt.completion.classical.guided_fill`, runs on the CPU in numpy) or
         ``"guided_smooth"`` (the same, with the traced pixels smoothed too rather than kept).
+    base_radius_scale : widens the guided fills' window (its radius times this; 1 = ``interp``'s).
     output : ``"residual"``: the network adds a correction to the fill; ``"kernel"``: it predicts,
         for every pixel, weights over the traced samples of a ``kernel_size`` square window and
         the fill (a softmax over those that exist) and adds a small correction to their weighted
@@ -67,6 +68,7 @@ class GeneratorConfig:
     use_variance: bool = True
     use_coverage: bool = False
     base: str = "push_pull"
+    base_radius_scale: float = 1.0
     output: str = "residual"
     kernel_size: int = 9
 
@@ -75,6 +77,8 @@ class GeneratorConfig:
             raise ValueError(f"generator base must be one of {', '.join(BASES)}, got {self.base!r}")
         if self.output not in OUTPUTS:
             raise ValueError(f"generator output must be one of {', '.join(OUTPUTS)}, got {self.output!r}")
+        if not self.base_radius_scale > 0:
+            raise ValueError(f"base_radius_scale must be > 0, got {self.base_radius_scale!r}")
         if self.kernel_size < 1 or self.kernel_size % 2 == 0:
             raise ValueError(f"kernel_size must be a positive odd number, got {self.kernel_size}")
 
@@ -118,21 +122,26 @@ def push_pull(values: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
     return weights * values + (1 - weights) * up
 
 
-def guided_base(radiance: torch.Tensor, features: torch.Tensor, keep_samples: bool = True) -> torch.Tensor:
+def guided_base(radiance: torch.Tensor, features: torch.Tensor, keep_samples: bool = True,
+                radius_scale: float = 1.0) -> torch.Tensor:
     """The feature-guided fill of each (B, 3, H, W) ``radiance`` from its (B, F, H, W) ``features``
-    (``keep_samples=False``: the traced pixels are smoothed by the same weights, see ``guided_fill``)."""
-    from ..completion.classical import guided_fill
+    (``keep_samples=False``: the traced pixels are smoothed by the same weights, see ``guided_fill``;
+    ``radius_scale`` widens its window, :class:`~gmcpt.completion.classical.GuidedFillParams`)."""
+    from ..completion.classical import GuidedFillParams, guided_fill
 
+    params = GuidedFillParams(radius_scale=radius_scale)
     values = radiance.detach().permute(0, 2, 3, 1).cpu().numpy()
     aux = features.detach().permute(0, 2, 3, 1).cpu().numpy()
-    filled = [guided_fill(values[i], aux[i, ..., 0] > 0, aux[i, ..., 1:FEATURE_CHANNELS], keep_samples=keep_samples)
+    filled = [guided_fill(values[i], aux[i, ..., 0] > 0, aux[i, ..., 1:FEATURE_CHANNELS], params, keep_samples)
               for i in range(len(values))]
     return torch.from_numpy(np.stack(filled)).permute(0, 3, 1, 2).to(radiance)
 
 
 #: The fixed fills a generator can start from.
-BASES = {"push_pull": lambda radiance, features: push_pull(radiance, features[:, :1]), "guided": guided_base,
-         "guided_smooth": lambda radiance, features: guided_base(radiance, features, keep_samples=False)}
+BASES = {"push_pull": lambda radiance, features, radius_scale=1.0: push_pull(radiance, features[:, :1]),
+         "guided": guided_base,
+         "guided_smooth": lambda radiance, features, radius_scale=1.0: guided_base(radiance, features, False,
+                                                                                    radius_scale)}
 
 #: How the last layer turns into an image (:class:`GeneratorConfig`.output).
 OUTPUTS = ("residual", "kernel")
@@ -273,7 +282,7 @@ class Generator(nn.Module):
         return x
 
     def forward(self, radiance: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
-        fill = BASES[self.config.base](radiance, features)
+        fill = BASES[self.config.base](radiance, features, radius_scale=self.config.base_radius_scale)
         cond = self.condition(F.pixel_unshuffle(features, 2))
         x = F.pixel_unshuffle(torch.cat([radiance, fill, features], 1), 2)
         x0 = self._run(self.enc0, self.head(x), cond[0])

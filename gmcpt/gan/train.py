@@ -16,6 +16,7 @@ the L1, L2 and Wasserstein distances (paper Fig. 4) and the validation PSNR.
 """
 from __future__ import annotations
 
+import copy
 import json
 import math
 import os
@@ -55,6 +56,8 @@ class TrainConfig:
     max_train_scenes : use only the first N training scenes of ``dataset`` (0: all).
     min_reference_psnr : leave out training scenes whose reference is estimated noisier than this
         (dB, :func:`gmcpt.gan.data.reference_noise_psnr`; 0: keep all).
+    ema : decay per step of an exponential moving average of the generator's weights, which
+        validation, the summary and ``--export`` then use (0: off, the last step's weights).
     reference_denoiser : ``"oidn"``: denoise each training scene's reference before training
         (:func:`gmcpt.denoise.clean_reference`; the validation references stay as rendered);
         ``"none"``: train on the references as rendered.
@@ -82,6 +85,7 @@ class TrainConfig:
     extra_datasets: tuple[str, ...] = ()
     min_reference_psnr: float = 0.0
     reference_denoiser: str = "none"
+    ema: float = 0.0
     device: str = "cpu"
     autoexposure: bool = False
 
@@ -204,6 +208,10 @@ class Trainer:
         self.device = torch.device(cfg.device)
         self.domain = WorkingDomain()
         self.generator = Generator(config.generator).to(self.device)
+        if not 0 <= cfg.ema < 1:
+            raise ValueError(f"train.ema must be in [0, 1), got {cfg.ema!r}")
+        #: the weights' moving average (train.ema), or None
+        self.averaged = copy.deepcopy(self.generator).requires_grad_(False) if cfg.ema else None
         self.critic = Critic(config.generator.feature_channels, config.critic).to(self.device)
         self.extractor = FixedFeatureExtractor().to(self.device)
         self.opt_g = torch.optim.Adam(self.generator.parameters(), lr=cfg.lr_g, betas=(0.9, 0.99))
@@ -242,6 +250,7 @@ class Trainer:
         state = {"step": self.step, "seconds": self.seconds, "config": json.dumps(self.config.to_dict()),
                  "generator": self.generator.state_dict(), "critic": self.critic.state_dict(),
                  "opt_g": self.opt_g.state_dict(), "opt_d": self.opt_d.state_dict(),
+                 **({} if self.averaged is None else {"averaged": self.averaged.state_dict()}),
                  "torch_rng": torch.get_rng_state(),
                  "numpy_rng": json.dumps(self.rng.bit_generator.state), "history": json.dumps(self.history)}
         self.out.mkdir(parents=True, exist_ok=True)
@@ -257,6 +266,8 @@ class Trainer:
         if json.loads(json.dumps(stored)) != json.loads(json.dumps(self.config.to_dict())):
             raise ValueError(f"{self.checkpoint_path} was made with another config; use a new --out")
         self.generator.load_state_dict(state["generator"])
+        if self.averaged is not None:
+            self.averaged.load_state_dict(state["averaged"])
         self.critic.load_state_dict(state["critic"])
         self.opt_g.load_state_dict(state["opt_g"])
         self.opt_d.load_state_dict(state["opt_d"])
@@ -307,6 +318,10 @@ class Trainer:
         self.opt_g.zero_grad(set_to_none=True)
         loss_g.backward()
         self.opt_g.step()
+        if self.averaged is not None:
+            with torch.no_grad():
+                for average, weight in zip(self.averaged.state_dict().values(), self.generator.state_dict().values()):
+                    average.lerp_(weight, 1.0 - cfg.ema) if average.is_floating_point() else average.copy_(weight)
         record.update(terms, loss=float(loss_g.detach()), l2=float(l2_loss(fake.detach(), target)))
         return record
 
@@ -323,7 +338,7 @@ class Trainer:
             self.history.append({"step": self.step, **{k: round(v, 6) for k, v in record.items()}})
             last = self.step == cfg.steps
             if self.val and (self.step % cfg.eval_every == 0 or last):
-                self.history.append({"step": self.step, **validate(self.generator, self.val, self.domain, cfg.autoexposure)})
+                self.history.append({"step": self.step, **validate(self.trained, self.val, self.domain, cfg.autoexposure)})
                 recent = [h for h in self.history[-cfg.eval_every - 1:] if "l1" in h]
                 critic = [h["wdist"] for h in recent if "wdist" in h]  # none before critic_start
                 self.say(f"step {self.step}/{cfg.steps} ({self.seconds / 60:.1f} min): "
@@ -335,6 +350,11 @@ class Trainer:
                 plot_curves(self.history, self.out / "curves.png", f"{self.out.name}")
         (self.out / "history.json").write_text(json.dumps(self.history))
         return self.summary()
+
+    @property
+    def trained(self) -> Generator:
+        """The generator the run produces: the moving average of its weights with ``train.ema``, else itself."""
+        return self.generator if self.averaged is None else self.averaged
 
     def summary(self) -> dict:
         val = [h for h in self.history if "val_psnr" in h]
