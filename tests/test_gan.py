@@ -356,6 +356,8 @@ def test_weight_average_follows_each_step_resumes_and_is_what_gets_exported(tmp_
         torch.testing.assert_close(a, b, atol=1e-3, rtol=1e-3)   # stored in half precision
     with pytest.raises(ValueError, match="train.ema must be in"):
         Trainer(load_config("cpu", {**overrides, "train.ema": 1.0}), tmp_path / "bad", lambda m: None)
+    with pytest.raises(ValueError, match="train.reference_denoiser must be one of none, oidn"):
+        load_config("cpu", {"train.reference_denoiser": "median"})
 
 
 def test_extra_datasets_join_the_training_scenes_and_the_weights_record_them(tmp_path, monkeypatch):

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ..denoise import REFERENCE_DENOISERS
 from ..domain import WorkingDomain
 from .data import working_to_radiance
 from .losses import (FixedFeatureExtractor, LossWeights, critic_loss, gradient_penalty, hybrid_loss, l2_loss,
@@ -88,6 +89,13 @@ class TrainConfig:
     ema: float = 0.0
     device: str = "cpu"
     autoexposure: bool = False
+
+    def __post_init__(self):
+        if not 0 <= self.ema < 1:
+            raise ValueError(f"train.ema must be in [0, 1), got {self.ema!r}")
+        if self.reference_denoiser not in REFERENCE_DENOISERS:
+            raise ValueError(f"train.reference_denoiser must be one of {', '.join(REFERENCE_DENOISERS)}, "
+                             f"got {self.reference_denoiser!r}")
 
 
 @dataclass(frozen=True)
@@ -208,8 +216,6 @@ class Trainer:
         self.device = torch.device(cfg.device)
         self.domain = WorkingDomain()
         self.generator = Generator(config.generator).to(self.device)
-        if not 0 <= cfg.ema < 1:
-            raise ValueError(f"train.ema must be in [0, 1), got {cfg.ema!r}")
         #: the weights' moving average (train.ema), or None
         self.averaged = copy.deepcopy(self.generator).requires_grad_(False) if cfg.ema else None
         self.critic = Critic(config.generator.feature_channels, config.critic).to(self.device)
@@ -321,7 +327,10 @@ class Trainer:
         if self.averaged is not None:
             with torch.no_grad():
                 for average, weight in zip(self.averaged.state_dict().values(), self.generator.state_dict().values()):
-                    average.lerp_(weight, 1.0 - cfg.ema) if average.is_floating_point() else average.copy_(weight)
+                    if average.is_floating_point():
+                        average.lerp_(weight, 1.0 - cfg.ema)
+                    else:
+                        average.copy_(weight)
         record.update(terms, loss=float(loss_g.detach()), l2=float(l2_loss(fake.detach(), target)))
         return record
 
