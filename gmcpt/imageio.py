@@ -18,9 +18,16 @@ from .errors import GmcptError
 
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike):
-    """Yield a temporary path next to ``path``; rename it over ``path`` on success."""
+    """Yield a temporary path next to ``path``; rename it over ``path`` on success.
+
+    An ``OSError`` while creating, writing or renaming (a read-only file system, a full disk)
+    becomes a one-line :class:`GmcptError` naming ``path``; ``path`` itself is left as it was.
+    """
     path = Path(path)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    try:
+        handle, temporary = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    except OSError as error:
+        raise _write_error(path, error) from None
     os.close(handle)
     umask = os.umask(0)
     os.umask(umask)
@@ -28,9 +35,15 @@ def atomic_output(path: str | os.PathLike):
     try:
         yield temporary
         os.replace(temporary, path)
+    except OSError as error:
+        raise _write_error(path, error) from None
     finally:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(temporary)
+
+
+def _write_error(path: Path, error: OSError) -> GmcptError:
+    return GmcptError(f"cannot write {path}: {error.strerror or error}")
 
 
 def check_writable(path: str | os.PathLike) -> Path:
@@ -43,6 +56,12 @@ def check_writable(path: str | os.PathLike) -> Path:
         raise GmcptError(f"output directory {parent} does not exist")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise GmcptError(f"output directory {parent} is not writable")
+    try:  # access() says yes to root, and on /proc: try it
+        handle, probe = tempfile.mkstemp(prefix=f".{path.name}.", dir=parent)
+        os.close(handle)
+        os.unlink(probe)
+    except OSError as error:
+        raise _write_error(path, error) from None
     return path
 
 

@@ -1,11 +1,12 @@
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from conftest import synthetic_frame
 from gmcpt.errors import GmcptError
-from gmcpt.imageio import atomic_output, read_exr, write_exr
+from gmcpt.imageio import atomic_output, check_writable, read_exr, write_exr
 from gmcpt.layers import channel_names, pack, unpack
 
 
@@ -49,3 +50,25 @@ def test_read_exr_errors(tmp_path):
     (tmp_path / "bad.exr").write_text("nope")
     with pytest.raises(GmcptError, match="cannot read EXR"):
         read_exr(tmp_path / "bad.exr")
+
+
+def test_atomic_output_turns_a_failed_write_into_one_line_and_keeps_the_old_file(tmp_path):
+    target = tmp_path / "keep.exr"
+    target.write_bytes(b"old")
+    with pytest.raises(GmcptError, match=r"cannot write .*keep.exr: No space left on device"):
+        with atomic_output(target) as temporary:
+            with open(temporary, "wb") as handle:
+                handle.write(b"half")
+            raise OSError(28, "No space left on device")
+    assert target.read_bytes() == b"old" and list(tmp_path.iterdir()) == [target]
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux /proc (a directory nobody can write to)")
+def test_check_writable_tries_the_directory_rather_than_trusting_access():
+    with pytest.raises(GmcptError, match="cannot write /proc/x.exr"):
+        check_writable("/proc/x.exr")
+
+
+def test_check_writable_leaves_nothing_behind(tmp_path):
+    assert check_writable(tmp_path / "x.exr") == tmp_path / "x.exr"
+    assert list(tmp_path.iterdir()) == []
