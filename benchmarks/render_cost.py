@@ -14,9 +14,12 @@ machine disturb least; the verdict uses it.
 At 16 spp on the bundled still life (0.8 s per full render) single cells
 still move by about +-0.02 between runs on a shared 2-core machine, hence
 the 13 rounds by default. Each feature pass setting (``--feature-spp``;
-default: the product's 4 and the cheapest, 1) gets its rows.
+default: the product's 4 and the cheapest, 1) and each sample placement
+(``--masks``; default: the product's) gets its rows; ``mask %`` is the
+median time spent placing the samples (densities, the error estimate between
+the passes of ``two_pass``) as a share of the masked render's time.
 
-    python benchmarks/render_cost.py [--res 256] [--spp 16 64] [--repeats 13]   # about 17 minutes
+    python benchmarks/render_cost.py [--res 256] [--spp 16 64] [--repeats 13] [--masks two_pass random]
 """
 from __future__ import annotations
 
@@ -45,6 +48,7 @@ def main() -> int:
     parser.add_argument("--repeats", type=int, default=13)
     parser.add_argument("--feature-spp", type=int, nargs="+", help="feature pass samples per pixel, each a row "
                         "(default: the product's default and 1)")
+    parser.add_argument("--masks", nargs="+", help="sample placements, each a row (default: the product's)")
     parser.add_argument("--scenes", nargs="+", help="scene files (default: the bundled still life and the "
                         "shared breakfast room as shipped, from gmcpt.evalscenes)")
     args = parser.parse_args()
@@ -53,13 +57,16 @@ def main() -> int:
     import gmcpt  # noqa: F401
     import mitsuba as mi
     from gmcpt.evalscenes import BREAKFAST, STILL_LIFE
+    from gmcpt.masks import DEFAULT_PATTERN, check_pattern
     from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
     from gmcpt.scene import load_scene
 
     mi.set_log_level(mi.LogLevel.Error)
     rows = []
-    variants = [(feature_spp, rate) for feature_spp in args.feature_spp or sorted({DEFAULT_FEATURE_SPP, 1}, reverse=True)
-                for rate in RATES]
+    masks = [check_pattern(mask) for mask in args.masks or [DEFAULT_PATTERN]]
+    variants = [(feature_spp, rate, mask) for mask in masks
+                for feature_spp in args.feature_spp or sorted({DEFAULT_FEATURE_SPP, 1}, reverse=True) for rate in RATES]
+    mask_shares = {}
     for scene_path in map(Path, args.scenes or [STILL_LIFE.path, BREAKFAST.path]):
         if not scene_path.is_file():
             print(f"skipping {scene_path}: not found (the shared scenes are absent)", flush=True)
@@ -73,9 +80,14 @@ def main() -> int:
                 dr.eval(image)
                 dr.sync_thread()
 
-            def sparse(feature_spp, rate):
-                settings = RenderSettings(rate=rate, spp=spp, seed=1, feature_spp=feature_spp)
-                return lambda: render_sparse_frame(scene, nested, settings=settings)
+            def sparse(feature_spp, rate, mask):
+                settings = RenderSettings(rate=rate, pattern=mask, spp=spp, seed=1, feature_spp=feature_spp)
+
+                def job():
+                    _, timings = render_sparse_frame(scene, nested, settings=settings)
+                    mask_shares.setdefault((scene_path, spp, feature_spp, rate, mask), []).append(
+                        timings["mask_s"] / sum(timings.values()))
+                return job
 
             jobs = [(variant, sparse(*variant)) for variant in variants]
             for _, job in [("full", full)] + jobs:  # warm-up: kernel compilation
@@ -92,23 +104,24 @@ def main() -> int:
                 before = after
                 print(f"  {scene_path.parent.name} spp={spp}: round {round_index + 1}/{args.repeats} done", flush=True)
             full_s = statistics.median(wall for wall, _ in full_times)
-            for feature_spp, rate in variants:
-                variant = (feature_spp, rate)
-                rows.append((scene_path.parent.name, spp, feature_spp, rate, full_s,
+            for variant in variants:
+                feature_spp, rate, mask = variant
+                share = 100 * statistics.median(mask_shares[(scene_path, spp, *variant)])
+                rows.append((scene_path.parent.name, spp, feature_spp, rate, mask, share, full_s,
                              statistics.median(masked_times[variant]),
                              statistics.median(wall for wall, _ in ratios[variant]),
                              statistics.median(cpu for _, cpu in ratios[variant]), rate + 0.05))
 
     print(f"\nmasked render (features + traced pixels) vs stock path, {args.res}x{args.res}, "
           f"median of {args.repeats} paired ratios")
-    header = (f"{'scene':<16}{'spp':>5}{'f.spp':>6}{'rate':>6}{'full s':>9}{'masked s':>10}{'wall ratio':>12}"
-              f"{'CPU ratio':>11}{'target':>8}  ok")
+    header = (f"{'scene':<16}{'spp':>5}{'f.spp':>6}{'rate':>6}{'mask':>10}{'mask %':>8}{'full s':>9}{'masked s':>10}"
+              f"{'wall ratio':>12}{'CPU ratio':>11}{'target':>8}  ok")
     print(header)
     print("-" * len(header))
-    for scene_name, spp, feature_spp, rate, full_s, masked_s, wall_ratio, cpu_ratio, target in rows:
-        print(f"{scene_name:<16}{spp:>5}{feature_spp:>6}{rate:>6.2f}{full_s:>9.3f}{masked_s:>10.3f}{wall_ratio:>12.3f}"
-              f"{cpu_ratio:>11.3f}{target:>8.2f}  {'yes' if cpu_ratio <= target else 'NO'}")
-    return 0 if all(row[7] <= row[8] for row in rows) else 1
+    for scene_name, spp, feature_spp, rate, mask, share, full_s, masked_s, wall_ratio, cpu_ratio, target in rows:
+        print(f"{scene_name:<16}{spp:>5}{feature_spp:>6}{rate:>6.2f}{mask:>10}{share:>8.2f}{full_s:>9.3f}"
+              f"{masked_s:>10.3f}{wall_ratio:>12.3f}{cpu_ratio:>11.3f}{target:>8.2f}  {'yes' if cpu_ratio <= target else 'NO'}")
+    return 0 if all(row[9] <= row[10] for row in rows) else 1
 
 
 if __name__ == "__main__":

@@ -36,7 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--rate", type=float, help="fraction of pixels to path trace, in (0, 1] (default: scene's, else 0.3)")
     parser.add_argument("--spp", type=int, help="samples per traced pixel (default: the scene's sampler)")
     parser.add_argument("--seed", type=int, help="seed of mask and samplers (default: scene's, else 0)")
-    parser.add_argument("--mask", help="sampling pattern: random, stratified, blue_noise (default: random)")
+    parser.add_argument("--mask", help="sample placement: two_pass, adaptive, random, stratified, blue_noise "
+                        "(default: the scene's, else two_pass)")
     parser.add_argument("--method", help="completion method (default: the scene's, else gan_pawnnm); see --list-methods")
     parser.add_argument("--weights", help="GAN weights for the gan methods: a shipped name or a .pt path "
                         "(default: the scene's, else gan-cpu)")
@@ -54,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _validate(args) -> None:
     from .completion import check_weights, get_method
     from .imageio import check_writable
-    from .masks import PATTERNS, check_rate
+    from .masks import check_pattern, check_rate
 
     if not args.out.lower().endswith(".exr"):
         raise GmcptError(f"--out must name an .exr file, got {args.out}")
@@ -66,8 +67,8 @@ def _validate(args) -> None:
         raise GmcptError(f"--spp must be >= 1, got {args.spp}")
     if args.feature_spp is not None and args.feature_spp < 1:
         raise GmcptError(f"--feature-spp must be >= 1, got {args.feature_spp}")
-    if args.mask is not None and args.mask not in PATTERNS:
-        raise GmcptError(f"unknown mask pattern {args.mask!r}; choose from {', '.join(PATTERNS)}")
+    if args.mask is not None:
+        check_pattern(args.mask)
     if args.method is not None:
         get_method(args.method)
     if args.weights is not None:
@@ -140,6 +141,8 @@ def run(args, say=lambda message: None) -> dict:
         "versions": library_versions(),
         "rendered_fraction": frame.rendered_fraction,
         "traced_pixels": frame.info["traced_pixels"],
+        "path_samples": frame.info["path_samples"],
+        **({"first_pass_pixels": frame.info["first_pass_pixels"]} if settings.pattern == "two_pass" else {}),
         "nonfinite_samples": frame.info["nonfinite_samples"],
         "timings": timings,
     }

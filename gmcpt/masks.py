@@ -10,6 +10,14 @@ a pure function of its arguments, and is reproducible from ``seed``.
 - ``blue_noise``: white noise high-pass filtered in the Fourier domain (a
   Gaussian low-pass subtracted), then the ``n`` largest values are kept. Cheap,
   exact in count, and free of low-frequency clumping.
+- ``adaptive``: a pixel's chance follows a sampling density (mean 1) from the
+  feature buffers (:func:`gmcpt.placement.feature_density`); the ``n`` pixels
+  with the largest ``density / threshold`` are kept, the threshold a
+  blue-noise map with uniform values, so the picks are spread like
+  ``blue_noise`` where the density is even (ordered dithering).
+- ``two_pass``: ``adaptive`` for part of the budget, then the rest where the
+  first pass's samples say completion will err
+  (:func:`gmcpt.render.render_sparse_frame` runs both passes).
 """
 from __future__ import annotations
 
@@ -19,7 +27,11 @@ import numpy as np
 
 from .errors import GmcptError
 
-PATTERNS = ("random", "stratified", "blue_noise")
+PATTERNS = ("random", "stratified", "blue_noise", "adaptive", "two_pass")
+#: the placement of the CLI, the scene XML and the Python API when none is named
+DEFAULT_PATTERN = "two_pass"
+#: patterns that need the feature buffers (they are drawn after the feature pass)
+FEATURE_PATTERNS = ("adaptive", "two_pass")
 
 
 def check_rate(rate: float) -> float:
@@ -37,23 +49,39 @@ def sample_count(rate: float, n_pixels: int) -> int:
     return max(1, min(n_pixels, int(round(rate * n_pixels))))
 
 
+def check_pattern(pattern: str) -> str:
+    if pattern not in PATTERNS:
+        raise GmcptError(f"unknown mask pattern {pattern!r}; choose from {', '.join(PATTERNS)}")
+    return pattern
+
+
+def mask_rng(seed: int, stream: int = 0) -> np.random.Generator:
+    """The random generator of a mask (``stream`` tells apart the passes of one frame)."""
+    return np.random.default_rng([int(seed), 0x6D61736B, int(stream)])  # 'mask'
+
+
 def make_mask(height: int, width: int, rate: float, pattern: str = "random",
-              seed: int = 0) -> np.ndarray:
+              seed: int = 0, density: np.ndarray | None = None) -> np.ndarray:
     """Return an (H, W) boolean mask with ``round(rate*H*W)`` True pixels.
 
     Parameters
     ----------
     height, width : image size in pixels.
     rate : fraction of pixels to trace, in (0, 1].
-    pattern : one of ``PATTERNS``.
+    pattern : one of ``PATTERNS``; ``two_pass`` gives its first pass (``adaptive``) here.
     seed : seed of the pattern's random generator.
+    density : (H, W) sampling density of ``adaptive`` / ``two_pass``
+        (:func:`gmcpt.placement.feature_density`).
     """
     rate = check_rate(rate)
-    if pattern not in PATTERNS:
-        raise GmcptError(f"unknown mask pattern {pattern!r}; choose from {', '.join(PATTERNS)}")
+    check_pattern(pattern)
     n_pixels = height * width
     count = sample_count(rate, n_pixels)
     rng = np.random.default_rng([int(seed), 0x6D61736B])  # 'mask'
+    if pattern in FEATURE_PATTERNS:
+        if density is None or density.shape != (height, width):
+            raise GmcptError(f"the {pattern!r} mask needs an ({height}, {width}) sampling density")
+        return sample_by_density(density, count, mask_rng(seed))
     if count == n_pixels:
         chosen = np.arange(n_pixels)
     elif pattern == "random":
@@ -86,12 +114,49 @@ def _stratified(height: int, width: int, count: int, rng: np.random.Generator) -
     return order[np.minimum(picks, order.size - 1)]
 
 
-def _blue_noise(height: int, width: int, count: int, rng: np.random.Generator) -> np.ndarray:
+def _highpassed_noise(height: int, width: int, rng: np.random.Generator, rate: float) -> np.ndarray:
+    """White noise less its Gaussian low-pass (radius about half the mean spacing of picks at ``rate``)."""
     noise = rng.standard_normal((height, width))
-    rate = count / (height * width)
-    sigma = 0.5 / math.sqrt(rate)  # low-pass radius ~ half the mean sample spacing
+    sigma = 0.5 / math.sqrt(rate)
     fy = np.fft.fftfreq(height)[:, None]
     fx = np.fft.rfftfreq(width)[None, :]
     lowpass = np.exp(-2.0 * (math.pi * sigma) ** 2 * (fx ** 2 + fy ** 2))
-    highpassed = np.fft.irfft2(np.fft.rfft2(noise) * (1.0 - lowpass), s=(height, width))
+    return np.fft.irfft2(np.fft.rfft2(noise) * (1.0 - lowpass), s=(height, width))
+
+
+def _blue_noise(height: int, width: int, count: int, rng: np.random.Generator) -> np.ndarray:
+    highpassed = _highpassed_noise(height, width, rng, count / (height * width))
     return np.argpartition(-highpassed.ravel(), count - 1)[:count]
+
+
+def _uniform_blue_noise(height: int, width: int, rng: np.random.Generator, rate: float) -> np.ndarray:
+    """(H, W) thresholds in (0, 1), uniformly distributed, blue-noise arranged for picks at ``rate``."""
+    highpassed = _highpassed_noise(height, width, rng, rate)
+    ranks = np.empty(height * width, np.float64)
+    ranks[np.argsort(highpassed.ravel(), kind="stable")] = np.arange(height * width)
+    return ((ranks + 0.5) / ranks.size).reshape(height, width)
+
+
+def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,
+                      exclude: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) bool mask of exactly ``count`` pixels drawn with chances that follow ``density``.
+
+    The ``count`` largest ``density / threshold`` win, the thresholds a uniform blue-noise map:
+    a pixel of density d is picked about when its threshold is below ``d / theta`` (theta the
+    ``count``-th largest key), so its chance grows with d and is spread evenly in space.
+    ``exclude`` (bool) pixels are never picked; ``count`` is clipped to the pixels left.
+    """
+    height, width = density.shape
+    weight = np.maximum(np.nan_to_num(density.astype(np.float64), nan=0.0, posinf=0.0), 0.0)
+    allowed = np.ones((height, width), bool) if exclude is None else ~exclude
+    count = int(min(count, allowed.sum()))
+    mask = np.zeros(height * width, bool)
+    if count <= 0:
+        return mask.reshape(height, width)
+    rate = min(1.0, count / (height * width))
+    thresholds = _uniform_blue_noise(height, width, rng, rate)
+    # ties (zero density) are broken by the thresholds, so the count is always exact
+    keys = np.where(allowed, weight / thresholds + 1e-12 / thresholds, -1.0).ravel()
+    chosen = np.argpartition(-keys, count - 1)[:count]
+    mask[chosen] = True
+    return mask.reshape(height, width)

@@ -28,10 +28,12 @@ import numpy as np
 
 from .domain import ALBEDO_MIN
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame  # noqa: F401  (DEFAULT_FEATURE_SPP re-exported)
-from .masks import make_mask
+from .masks import DEFAULT_PATTERN, FEATURE_PATTERNS, make_mask, mask_rng, sample_by_density, sample_count
+from .placement import FIRST_PASS_SHARE, error_density, feature_density
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
 FEATURE_SEED_OFFSET = 0x5EED_F00D
+SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` draws other samples
 # samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
 SCATTER_MODE = dr.ReduceMode.Local
 # the features need UVs (textured albedo) and the shading frame, no surface derivatives
@@ -43,7 +45,7 @@ class RenderSettings:
     """What to trace. ``spp=0`` keeps the sensor's sample count."""
 
     rate: float = 0.3
-    pattern: str = "random"
+    pattern: str = DEFAULT_PATTERN
     seed: int = 0
     spp: int = 0
     feature_spp: int = DEFAULT_FEATURE_SPP
@@ -160,6 +162,45 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     return np.stack([red, green, blue], axis=1), squares, count
 
 
+def _trace_mean(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: np.ndarray,
+                spp: int, seed: int, say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Box estimate of each pixel in ``pixels``: (mean (n, 3), variance of the mean (n,), finite sample count (n,)).
+
+    Split into several kernel launches of at most :data:`MAX_LANES` lanes. The variance is the
+    channel-averaged unbiased sample variance over n, in float64 (sum of squares minus n mean^2 cancels).
+    """
+    passes = max(1, -(-pixels.size * spp // MAX_LANES))
+    pass_spp = -(-spp // passes)
+    total, squares, count, done = 0.0, 0.0, 0.0, 0
+    for index in range(passes):
+        this_spp = min(pass_spp, spp - done)
+        if this_spp <= 0:
+            break
+        say(f"path tracing: {pixels.size} px x {spp} spp"
+            + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
+        s, q, n = trace_pixels(scene, sensor, integrator, pixels, this_spp,
+                               seed if passes == 1 else seed * passes + index)
+        total, squares, count, done = total + s, squares + q, count + n, done + this_spp
+    inverse_count = 1.0 / np.maximum(count, 1)
+    mean = total * inverse_count[:, None]
+    sample_variance = (squares - count * np.einsum("ij,ij->i", mean, mean, dtype=np.float64)) \
+        / (3 * np.maximum(count - 1, 1))
+    return mean, np.maximum(sample_variance, 0.0) * inverse_count, count
+
+
+def _first_mask(settings: RenderSettings, features: dict, height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """The mask of the (first) radiance pass, and the feature density (None for the patterns without one)."""
+    if settings.pattern not in FEATURE_PATTERNS:
+        return make_mask(height, width, settings.rate, settings.pattern, settings.seed), None
+    density = feature_density(features["albedo"], features["normal"], features["depth"], features["visibility"],
+                              features["coverage"])
+    count = sample_count(settings.rate, height * width)
+    if settings.pattern == "adaptive" or count == height * width:  # at rate 1 there is nothing to place
+        return make_mask(height, width, settings.rate, "adaptive", settings.seed, density), density
+    first = max(1, int(round(count * FIRST_PASS_SHARE)))
+    return sample_by_density(density, first, mask_rng(settings.seed)), density
+
+
 def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,
                         settings: RenderSettings = RenderSettings(), mask: np.ndarray | None = None,
                         progress: Callable[[str], None] | None = None) -> tuple[SparseFrame, dict]:
@@ -176,14 +217,17 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
 
     Returns
     -------
-    (frame, timings) with timings ``features_s`` and ``render_s`` in seconds.
+    (frame, timings) with timings ``features_s``, ``mask_s`` (placing the samples) and ``render_s``
+    (path tracing, both passes of ``two_pass``) in seconds.
+
+    With the ``two_pass`` pattern, a first radiance pass traces ``FIRST_PASS_SHARE`` of the pixel budget
+    (``adaptive``), :func:`gmcpt.placement.error_density` reads its samples, and a second pass traces the
+    rest of the budget on other pixels, with other sampler seeds.
     """
     say = progress or (lambda message: None)
     sensor = sensor if sensor is not None else scene.sensors()[0]
     height, width = _sensor_film_size(sensor)
     spp = settings.spp or sensor.sampler().sample_count()
-    if mask is None:
-        mask = make_mask(height, width, settings.rate, settings.pattern, settings.seed)
     timings = {}
 
     start = time.perf_counter()
@@ -192,37 +236,48 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     timings["features_s"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    pixels = np.flatnonzero(mask)
-    passes = max(1, -(-pixels.size * spp // MAX_LANES))
-    pass_spp = -(-spp // passes)
-    total, squares, count, done = 0.0, 0.0, 0.0, 0
-    for index in range(passes):
-        this_spp = min(pass_spp, spp - done)
-        if this_spp <= 0:
-            break
-        say(f"path tracing: {pixels.size} px x {spp} spp"
-            + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
-        s, q, n = trace_pixels(scene, sensor, integrator, pixels, this_spp,
-                               settings.seed if passes == 1 else settings.seed * passes + index)
-        total, squares, count, done = total + s, squares + q, count + n, done + this_spp
-    timings["render_s"] = time.perf_counter() - start
+    density = None
+    if mask is None:
+        mask, density = _first_mask(settings, features, height, width)
+    timings["mask_s"] = time.perf_counter() - start
 
-    # mean, and the variance of the mean: channel-averaged unbiased sample variance over n (in float64,
-    # as sum of squares minus n mean^2 cancels); pixels whose every sample was NaN/Inf count as untraced
+    start = time.perf_counter()
+    pixels = np.flatnonzero(mask)
+    mean, variance_of_mean, count = _trace_mean(scene, sensor, integrator, pixels, spp, settings.seed, say)
+    timings["render_s"] = time.perf_counter() - start
+    first_pass_pixels = pixels.size
+
+    radiance = np.zeros((height * width, 3), np.float32)
+    variance = np.zeros(height * width, np.float32)
     valid = count > 0
-    inverse_count = 1.0 / np.maximum(count, 1)
-    mean = total * inverse_count[:, None]
-    sample_variance = (squares - count * np.einsum("ij,ij->i", mean, mean, dtype=np.float64)) \
-        / (3 * np.maximum(count - 1, 1))
+    radiance[pixels] = np.where(valid[:, None], mean, 0.0)
+    variance[pixels] = np.where(valid, variance_of_mean, 0.0)
+    rest = sample_count(settings.rate, height * width) - pixels.size
+    if settings.pattern == "two_pass" and density is not None and rest > 0:
+        start = time.perf_counter()
+        errors = error_density(radiance.reshape(height, width, 3), variance.reshape(height, width), mask,
+                               features["albedo"], features["coverage"], density)
+        second = sample_by_density(errors, rest, mask_rng(settings.seed, 1), exclude=mask)
+        timings["mask_s"] += time.perf_counter() - start
+        start = time.perf_counter()
+        second_pixels = np.flatnonzero(second)
+        mean, variance_of_mean, second_count = _trace_mean(
+            scene, sensor, integrator, second_pixels, spp, (settings.seed + SECOND_PASS_SEED_OFFSET) % (1 << 32), say)
+        timings["render_s"] += time.perf_counter() - start
+        second_valid = second_count > 0
+        radiance[second_pixels] = np.where(second_valid[:, None], mean, 0.0)
+        variance[second_pixels] = np.where(second_valid, variance_of_mean, 0.0)
+        mask = mask | second
+        pixels = np.concatenate([pixels, second_pixels])
+        count = np.concatenate([count, second_count])
+        valid = count > 0
+
+    # pixels whose every sample was NaN/Inf count as untraced
     traced = mask.ravel().copy()
     traced[pixels[~valid]] = False
-    radiance = np.zeros((height * width, 3), np.float32)
-    radiance[pixels] = np.where(valid[:, None], mean, 0.0)
-    variance = np.zeros(height * width, np.float32)
-    variance[pixels] = np.where(valid, np.maximum(sample_variance, 0.0) * inverse_count, 0.0)
     info = {"mask": settings.pattern, "seed": settings.seed, "feature_spp": settings.feature_spp,
-            "traced_pixels": int(traced.sum()), "nonfinite_samples": int(pixels.size * spp - np.sum(count)),
-            "passes": passes}
+            "traced_pixels": int(traced.sum()), "path_samples": int(pixels.size * spp),
+            "nonfinite_samples": int(pixels.size * spp - np.sum(count)), "first_pass_pixels": int(first_pass_pixels)}
     frame = SparseFrame(radiance=radiance.reshape(height, width, 3), mask=traced.reshape(height, width),
                         variance=variance.reshape(height, width), spp=spp, info=info, **features)
     return frame, timings

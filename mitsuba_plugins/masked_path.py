@@ -6,7 +6,7 @@ import mitsuba as mi
 from gmcpt.completion import check_weights, complete, get_method
 from gmcpt.errors import GmcptError
 from gmcpt.layers import channel_names, pack
-from gmcpt.masks import PATTERNS, check_rate
+from gmcpt.masks import DEFAULT_PATTERN, check_pattern, check_rate
 from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
 
 DEFAULT_COMPLETION = "gan_pawnnm"
@@ -26,7 +26,9 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - Fraction of pixels that are path traced, in (0, 1]. (Default: 0.3)
      * - mask
        - |string|
-       - Sampling pattern: ``random``, ``stratified`` or ``blue_noise``. (Default: ``random``)
+       - Sample placement: ``two_pass`` (half the budget where the feature buffers have edges, the rest
+         where the first half's samples disagree), ``adaptive`` (all by the features), or the even
+         patterns ``random`` (the paper's), ``stratified``, ``blue_noise``. (Default: ``two_pass``)
      * - seed
        - |int|
        - Seed of the mask and of the samplers; added to the seed given to ``mi.render``. (Default: 0)
@@ -73,9 +75,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         self.rate = check_rate(props.get("rate", 0.3))
-        self.mask_pattern = props.get("mask", "random")
-        if self.mask_pattern not in PATTERNS:
-            raise GmcptError(f"unknown mask pattern {self.mask_pattern!r}; choose from {', '.join(PATTERNS)}")
+        self.mask_pattern = check_pattern(props.get("mask", DEFAULT_PATTERN))
         self.seed = int(props.get("seed", 0))
         self.feature_spp = int(props.get("feature_spp", DEFAULT_FEATURE_SPP))
         if self.feature_spp < 1:

@@ -33,7 +33,10 @@ def test_writes_exr_png_json(rendered):
     assert record["parameters"]["method"] == "gan_pawnnm"  # the default: the full method
     assert record["parameters"]["weights"] == "gan-cpu" and len(record["parameters"]["weights_sha256"]) == 64
     assert record["rendered_fraction"] == pytest.approx(0.4, abs=1e-3)
-    assert {"features_s", "render_s", "completion_s", "total_s"} <= record["timings"].keys()
+    assert {"features_s", "mask_s", "render_s", "completion_s", "total_s"} <= record["timings"].keys()
+    assert record["parameters"]["mask"] == "two_pass"  # the default placement
+    assert record["path_samples"] == round(0.4 * 32 * 24) * 2  # traced pixels x spp, both passes together
+    assert record["first_pass_pixels"] == round(round(0.4 * 32 * 24) / 2)
     assert {"mitsuba", "drjit", "torch", "numpy", "gmcpt"} <= record["versions"].keys()
     assert "path tracing" in result.stderr  # progress
 

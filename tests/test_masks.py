@@ -3,21 +3,66 @@ import pytest
 from scipy import ndimage
 
 from gmcpt.errors import GmcptError
-from gmcpt.masks import PATTERNS, make_mask
+from gmcpt.masks import FEATURE_PATTERNS, PATTERNS, make_mask, mask_rng, sample_by_density
+from gmcpt.placement import feature_density
+
+
+def edge_density(height, width):
+    """The feature density of a frame with one vertical albedo edge and a brighter-than-average square."""
+    albedo = np.full((height, width, 3), 0.5, np.float32)
+    albedo[:, width // 2:] = 0.1
+    normal = np.zeros((height, width, 3), np.float32)
+    normal[..., 2] = 1
+    return feature_density(albedo, normal, np.full((height, width), 0.5, np.float32),
+                           np.ones((height, width), np.float32))
+
+
+def mask_of(pattern, height, width, rate, seed):
+    density = edge_density(height, width) if pattern in FEATURE_PATTERNS else None
+    return make_mask(height, width, rate, pattern, seed, density)
 
 
 @pytest.mark.parametrize("pattern", PATTERNS)
 @pytest.mark.parametrize("rate", [0.05, 0.3, 0.77, 1.0])
 def test_exact_count_and_determinism(pattern, rate):
-    mask = make_mask(37, 53, rate, pattern, seed=4)
+    mask = mask_of(pattern, 37, 53, rate, seed=4)
     assert mask.shape == (37, 53) and mask.dtype == bool
     assert mask.sum() == round(rate * 37 * 53)
-    assert np.array_equal(mask, make_mask(37, 53, rate, pattern, seed=4))
+    assert np.array_equal(mask, mask_of(pattern, 37, 53, rate, seed=4))
 
 
 @pytest.mark.parametrize("pattern", PATTERNS)
 def test_seed_changes_mask(pattern):
-    assert not np.array_equal(make_mask(64, 64, 0.3, pattern, 0), make_mask(64, 64, 0.3, pattern, 1))
+    assert not np.array_equal(mask_of(pattern, 64, 64, 0.3, 0), mask_of(pattern, 64, 64, 0.3, 1))
+
+
+def test_adaptive_mask_follows_the_density():
+    density = edge_density(128, 128)
+    mask = make_mask(128, 128, 0.2, "adaptive", 0, density)
+    near_edge = density > 1.5
+    assert near_edge.any() and mask[near_edge].mean() > 2 * mask[~near_edge].mean()
+
+
+def test_floor_leaves_no_empty_tile_on_a_flat_scene():
+    # a flat scene but for one edge: at rate 0.2 every 16x16 tile still gets samples
+    mask = make_mask(256, 256, 0.2, "adaptive", 3, edge_density(256, 256))
+    tiles = mask.reshape(16, 16, 16, 16).sum(axis=(1, 3))
+    assert tiles.min() > 0.2 * 256 * 0.3
+
+
+def test_density_sampling_skips_excluded_pixels_and_clips_the_count():
+    density = np.ones((20, 30), np.float32)
+    exclude = np.zeros((20, 30), bool)
+    exclude[:, :10] = True
+    mask = sample_by_density(density, 150, mask_rng(1), exclude=exclude)
+    assert mask.sum() == 150 and not (mask & exclude).any()
+    assert sample_by_density(density, 10_000, mask_rng(1), exclude=exclude).sum() == 400
+
+
+@pytest.mark.parametrize("pattern", FEATURE_PATTERNS)
+def test_feature_patterns_need_a_density(pattern):
+    with pytest.raises(GmcptError, match="sampling density"):
+        make_mask(8, 8, 0.5, pattern)
 
 
 @pytest.mark.parametrize("pattern", ["stratified", "blue_noise"])
@@ -25,7 +70,7 @@ def test_even_patterns_have_smaller_holes_than_white_noise(pattern):
     def largest_hole(mask):
         return ndimage.distance_transform_edt(~mask).max()
     white = np.mean([largest_hole(make_mask(128, 128, 0.2, "random", s)) for s in range(3)])
-    even = np.mean([largest_hole(make_mask(128, 128, 0.2, pattern, s)) for s in range(3)])
+    even = np.mean([largest_hole(mask_of(pattern, 128, 128, 0.2, s)) for s in range(3)])
     assert even < 0.8 * white
 
 

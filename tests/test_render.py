@@ -42,6 +42,27 @@ def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
     assert standard_error > 0
 
 
+@pytest.mark.parametrize("pattern", ["adaptive", "two_pass"])
+def test_feature_placements_spend_the_exact_budget_and_repeat_per_seed(mi, cornell, path_tracer, pattern):
+    from gmcpt.render import RenderSettings, render_sparse_frame
+
+    for rate in (0.2, 0.5, 1.0):
+        settings = RenderSettings(rate=rate, pattern=pattern, spp=4, seed=5)
+        frame, timings = render_sparse_frame(cornell, path_tracer, settings=settings)
+        count = round(rate * frame.mask.size)
+        assert frame.mask.sum() == count and frame.info["path_samples"] == count * 4
+        assert np.all(frame.radiance[~frame.mask] == 0) and frame.radiance[frame.mask].mean() > 0
+        halved = pattern == "two_pass" and rate < 1  # at rate 1 every pixel is traced in one pass
+        assert frame.info["first_pass_pixels"] == (round(count / 2) if halved else count)
+        assert "mask_s" in timings
+    again, _ = render_sparse_frame(cornell, path_tracer, settings=settings)
+    assert np.array_equal(again.mask, frame.mask) and np.array_equal(again.radiance, frame.radiance)
+    other, _ = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=0.3, pattern=pattern, spp=4,
+                                                                                 seed=6))
+    assert not np.array_equal(other.mask, render_sparse_frame(
+        cornell, path_tracer, settings=RenderSettings(rate=0.3, pattern=pattern, spp=4, seed=5))[0].mask)
+
+
 def test_feature_buffers(mi, cornell, path_tracer):
     from gmcpt.render import RenderSettings, render_sparse_frame
 

@@ -79,13 +79,15 @@ def evaluate(config, scenes, out: Path, say) -> dict:
 
     start = time.perf_counter()
     record = {"config": asdict(config), "second_reference_seed": SECOND_REFERENCE_SEED, "references": [],
-              "quality": [], "equal_time": [], "stage_timings": [], "grids": {}}
+              "quality": [], "placement": [], "equal_time": [], "stage_timings": [], "grids": {}}
     for index, eval_scene in enumerate(scenes, 1):
         say(f"[{index}/{len(scenes)}] {eval_scene.name}: references")
         loaded, noise = measure.load(eval_scene, config, say)
         record["references"].append(noise)
         say(f"[{index}/{len(scenes)}] {eval_scene.name}: quality at rates {', '.join(map(str, config.rates))}")
         record["quality"] += measure.quality(loaded, config, say)
+        say(f"[{index}/{len(scenes)}] {eval_scene.name}: sample placement at equal samples")
+        record["placement"] += measure.placement(loaded, config, say)
         say(f"[{index}/{len(scenes)}] {eval_scene.name}: equal-time settings")
         record["equal_time"] += measure.equal_time(loaded, config, say)
         grid = f"grid-{eval_scene.name}.png"

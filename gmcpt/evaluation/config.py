@@ -4,6 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from ..frame import DEFAULT_FEATURE_SPP
+from ..masks import DEFAULT_PATTERN
 
 
 @dataclass(frozen=True)
@@ -17,6 +18,9 @@ class EvalConfig:
     resolution, spp, reference_spp, rates, seed : the quality protocol (METHOD.md section 6).
     feature_spp : primary samples per pixel of the feature pass, for the completion methods and for
         OIDN's albedo and normal (the product's default, :data:`gmcpt.frame.DEFAULT_FEATURE_SPP`).
+    mask : sample placement of every table but the placement table (the product's default).
+    placements, placement_variant : the placement table: ``placement_variant`` with each mask pattern at
+        ``rates`` x ``spp``, beside path tracing at ``round(rate * spp)`` spp + OIDN.
     variants : completion variants of the quality tables (keys of :data:`VARIANTS`).
     patch_sizes, patch_rates : the PSNR-against-patch-size sweep of PAWNNM (paper Fig. 12).
     grid_rate : rate of the image grids.
@@ -36,6 +40,9 @@ class EvalConfig:
     rates: tuple[float, ...] = (0.2, 0.3, 0.4)
     seed: int = 0
     feature_spp: int = DEFAULT_FEATURE_SPP
+    mask: str = DEFAULT_PATTERN
+    placements: tuple[str, ...] = ("random", "stratified", "adaptive", "two_pass")
+    placement_variant: str = "gan_pawnnm"
     variants: tuple[str, ...] = ("interp", "liu", "nnm", "pawnnm", "gan", "gan_pawnnm")
     patch_sizes: tuple[int, ...] = (5, 6, 7, 8)
     patch_rates: tuple[float, ...] = (0.3,)

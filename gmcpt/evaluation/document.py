@@ -10,7 +10,7 @@ README_END = "<!-- results:end -->"
 def _settings_line(run: dict) -> str:
     c = run["config"]
     return (f"{c['resolution']}x{c['resolution']}, {c['spp']} spp per traced pixel, {c.get('feature_spp', 1)}-spp feature pass, "
-            f"`random` mask, seed {c['seed']}, "
+            f"`{c.get('mask', 'random')}` mask, seed {c['seed']}, "
             f"references {c['reference_spp']} spp; metrics on tonemapped sRGB (clamp to [0, 1], sRGB curve) "
             "except relMSE (linear); FLIP is `flip-evaluator`'s LDR mean (0 = identical).")
 
@@ -28,6 +28,43 @@ def headline_table(run: dict) -> str:
             cells.append(f"{psnr:.2f} dB / {ssim:.3f}")
         table.append([f"{rate:.0%}", *cells])
     return report._table(header, table)
+
+
+def placement_table(run: dict) -> str:
+    """PSNR / FLIP of each placement beside path tracing + OIDN at equal samples, per scene and the mean."""
+    c = run["config"]
+    default = c.get("mask", "two_pass")
+    return report.variant_table(run.get("placement", []), ["path+oidn", *c.get("placements", ())], ["psnr", "flip"],
+                                c["rates"], delta=(default, "path+oidn"))
+
+
+def placement_section(run: dict) -> list[str]:
+    c = run["config"]
+    if not run.get("placement"):
+        return []
+    return [
+        "## Sample placement at equal samples",
+        "",
+        f"`{c['placement_variant']}` at each rate x {c['spp']} spp with each mask, beside full-frame path tracing "
+        f"with the same total samples (round(rate x {c['spp']}) spp a pixel) denoised by Intel Open Image Denoise "
+        "(albedo and normal from the same feature pass). `random` is the paper's mask; `adaptive` places the "
+        "samples by a density from the feature buffers' edges; `two_pass` (the default) spends half the budget "
+        "so, then the rest where the first half's samples disagree with their neighbours "
+        "(`gmcpt/placement.py`). PSNR dB / FLIP; the last column is the default's lead over path tracing + OIDN.",
+        "",
+        placement_table(run),
+        "",
+    ]
+
+
+def readme_placement(run: dict) -> list[str]:
+    """The placement table's mean rows, for the README."""
+    if not run.get("placement"):
+        return []
+    lines = placement_table(run).splitlines()
+    return [f"At equal samples against path tracing + OIDN ({run['config']['placement_variant']}, "
+            "PSNR dB / FLIP, mean over the scenes):", "", *lines[:2],
+            *[line for line in lines[2:] if "**mean of" in line], ""]
 
 
 def results_markdown(run: dict) -> str:
@@ -58,6 +95,7 @@ def results_markdown(run: dict) -> str:
         "",
         report.reference_table(run["references"]),
         "",
+        *placement_section(run),
         "## Table 1: the full method against the Liu-style baseline (paper Table 1)",
         "",
         "SSIM and MSE (tonemapped sRGB) at 20/30/40 % sampling. `liu` is classical pre-completion + NNM on image "
@@ -137,6 +175,7 @@ def readme_section(run: dict) -> str:
         "",
         headline_table(run),
         "",
+        *readme_placement(run),
         "![PSNR against wall time: path tracing, path tracing + OIDN, and the completion methods](docs/psnr_vs_time.png)",
         "",
         "Where the completion methods (the best of " + ", ".join(f"`{v}`" for v in run["config"]["budget_variants"])

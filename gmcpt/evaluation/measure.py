@@ -53,15 +53,17 @@ def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     return loaded, noise
 
 
-def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig):
-    """(frame, render timings) of the fastest of ``config.repeats`` masked renders."""
+def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig, pattern: str | None = None):
+    """(frame, render timings) of the fastest of ``config.repeats`` masked renders (``pattern``: default
+    ``config.mask``)."""
     from ..render import RenderSettings, render_sparse_frame
 
-    settings = RenderSettings(rate=rate, spp=spp, seed=config.seed, feature_spp=config.feature_spp)
+    settings = RenderSettings(rate=rate, pattern=pattern or config.mask, spp=spp, seed=config.seed,
+                              feature_spp=config.feature_spp)
     best = None
     for _ in range(max(1, config.repeats)):
         frame, timings = render_sparse_frame(loaded.scene, loaded.integrator, settings=settings)
-        if best is None or timings["render_s"] + timings["features_s"] < sum(best[1].values()):
+        if best is None or sum(timings.values()) < sum(best[1].values()):
             best = (frame, timings)
     return best
 
@@ -124,11 +126,34 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
             frame, render_timings = sparse_frame(loaded, rate, spp, config)
             for label in config.budget_variants:
                 _, metrics, timings = run_variant(frame, VARIANTS[label], loaded.reference)
-                seconds = render_timings["features_s"] + render_timings["render_s"] + timings["completion_s"]
+                seconds = sum(render_timings.values()) + timings["completion_s"]
                 rows.append({"scene": loaded.name, "contender": label, "rate": rate, "spp": spp,
                              "samples_per_pixel": rate * spp, "seconds": seconds, **metrics})
                 say(f"  {loaded.name} {label} rate {rate:.3f} x {spp:>2} spp: {metrics['psnr']:6.2f} dB "
                     f"({seconds:.2f} s)")
+    return rows
+
+
+def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
+    """Equal samples: ``config.placement_variant`` with each mask pattern, and path tracing at the same total
+    sample count (``round(rate * spp)`` per pixel, full frame) + OIDN, at every rate."""
+    rows = []
+    variant = VARIANTS[config.placement_variant]
+    albedo, normal = loaded.features["albedo"], loaded.features["normal"]
+    for rate in config.rates:
+        samples = max(1, round(rate * config.spp))
+        noisy = render_full(loaded.scene, loaded.integrator, samples, config.seed + 17)
+        rows.append({"scene": loaded.name, "rate": rate, "variant": "path+oidn", "samples_per_pixel": samples,
+                     **all_metrics(denoise_oidn(noisy, albedo, normal), loaded.reference)})
+        say(f"  {loaded.name} rate {rate:.2f} path {samples} spp + OIDN: {rows[-1]['psnr']:6.2f} dB")
+        for pattern in config.placements:
+            frame, render_timings = sparse_frame(loaded, rate, config.spp, config, pattern)
+            _, metrics, timings = run_variant(frame, variant, loaded.reference)
+            rows.append({"scene": loaded.name, "rate": rate, "variant": pattern, "method": variant.label,
+                         "samples_per_pixel": frame.info["path_samples"] / frame.mask.size, **metrics,
+                         "completion_s": timings["completion_s"], **_prefixed(render_timings)})
+            say(f"  {loaded.name} rate {rate:.2f} {variant.label} {pattern:<10}: {metrics['psnr']:6.2f} dB "
+                f"(mask {render_timings['mask_s'] * 1000:.0f} ms, render {render_timings['render_s']:.2f} s)")
     return rows
 
 
@@ -153,7 +178,7 @@ def stage_timings(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
                    "block_matching_s": timings.get("block_matching_s", 0.0), "svd_s": timings.get("svd_s", 0.0),
                    "aggregation_s": timings.get("aggregation_s", 0.0), "wiener_s": timings.get("wiener_s", 0.0),
                    "completion_s": timings["completion_s"]}
-            row["total_s"] = row["features_s"] + row["render_s"] + row["completion_s"]
+            row["total_s"] = sum(render_timings.values()) + row["completion_s"]
             rows.append(row)
             say(f"  timings {eval_scene.name} {resolution}px {label}: total {row['total_s']:.2f} s")
     return rows

@@ -47,6 +47,8 @@ class TrainConfig:
     steps : generator updates.
     batch, crop : crops per step and their side in pixels.
     rate_range : sampling rates drawn per crop.
+    masks : mask patterns a crop's mask is drawn from, one picked at random per crop
+        (:func:`gmcpt.gan.data.crop_mask`); the product's placement should be among them.
     lr_g, lr_d : Adam learning rates (cosine decay to 5% over the run).
     critic_every : update the critic every this many steps (1: every step).
     critic_start : first step with the critic (and the texture term).
@@ -73,6 +75,7 @@ class TrainConfig:
     batch: int = 8
     crop: int = 64
     rate_range: tuple[float, float] = (0.15, 0.5)
+    masks: tuple[str, ...] = ("random",)
     lr_g: float = 4e-4
     lr_d: float = 1e-4
     critic_every: int = 1
@@ -238,7 +241,7 @@ class Trainer:
             self.train_sets.append((extra, [int(p.stem) for p in extra_paths]))
         self.train_seeds = [seed for _, seeds in self.train_sets for seed in seeds]
         self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range, cfg.autoexposure,
-                                    cfg.min_reference_psnr, cfg.reference_denoiser)
+                                    cfg.min_reference_psnr, cfg.reference_denoiser, cfg.masks)
         self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")]
         self.rng = np.random.default_rng([cfg.seed, 0x7EA1])
         self.step, self.history, self.seconds = 0, [], 0.0
