@@ -21,6 +21,7 @@ a pure function of its arguments, and is reproducible from ``seed``.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -129,19 +130,41 @@ def _blue_noise(height: int, width: int, count: int, rng: np.random.Generator) -
     return np.argpartition(-highpassed.ravel(), count - 1)[:count]
 
 
-def _uniform_blue_noise(height: int, width: int, rng: np.random.Generator, rate: float) -> np.ndarray:
-    """(H, W) thresholds in (0, 1), uniformly distributed, blue-noise arranged for picks at ``rate``."""
-    highpassed = _highpassed_noise(height, width, rng, rate)
-    ranks = np.empty(height * width, np.float64)
-    ranks[np.argsort(highpassed.ravel(), kind="stable")] = np.arange(height * width)
-    return ((ranks + 0.5) / ranks.size).reshape(height, width)
+#: side of the blue-noise threshold tile that the density-driven masks repeat over the frame
+THRESHOLD_TILE = 128
+
+
+@functools.lru_cache(maxsize=1)
+def _threshold_tile() -> np.ndarray:
+    """(T, T) thresholds in (0, 1), uniformly distributed, blue-noise arranged (made once per process)."""
+    highpassed = _highpassed_noise(THRESHOLD_TILE, THRESHOLD_TILE, np.random.default_rng(0x7B1E), 0.25)
+    ranks = np.empty(highpassed.size, np.float64)
+    ranks[np.argsort(highpassed.ravel(), kind="stable")] = np.arange(highpassed.size)
+    return ((ranks + 0.5) / ranks.size).reshape(highpassed.shape)
+
+
+def _thresholds(height: int, width: int, rng: np.random.Generator) -> np.ndarray:
+    """(H, W) blue-noise thresholds: the tile, flipped, transposed and shifted as ``rng`` says, repeated."""
+    tile = _threshold_tile()
+    flips = rng.integers(0, 2, size=3)
+    if flips[0]:
+        tile = tile[::-1]
+    if flips[1]:
+        tile = tile[:, ::-1]
+    if flips[2]:
+        tile = tile.T
+    dy, dx = rng.integers(0, THRESHOLD_TILE, size=2)
+    rows = (np.arange(height) + dy) % THRESHOLD_TILE
+    columns = (np.arange(width) + dx) % THRESHOLD_TILE
+    return tile[rows[:, None], columns[None, :]]
 
 
 def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,
                       exclude: np.ndarray | None = None) -> np.ndarray:
     """(H, W) bool mask of exactly ``count`` pixels drawn with chances that follow ``density``.
 
-    The ``count`` largest ``density / threshold`` win, the thresholds a uniform blue-noise map:
+    The ``count`` largest ``density / threshold`` win, the thresholds a uniform blue-noise map
+    (a 128 x 128 tile, placed at random):
     a pixel of density d is picked about when its threshold is below ``d / theta`` (theta the
     ``count``-th largest key), so its chance grows with d and is spread evenly in space.
     ``exclude`` (bool) pixels are never picked; ``count`` is clipped to the pixels left.
@@ -153,8 +176,7 @@ def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,
     mask = np.zeros(height * width, bool)
     if count <= 0:
         return mask.reshape(height, width)
-    rate = min(1.0, count / (height * width))
-    thresholds = _uniform_blue_noise(height, width, rng, rate)
+    thresholds = _thresholds(height, width, rng)
     # ties (zero density) are broken by the thresholds, so the count is always exact
     keys = np.where(allowed, weight / thresholds + 1e-12 / thresholds, -1.0).ravel()
     chosen = np.argpartition(-keys, count - 1)[:count]

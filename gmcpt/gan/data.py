@@ -186,7 +186,7 @@ def crop_mask(crop: np.ndarray, rate: float, pattern: str, rng: np.random.Genera
     if pattern not in ("adaptive", "two_pass"):
         return make_mask(height, width, rate, pattern, int(rng.integers(1 << 31)))
     density = crop[..., 19]
-    count = max(1, int(round(np.minimum(rate * density, 1.0).sum())))
+    count = max(1, min(height * width, int(round(rate * float(density.sum())))))
     if pattern == "adaptive":
         return sample_by_density(density, count, rng)
     first = sample_by_density(density, max(1, int(round(count * FIRST_PASS_SHARE))), rng)

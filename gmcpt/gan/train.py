@@ -94,6 +94,11 @@ class TrainConfig:
     autoexposure: bool = False
 
     def __post_init__(self):
+        from ..masks import PATTERNS
+
+        unknown = [pattern for pattern in self.masks if pattern not in PATTERNS]
+        if unknown or not self.masks:
+            raise ValueError(f"train.masks must name mask patterns from {', '.join(PATTERNS)}, got {list(self.masks)}")
         if not 0 <= self.ema < 1:
             raise ValueError(f"train.ema must be in [0, 1), got {self.ema!r}")
         if self.reference_denoiser not in REFERENCE_DENOISERS:
