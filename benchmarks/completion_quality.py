@@ -65,8 +65,8 @@ def main() -> int:
         noisy = np.asarray(mi.render(scene, integrator=nested, spp=args.spp, seed=args.seed + 17))[..., :3]
         rows.append((name, 1.0, f"path {args.spp}spp", all_metrics(noisy, reference), 0.0))
         for rate in args.rates:
-            frame, _ = render_sparse_frame(scene, nested, settings=RenderSettings(rate=rate, spp=args.spp,
-                                                                                   seed=args.seed))
+            settings = RenderSettings(rate=rate, pattern="random", spp=args.spp, seed=args.seed)
+            frame, _ = render_sparse_frame(scene, nested, settings=settings)
             if args.save_frames:
                 out = Path(args.save_frames) / f"{name}-r{rate:.2f}.npz"
                 out.parent.mkdir(parents=True, exist_ok=True)

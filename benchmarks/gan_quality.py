@@ -81,8 +81,8 @@ def main() -> int:
     for name, scene, integrator, reference in scenes(args):
         features = render_features(scene, scene.sensors()[0])
         for rate in args.rates:
-            frame, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(rate=rate, spp=args.spp,
-                                                                                     seed=args.seed))
+            settings = RenderSettings(rate=rate, pattern="random", spp=args.spp, seed=args.seed)
+            frame, _ = render_sparse_frame(scene, integrator, settings=settings)
             for method in args.methods:
                 options = {"weights": args.weights} if method.startswith("gan") and args.weights else {}
                 start = time.perf_counter()

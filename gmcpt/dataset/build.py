@@ -151,7 +151,7 @@ def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
     scene = build_scene(seed, split.resolution, exposure, spec.spp, spec.layout)
     reference = render_reference(scene, split.reference_spp, spec.pass_spp, seed)
     rate = float(np.random.default_rng([seed, 0x4A7E]).uniform(*spec.rate_range))
-    settings = RenderSettings(rate=rate, spp=spec.spp, seed=seed, feature_spp=spec.feature_spp)
+    settings = RenderSettings(rate=rate, pattern="random", spp=spec.spp, seed=seed, feature_spp=spec.feature_spp)
     frame, _ = render_sparse_frame(scene, scene.integrator(), settings=settings)
     full, _ = render_sparse_frame(scene, scene.integrator(), settings=replace(settings, rate=1.0))
     arrays = {"reference": reference, "radiance": frame.radiance, "mask": frame.mask, "variance": frame.variance,
