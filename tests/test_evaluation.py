@@ -88,7 +88,15 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
     # a completion at a higher rate is better: the measurements are real
     pawnnm = {r["rate"]: r["psnr"] for r in record["quality"] if r["variant"] == "pawnnm" and r["scene"] == "cornell-box"}
     assert pawnnm[0.5] > pawnnm[0.3]
+    placements = {r["variant"] for r in record["placement"]}
+    assert placements == {"path+oidn", "random", "stratified", "adaptive", "two_pass"}
+    for row in record["placement"]:  # equal samples: the masks spend round(rate * pixels) x spp, path tracing
+        expected = round(row["rate"] * 32 * 32) * 16 / (32 * 32) if row["variant"] != "path+oidn" \
+            else round(row["rate"] * 16)
+        assert row["samples_per_pixel"] == pytest.approx(expected)
     markdown = results_markdown(record)
+    assert "Sample placement at equal samples" in markdown and "two_pass - path+oidn dB" in markdown
+    assert "At equal samples against path tracing + OIDN" in readme_section(record)
     for heading in ("Table 1", "Table 2", "Fig. 10", "Fig. 12", "Table 3", "Crossover", "Table 4"):
         assert heading in markdown
     assert "pawnnm - nnm" in markdown
