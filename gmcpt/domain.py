@@ -1,4 +1,4 @@
-"""The working domain of the completion stages (METHOD.md section 2).
+"""The working domain of the completion stages (docs/design.md section 2).
 
 Radiance is *demodulated* (divided by albedo where the surface has a
 meaningful diffuse albedo, so textures drop out and come back exactly at the

@@ -1,4 +1,4 @@
-"""Image metrics, as METHOD.md section 6 defines them.
+"""Image metrics, as docs/design.md section 6 defines them.
 
 MSE, PSNR and SSIM are computed on the tonemapped sRGB image in [0, 1]
 (:func:`tonemap`: clamp linear radiance to [0, 1], then the sRGB transfer

@@ -33,7 +33,7 @@ def test_push_pull_keeps_known_pixels_and_fills_constants():
 
 def test_generator_starts_from_the_fill_and_is_small():
     generator = Generator()
-    assert 0.3e6 < sum(p.numel() for p in generator.parameters()) < 1.0e6  # CPU-sized (METHOD.md: well under 1.5 M)
+    assert 0.3e6 < sum(p.numel() for p in generator.parameters()) < 1.0e6  # CPU-sized (docs/design.md section 3: well under 1.5 M)
     radiance, features = _inputs(config=GeneratorConfig())
     out = generator(radiance, features)
     assert out.shape == radiance.shape

@@ -1,6 +1,6 @@
 """Classical fills: ``none`` and ``interp``.
 
-``interp`` is the strongest non-learned baseline we ship (METHOD.md section 5):
+``interp`` is the strongest non-learned baseline we ship (docs/design.md section 5):
 on demodulated, log-compressed radiance, each missing pixel becomes a
 cross-bilateral weighted mean of the traced pixels in a window around it, with
 weights from the spatial distance and from differences in albedo, shading

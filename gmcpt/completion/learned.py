@@ -2,7 +2,7 @@
 
 ``gan`` runs the shipped generator (:mod:`gmcpt.gan`) on the sparse frame in
 the working domain and returns its output for every pixel: the traced pixels
-are replaced too, since the generator also denoises them (METHOD.md: putting
+are replaced too, since the generator also denoises them (docs/design.md section 3: putting
 the 16-spp samples back costs 1-3 dB). ``gan_pawnnm`` hands that
 pre-completion to the low-rank refinement
 (:func:`gmcpt.completion.lowrank.refine_low_rank`).

@@ -95,7 +95,7 @@ def complete_liu(frame: SparseFrame, *, params: LowRankParams = LIU_PRESET,
                  domain: WorkingDomain = LOW_RANK_DOMAIN) -> Completion:
     """Image-only baseline: push-pull pre-completion, then NNM, using no feature buffer.
 
-    The paper's Table 1 baseline (METHOD.md section 5): the frame is treated as
+    The paper's Table 1 baseline (docs/design.md section 5): the frame is treated as
     an image alone, so radiance is not divided by albedo (the working domain
     sees an albedo of 0, i.e. a factor of 1), the pre-completion is the
     feature-free push-pull fill, and block matching compares colours only.

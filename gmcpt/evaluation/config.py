@@ -15,7 +15,7 @@ class EvalConfig:
     ----------
     name : "quick" or "full"; printed in the report.
     procedural : how many held-out procedural scenes (test split seeds) join the bundled ones.
-    resolution, spp, reference_spp, rates, seed : the quality protocol (METHOD.md section 6).
+    resolution, spp, reference_spp, rates, seed : the quality protocol (docs/design.md section 6).
     feature_spp : primary samples per pixel of the feature pass, for the completion methods and for
         OIDN's albedo and normal (the product's default, :data:`gmcpt.frame.DEFAULT_FEATURE_SPP`).
     mask : sample placement of every table but the placement table (the product's default).

@@ -1,4 +1,4 @@
-"""GAN pre-completion (paper section III-A; METHOD.md section 3).
+"""GAN pre-completion (paper section III-A; docs/design.md section 3).
 
 :mod:`~gmcpt.gan.model` generator and critic, :mod:`~gmcpt.gan.losses` the
 hybrid loss, :mod:`~gmcpt.gan.train` the training loop (``python -m gmcpt

@@ -1,7 +1,7 @@
 """The hybrid loss of paper Eq. 8, one function per term, plus the critic's side.
 
 Every term compares the generator output ``G(c_in)`` with the reference
-(METHOD.md: the paper's equations mix up c_in, c_out and c_gt). Images are
+(docs/design.md section 3: the paper's equations mix up c_in, c_out and c_gt). Images are
 (B, 3, H, W) in the working domain / 255.
 
 - L_tex  :func:`texture_loss`: the Wasserstein generator term, ``-E[D(G(x))]``;
@@ -12,7 +12,7 @@ Every term compares the generator output ``G(c_in)`` with the reference
 - L_sharp :func:`sharpness_loss`: mean squared distance between gradient
   magnitude maps (:func:`sharpness_map`).
 - L_SSIM :func:`ssim_loss`: 1 - SSIM (Gaussian window 11, sigma 1.5).
-- L1 :func:`l1_loss`: the added pixel term METHOD.md allows.
+- L1 :func:`l1_loss`: the added pixel term (docs/design.md section 3).
 - L_display :func:`display_loss`: L1 of the images as the metrics see them (linear radiance at the
   scene's own exposure, clamped to [0, 1], sRGB curve); off (weight 0) unless a config asks.
 """

@@ -1,6 +1,6 @@
 """Generator with conditioned feature modulation, and a WGAN-GP critic.
 
-Generator (METHOD.md section 3, after Xu et al. 2019): a three-level U-Net of
+Generator (docs/design.md section 3, after Xu et al. 2019): a three-level U-Net of
 residual blocks on 2x2 pixel blocks (space-to-depth). A conditioning net turns the auxiliary features (mask,
 albedo, normal, depth, visibility and, optionally, the standard deviation of
 the traced samples and the coverage of the feature pass) into a shared feature map; every residual block maps it,

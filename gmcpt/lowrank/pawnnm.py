@@ -1,6 +1,6 @@
 """PAWNNM: patch-group low-rank completion with a shrinking weighted threshold.
 
-Paper section III-C and Algorithm 1, as read in METHOD.md section 4.  Each
+Paper section III-C and Algorithm 1, as read in docs/design.md section 4.  Each
 iteration (re-)groups similar patches of the current estimate, replaces every
 d x K group matrix X by its weighted singular value thresholding
 
@@ -200,7 +200,7 @@ class LowRankParams:
 
 
 #: The paper's literal settings (w0, c, k; Algorithm 1 re-forms the groups every
-#: iteration); patch 7x7, step 3, K = 70 as in METHOD.md's measurement.
+#: iteration); patch 7x7, step 3, K = 70 as in the measurement of docs/design.md section 2.
 PAPER_PRESET = LowRankParams(patch_size=7, step=3, search_radius=10, group_size=70,
                              iterations=45, w0=80.5, c=0.9, rematch_every=1, feature_weight=0.0,
                              threshold="weighted", data_term="exact", momentum=0.0, noise_power=0.0, wiener=0.0)
