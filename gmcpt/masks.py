@@ -140,7 +140,7 @@ def _threshold_tile() -> np.ndarray:
     highpassed = _highpassed_noise(THRESHOLD_TILE, THRESHOLD_TILE, np.random.default_rng(0x7B1E), 0.25)
     ranks = np.empty(highpassed.size, np.float64)
     ranks[np.argsort(highpassed.ravel(), kind="stable")] = np.arange(highpassed.size)
-    return ((ranks + 0.5) / ranks.size).reshape(highpassed.shape)
+    return ((ranks + 0.5) / ranks.size).reshape(highpassed.shape).astype(np.float32)
 
 
 def _thresholds(height: int, width: int, rng: np.random.Generator) -> np.ndarray:
@@ -154,9 +154,9 @@ def _thresholds(height: int, width: int, rng: np.random.Generator) -> np.ndarray
     if flips[2]:
         tile = tile.T
     dy, dx = rng.integers(0, THRESHOLD_TILE, size=2)
-    rows = (np.arange(height) + dy) % THRESHOLD_TILE
-    columns = (np.arange(width) + dx) % THRESHOLD_TILE
-    return tile[rows[:, None], columns[None, :]]
+    shifted = np.roll(tile, (-int(dy), -int(dx)), axis=(0, 1))  # element (y, x) is the tile's (y + dy, x + dx)
+    repeats = (-(-height // THRESHOLD_TILE), -(-width // THRESHOLD_TILE))
+    return np.tile(shifted, repeats)[:height, :width]
 
 
 def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,
@@ -170,7 +170,7 @@ def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,
     ``exclude`` (bool) pixels are never picked; ``count`` is clipped to the pixels left.
     """
     height, width = density.shape
-    weight = np.maximum(np.nan_to_num(density.astype(np.float64), nan=0.0, posinf=0.0), 0.0)
+    weight = np.maximum(np.nan_to_num(density.astype(np.float32), nan=0.0, posinf=0.0), 0.0)
     allowed = np.ones((height, width), bool) if exclude is None else ~exclude
     count = int(min(count, allowed.sum()))
     mask = np.zeros(height * width, bool)
@@ -178,7 +178,7 @@ def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,
         return mask.reshape(height, width)
     thresholds = _thresholds(height, width, rng)
     # ties (zero density) are broken by the thresholds, so the count is always exact
-    keys = np.where(allowed, weight / thresholds + 1e-12 / thresholds, -1.0).ravel()
+    keys = np.where(allowed, (weight + np.float32(1e-12)) / thresholds, np.float32(-1.0)).ravel()
     chosen = np.argpartition(-keys, count - 1)[:count]
     mask[chosen] = True
     return mask.reshape(height, width)
