@@ -31,13 +31,12 @@ def complete_none(frame: SparseFrame) -> Completion:
 class GuidedFillParams:
     """Bandwidths of the feature-guided fill.
 
-    ``radius=None`` picks ``ceil(radius_scale * 1.5 / sqrt(rate))`` (about 15 traced pixels in
-    the window at any rate for ``radius_scale`` 1). Feature bandwidths are standard deviations of the
+    ``radius=None`` picks ``ceil(1.5 / sqrt(rate))`` (about 15 traced pixels in
+    the window at any rate). Feature bandwidths are standard deviations of the
     Gaussian on each feature's difference; depth differences are relative.
     """
 
     radius: int | None = None
-    radius_scale: float = 1.0
     sigma_albedo: float = 0.1
     sigma_normal: float = 0.3
     sigma_depth: float = 0.05
@@ -96,7 +95,7 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     (H, W, C) float32 image, equal to ``values`` on the mask if ``keep_samples``.
     """
     rate = max(mask.mean(), 1e-6)
-    radius = params.radius or max(1, math.ceil(params.radius_scale * 1.5 / math.sqrt(rate)))
+    radius = params.radius or max(1, math.ceil(1.5 / math.sqrt(rate)))
     pad = radius
     sigma_space = max(radius / 2.0, 0.5)
     # exp(-distance) with distance = |scaled feature difference|^2; depth differences are relative

@@ -52,13 +52,13 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     """(working-domain image (H, W, 3), demodulation factor, timings) from the generator.
 
     The generator runs on the frame brought to :data:`~gmcpt.gan.infer.EXPOSURE_TARGET`
-    (:func:`~gmcpt.gan.infer.autoexposure`); the exposure is folded into the returned factor, so
+    (:func:`~gmcpt.gan.infer.target_exposure`); the exposure is folded into the returned factor, so
     ``domain.inverse(working, factor)`` is radiance at the frame's own exposure. The traced
     pixels are then blended back by :func:`~gmcpt.lowrank.noise.blend_samples`.
     """
     import torch
 
-    from ..gan.infer import autoexposure, precomplete
+    from ..gan.infer import precomplete, target_exposure
     from ..gan.weights import load_generator
 
     start = time.perf_counter()
@@ -67,7 +67,7 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     previous = torch.get_num_threads()
     torch.set_num_threads(int(os.environ.get("GMCPT_TORCH_THREADS", GAN_THREADS)))
     try:
-        working, factor = precomplete(generator, frame, domain, autoexposure(frame))
+        working, factor = precomplete(generator, frame, domain, target_exposure(frame))
     finally:
         torch.set_num_threads(previous)
     observed = domain.forward(frame.radiance, factor)  # in the generator's working domain (exposure folded in)
