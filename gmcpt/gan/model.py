@@ -29,6 +29,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from ..fills import guided_fill
 from .retired import drop_retired
 
 #: Feature channels: mask, albedo (3), normal (3), depth, visibility.
@@ -90,8 +91,6 @@ def smoothed_fill(radiance: torch.Tensor, features: torch.Tensor) -> torch.Tenso
     """The fill the generator corrects: the feature-guided fill of each (B, 3, H, W) ``radiance`` from its
     (B, F, H, W) ``features``, with the traced pixels smoothed by the same weights (``guided_fill`` with
     ``keep_samples=False``; runs on the CPU in numpy, no parameters)."""
-    from ..completion.classical import guided_fill
-
     values = radiance.detach().permute(0, 2, 3, 1).cpu().numpy()
     aux = features.detach().permute(0, 2, 3, 1).cpu().numpy()
     filled = [guided_fill(values[i], aux[i, ..., 0] > 0, aux[i, ..., 1:FEATURE_CHANNELS], keep_samples=False)
