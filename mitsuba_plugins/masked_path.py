@@ -99,6 +99,11 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         self.last_frame = None
         self.last_timings = {}
 
+    def plugin_properties(self) -> dict:
+        """The plugin's own properties as set (``rate``, ``mask``, ...), for a copy with some changed."""
+        return {"rate": self.rate, "mask": self.mask_pattern, "seed": self.seed, "feature_spp": self.feature_spp,
+                "completion": self.completion, "weights": self.weights}
+
     def completion_options(self) -> dict:
         """Keyword options for :func:`gmcpt.completion.complete` beside the method name."""
         return {} if self.weights is None else {"weights": self.weights}
