@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import mitsuba as mi
 
-from gmcpt.completion import check_weights, complete, get_method
+from gmcpt.completion import check_options, complete
 from gmcpt.errors import GmcptError
 from gmcpt.layers import channel_names, pack
 from gmcpt.masks import DEFAULT_PATTERN, check_pattern, check_rate
@@ -81,10 +81,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         if self.feature_spp < 1:
             raise GmcptError(f"feature_spp must be >= 1, got {self.feature_spp}")
         self.completion = props.get("completion", DEFAULT_COMPLETION)
-        get_method(self.completion)  # fail at load time on an unknown name
         self.weights = props.get("weights", "") or None
-        if self.weights is not None:
-            check_weights(self.completion, self.weights)  # fail at load time on a missing or corrupt file
+        check_options(self.completion, self.weights)  # fail at load time on an unknown name, a bad weights file
         nested = [props[name] for name in props.keys() if isinstance(props[name], mi.Integrator)]
         if len(nested) > 1:
             raise GmcptError("masked_path takes at most one nested integrator")
