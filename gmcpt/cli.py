@@ -54,7 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _validate(args) -> None:
     from .completion import check_options
-    from .imageio import check_writable
+    from .exr import check_writable
     from .masks import check_pattern, check_rate
 
     if not args.out.lower().endswith(".exr"):
@@ -96,7 +96,7 @@ def _outputs(out: str):
 def run(args, say=lambda message: None) -> dict:
     """Render, complete and write; returns the JSON record."""
     from .completion import check_size, complete
-    from .imageio import read_rgb_exr
+    from .exr import read_rgb_exr
     from .metrics import all_metrics
     from .outputs import library_versions, write_outputs
     from .render import render_sparse_frame

@@ -5,7 +5,7 @@ import mitsuba as mi
 
 from gmcpt.completion import check_options, complete
 from gmcpt.errors import GmcptError
-from gmcpt.layers import channel_names, pack
+from gmcpt.exr import channel_names, pack
 from gmcpt.masks import DEFAULT_PATTERN, check_pattern, check_rate
 from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
 
@@ -59,7 +59,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
     ``mi.render`` returns an ``(H, W, 17)`` tensor: the completed RGB first,
     then the layers named by :meth:`aov_names` (sparse RGB, mask, albedo,
-    normal, depth, visibility, variance); see :mod:`gmcpt.layers`.
+    normal, depth, visibility, variance); see :mod:`gmcpt.exr`.
 
     .. code-block:: xml
 

@@ -19,8 +19,8 @@ def rendered(tmp_path_factory):
 
 
 def test_writes_exr_png_json(rendered):
-    from gmcpt.imageio import read_exr
-    from gmcpt.layers import channel_names
+    from gmcpt.exr import read_exr
+    from gmcpt.exr import channel_names
 
     out, result = rendered
     channels = read_exr(out)
@@ -42,7 +42,7 @@ def test_writes_exr_png_json(rendered):
 
 
 def test_same_seed_same_output(rendered, tmp_path):
-    from gmcpt.imageio import read_exr
+    from gmcpt.exr import read_exr
 
     out, _ = rendered
     again = tmp_path / "again.exr"
@@ -70,7 +70,7 @@ def test_scene_with_plain_path_integrator_is_wrapped(tmp_path):
     result = run_cli(NAN_SCENE, "--allow-nonfinite", "--rate", "0.5", "--out", out, "-q")
     assert result.returncode == 0, result.stderr
     assert "warning:" in result.stderr and "NaN/Inf" in result.stderr
-    from gmcpt.imageio import read_rgb_exr
+    from gmcpt.exr import read_rgb_exr
     assert np.isfinite(read_rgb_exr(out)).all()
     record = json.loads(out.with_suffix(".json").read_text())
     assert record["nonfinite_samples"] > 0 and "PathIntegrator" in record["parameters"]["integrator"]

@@ -7,9 +7,11 @@ method's ``min_size``, non-finite samples are dropped from the mask), times
 the call and checks the result. The options a caller will pass (method name,
 generator weights) are checked by :func:`~gmcpt.completion.check.check_options`.
 
-Methods shipped here: ``none`` (the sparse image as is) and ``interp``
-(feature-guided interpolation on demodulated radiance, see
-:mod:`gmcpt.completion.classical`).
+Methods shipped: ``none`` (the sparse image as is) and ``interp``
+(feature-guided interpolation) in :mod:`~gmcpt.completion.classical`;
+``pawnnm``, ``nnm`` and ``liu`` (a fill, then patch-group matrix completion)
+in :mod:`~gmcpt.completion.matrix`; ``gan`` and ``gan_pawnnm`` in
+:mod:`~gmcpt.completion.learned`.
 """
 from __future__ import annotations
 
@@ -93,5 +95,5 @@ def complete(frame: SparseFrame, method: str = "interp", **options) -> Completio
 
 
 from .check import check_frame, check_options, check_size, check_weights, sanitize  # noqa: E402,F401
-from . import classical, lowrank  # noqa: E402,F401  (registers none, interp, pawnnm, nnm)
+from . import classical, matrix  # noqa: E402,F401  (registers none, interp; pawnnm, nnm, liu)
 from . import learned  # noqa: E402,F401  (registers gan, gan_pawnnm)

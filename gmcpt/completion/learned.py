@@ -5,7 +5,7 @@ the working domain and returns its output for every pixel: the traced pixels
 are replaced too, since the generator also denoises them (docs/design.md section 3: putting
 the 16-spp samples back costs 1-3 dB). ``gan_pawnnm`` hands that
 pre-completion to the low-rank refinement
-(:func:`gmcpt.completion.lowrank.refine_low_rank`).
+(:func:`gmcpt.completion.matrix.refine_low_rank`).
 
 Both take ``weights=`` (a shipped name such as ``gan-cpu`` or a ``.pt`` path;
 default :data:`gmcpt.gan.weights.DEFAULT_WEIGHTS`).
@@ -94,7 +94,7 @@ def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDo
     lost on every bundled scene but the still life (cornell-box at rate 0.3: b = 0 33.67 dB,
     0.25 33.14, 0.5 31.62; breakfast-room-open 25.38 / 24.21 / 22.93), so there is no such option.
     """
-    from .lowrank import LOW_RANK_DOMAIN, refine_low_rank
+    from .matrix import LOW_RANK_DOMAIN, refine_low_rank
 
     working, factor, timings = gan_precompletion(frame, domain, weights)
     gan_image = domain.inverse(working, factor)

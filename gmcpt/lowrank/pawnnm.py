@@ -215,7 +215,7 @@ PAPER_PRESET = LowRankParams(patch_size=7, step=3, search_radius=10, group_size=
 #: scored by the worst frame's tonemapped-PSNR gain over interp: w0 3e4 -> 1e4,
 #: search radius 8 -> 10, feature weight 0 -> 0.3 together +0.4 dB (worst frame
 #: +2.3 -> +2.8), and the low-rank domain's albedo_eps 0.02 -> 0.2 another +0.9
-#: (worst frame +3.6; see gmcpt.completion.lowrank.LOW_RANK_DOMAIN). Tried and
+#: (worst frame +3.6; see gmcpt.completion.matrix.LOW_RANK_DOMAIN). Tried and
 #: left: K 24 (-2.6 dB on cornell-box at rate 0.2), c 0.8, momentum 0.6,
 #: patch 5 or 8, 16 iterations, two passes.
 DEFAULT = LowRankParams()
