@@ -45,6 +45,23 @@ def test_weights_too_large_for_half_precision_are_stored_as_they_are(tmp_path):
     assert loaded.tail.weight[0, 0, 0, 0].item() == 1e6
 
 
+def test_a_weights_file_recording_retired_options_loads(tmp_path):
+    from gmcpt.gan.retired import RETIRED
+    from gmcpt.gan.weights import load_generator, save_weights
+
+    generator = Generator(SMALL)
+    torch.nn.init.normal_(generator.tail.weight, std=0.1)
+    save_weights(tmp_path / "old.pt", generator, {})
+    payload = torch.load(tmp_path / "old.pt", weights_only=True)
+    stored = {key: 9 if value is None else value for key, value in RETIRED["generator"].items()}
+    payload["generator_config"] = json.dumps({**json.loads(payload["generator_config"]), **stored})
+    torch.save(payload, tmp_path / "old.pt")   # as written before those options were retired
+    loaded, _ = load_generator(tmp_path / "old.pt", check_hash=False)
+    assert loaded.config == SMALL
+    radiance, features = generator_inputs()
+    assert torch.isfinite(loaded(radiance, features)).all()
+
+
 def test_missing_or_corrupt_weights_give_one_line_with_the_fix(tmp_path):
     from gmcpt.gan.weights import load_generator, save_weights
 
