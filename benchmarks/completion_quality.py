@@ -9,9 +9,9 @@ noisy full-frame render at the same spp for scale.
     python benchmarks/completion_quality.py [--methods interp nnm pawnnm] [--rates 0.2 0.3 0.4]
         [--scenes cornell-box still-life breakfast-room-open]
 
-Scenes are those of :mod:`gmcpt.evalscenes` (why breakfast-room is evaluated
+Scenes are those of :mod:`gmcpt.evaluation.scenes` (why breakfast-room is evaluated
 with its window panes left out is explained there). References come from
-gmcpt.reference (cached; rendered on a miss, which is slow: run
+gmcpt.evaluation.reference (cached; rendered on a miss, which is slow: run
 scripts/make_references.py first). ``--save-frames DIR`` also writes each
 sparse frame with its reference as .npz for parameter sweeps.
 """
@@ -36,14 +36,14 @@ def main() -> int:
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--ref-spp", type=int, default=4096)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--scenes", nargs="+", help="names from gmcpt.evalscenes (default: the quality scenes)")
+    parser.add_argument("--scenes", nargs="+", help="names from gmcpt.evaluation.scenes (default: the quality scenes)")
     parser.add_argument("--save-frames", metavar="DIR")
     args = parser.parse_args()
 
     import gmcpt  # noqa: F401
     import mitsuba as mi
     from gmcpt.completion import complete
-    from gmcpt.evalscenes import by_name
+    from gmcpt.evaluation.scenes import by_name
     from gmcpt.metrics import all_metrics
     from gmcpt.render import RenderSettings, render_sparse_frame
 

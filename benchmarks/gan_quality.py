@@ -4,8 +4,8 @@
 Scenes: the held-out procedural test split of the dataset (``--dataset``,
 seeds 2000000.., references stored in the split at 256x256 / 4096 spp, scenes
 rebuilt from their seed and exposure) and the quality scenes of
-:mod:`gmcpt.evalscenes` (bundled ones, breakfast-room with its window panes
-left out; references from :mod:`gmcpt.reference`'s cache). For each scene and rate one sparse frame is rendered (16 spp, seed 0,
+:mod:`gmcpt.evaluation.scenes` (bundled ones, breakfast-room with its window panes
+left out; references from :mod:`gmcpt.evaluation.reference`'s cache). For each scene and rate one sparse frame is rendered (16 spp, seed 0,
 ``random`` mask) and every method completes it; beside them, full-frame path
 tracing with the same number of path samples (``round(rate * spp)`` per
 pixel), denoised with Intel Open Image Denoise (``pyoidn``).
@@ -31,7 +31,7 @@ def scenes(args):
     """(name, scene, nested integrator, reference) for every scene to evaluate."""
     from gmcpt.dataset import list_examples, load_example
     from gmcpt.dataset.scenes import build_scene
-    from gmcpt.evalscenes import QUALITY_SCENES
+    from gmcpt.evaluation.scenes import QUALITY_SCENES
 
     for path in list_examples(args.dataset, "test")[:args.test_scenes] if args.test_scenes else []:
         example = load_example(path)

@@ -109,7 +109,7 @@ def main() -> int:
 
     from gmcpt.completion import complete
     from gmcpt.denoise import denoise_oidn
-    from gmcpt.evalscenes import QUALITY_SCENES, procedural_scenes
+    from gmcpt.evaluation.scenes import QUALITY_SCENES, procedural_scenes
     from gmcpt.evaluation.baselines import render_full
     from gmcpt.metrics import all_metrics
     from gmcpt.render import RenderSettings, render_sparse_frame

@@ -50,13 +50,13 @@ def main() -> int:
                         "(default: the product's default and 1)")
     parser.add_argument("--masks", nargs="+", help="sample placements, each a row (default: the product's)")
     parser.add_argument("--scenes", nargs="+", help="scene files (default: the bundled still life and the "
-                        "shared breakfast room as shipped, from gmcpt.evalscenes)")
+                        "shared breakfast room as shipped, from gmcpt.evaluation.scenes)")
     args = parser.parse_args()
 
     import drjit as dr
     import gmcpt  # noqa: F401
     import mitsuba as mi
-    from gmcpt.evalscenes import BREAKFAST, STILL_LIFE
+    from gmcpt.evaluation.scenes import BREAKFAST, STILL_LIFE
     from gmcpt.masks import DEFAULT_PATTERN, check_pattern
     from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
     from gmcpt.scene import load_scene

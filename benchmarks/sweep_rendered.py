@@ -56,7 +56,7 @@ def main() -> int:
 
     import gmcpt  # noqa: F401
     from gmcpt.completion import complete
-    from gmcpt.completion.lowrank import LOW_RANK_DOMAIN, complete_pawnnm
+    from gmcpt.completion.matrix import LOW_RANK_DOMAIN, complete_pawnnm
     from gmcpt.lowrank import DEFAULT
     from gmcpt.metrics import psnr
 

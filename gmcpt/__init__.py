@@ -3,8 +3,8 @@
 Importing the package finds an LLVM for Dr.Jit (see :mod:`gmcpt._llvm`),
 selects a Mitsuba variant when none is set (``$GMCPT_VARIANT``, else
 ``cuda_ad_rgb`` where CUDA works, else ``llvm_ad_rgb``) and registers the
-``masked_path`` integrator with Mitsuba, so scene files that name it load with
-``mi.load_file``.
+``masked_path`` integrator with Mitsuba through its entry point
+(:mod:`gmcpt.plugins`), so scene files that name it load with ``mi.load_file``.
 
 The pipeline, one plain function per stage::
 
@@ -25,11 +25,12 @@ from .variant import ensure_variant  # noqa: E402
 
 ensure_variant()
 
-import mitsuba_plugins  # noqa: E402,F401  (registers masked_path)
-
 from .frame import SparseFrame  # noqa: E402
 from .completion import Completion, complete, methods  # noqa: E402
 from .render import render_sparse_frame  # noqa: E402
+from .plugins import register_plugins  # noqa: E402
+
+register_plugins()  # masked_path (mitsuba_plugins, which imports this package; never the other way)
 
 __all__ = ["GmcptError", "SparseFrame", "Completion", "complete", "methods",
            "render_sparse_frame", "ensure_variant", "__version__"]

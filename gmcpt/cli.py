@@ -53,8 +53,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _validate(args) -> None:
-    from .completion import check_weights, get_method
-    from .imageio import check_writable
+    from .completion import check_options
+    from .exr import check_writable
     from .masks import check_pattern, check_rate
 
     if not args.out.lower().endswith(".exr"):
@@ -69,10 +69,7 @@ def _validate(args) -> None:
         raise GmcptError(f"--feature-spp must be >= 1, got {args.feature_spp}")
     if args.mask is not None:
         check_pattern(args.mask)
-    if args.method is not None:
-        get_method(args.method)
-    if args.weights is not None:
-        check_weights(args.method, args.weights)
+    check_options(args.method, args.weights)
     if args.res is not None and min(args.res) < 1:
         raise GmcptError(f"--res must be positive, got {args.res[0]} {args.res[1]}")
     for define in args.defines:
@@ -99,7 +96,7 @@ def _outputs(out: str):
 def run(args, say=lambda message: None) -> dict:
     """Render, complete and write; returns the JSON record."""
     from .completion import check_size, complete
-    from .imageio import read_rgb_exr
+    from .exr import read_rgb_exr
     from .metrics import all_metrics
     from .outputs import library_versions, write_outputs
     from .render import render_sparse_frame

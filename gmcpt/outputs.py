@@ -14,8 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .frame import SparseFrame
-from .imageio import atomic_output, write_exr, write_png
-from .layers import channel_names, pack
+from .exr import atomic_output, channel_names, pack, write_exr, write_png
 
 VERSIONED = ("gmcpt", "mitsuba", "drjit", "torch", "numpy", "OpenEXR", "colour-science", "scikit-image")
 

@@ -85,16 +85,14 @@ def masked_integrator(scene: mi.Scene, **overrides) -> mi.Integrator:
     integrator wrapped as the nested one, keeping its settings; a scene with
     no integrator gets the default ``path``. Overrides set to None are ignored.
     """
-    from mitsuba_plugins.masked_path import MaskedPathIntegrator
-
     from .completion import get_method
+    from .plugins import require_plugin
 
+    require_plugin("masked_path")
     current = scene.integrator()
     overrides = {key: value for key, value in overrides.items() if value is not None}
-    if isinstance(current, MaskedPathIntegrator):
-        settings = {"rate": current.rate, "mask": current.mask_pattern, "seed": current.seed,
-                    "feature_spp": current.feature_spp, "completion": current.completion, "weights": current.weights}
-        nested = current.integrator
+    if callable(getattr(current, "plugin_properties", None)):  # masked_path (its class lives in mitsuba_plugins)
+        settings, nested = current.plugin_properties(), current.integrator
     else:
         settings, nested = {}, current
     settings.update(overrides)

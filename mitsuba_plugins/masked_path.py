@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import mitsuba as mi
 
-from gmcpt.completion import check_weights, complete, get_method
+from gmcpt.completion import check_options, complete
 from gmcpt.errors import GmcptError
-from gmcpt.layers import channel_names, pack
+from gmcpt.exr import channel_names, pack
 from gmcpt.masks import DEFAULT_PATTERN, check_pattern, check_rate
 from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
 
@@ -59,7 +59,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
     ``mi.render`` returns an ``(H, W, 17)`` tensor: the completed RGB first,
     then the layers named by :meth:`aov_names` (sparse RGB, mask, albedo,
-    normal, depth, visibility, variance); see :mod:`gmcpt.layers`.
+    normal, depth, visibility, variance); see :mod:`gmcpt.exr`.
 
     .. code-block:: xml
 
@@ -81,10 +81,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         if self.feature_spp < 1:
             raise GmcptError(f"feature_spp must be >= 1, got {self.feature_spp}")
         self.completion = props.get("completion", DEFAULT_COMPLETION)
-        get_method(self.completion)  # fail at load time on an unknown name
         self.weights = props.get("weights", "") or None
-        if self.weights is not None:
-            check_weights(self.completion, self.weights)  # fail at load time on a missing or corrupt file
+        check_options(self.completion, self.weights)  # fail at load time on an unknown name, a bad weights file
         nested = [props[name] for name in props.keys() if isinstance(props[name], mi.Integrator)]
         if len(nested) > 1:
             raise GmcptError("masked_path takes at most one nested integrator")
@@ -98,6 +96,11 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
              "rr_depth": depth_settings.get("rr_depth", 5)})
         self.last_frame = None
         self.last_timings = {}
+
+    def plugin_properties(self) -> dict:
+        """The plugin's own properties as set (``rate``, ``mask``, ...), for a copy with some changed."""
+        return {"rate": self.rate, "mask": self.mask_pattern, "seed": self.seed, "feature_spp": self.feature_spp,
+                "completion": self.completion, "weights": self.weights}
 
     def completion_options(self) -> dict:
         """Keyword options for :func:`gmcpt.completion.complete` beside the method name."""

@@ -6,7 +6,7 @@
 A second reference with another ``--seed`` (for example 2000003) is independent
 of the first; the PSNR between the two tells how noisy the references are.
 
-Scenes are those of :mod:`gmcpt.evalscenes` (default: the quality scenes).
+Scenes are those of :mod:`gmcpt.evaluation.scenes` (default: the quality scenes).
 Cached under $GMCPT_CACHE (default ~/.cache/gmcpt/references); rerunning is free.
 """
 import argparse
@@ -18,12 +18,12 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--res", type=int, default=256)
     parser.add_argument("--spp", type=int, default=4096)
-    parser.add_argument("--scenes", nargs="+", help="names from gmcpt.evalscenes")
+    parser.add_argument("--scenes", nargs="+", help="names from gmcpt.evaluation.scenes")
     parser.add_argument("--seed", type=int, default=1_000_003, help="first sampler seed (default: the evaluations')")
     args = parser.parse_args()
 
     import gmcpt  # noqa: F401
-    from gmcpt.evalscenes import by_name
+    from gmcpt.evaluation.scenes import by_name
 
     try:
         scenes = by_name(args.scenes)

@@ -23,7 +23,7 @@ def main():
 
     import gmcpt  # noqa: F401
     from gmcpt.completion import complete
-    from gmcpt.imageio import write_png
+    from gmcpt.exr import write_png
     from gmcpt.render import render_sparse_frame
     from gmcpt.scene import load_scene, masked_integrator
 

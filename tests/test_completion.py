@@ -5,7 +5,7 @@ import pytest
 
 from conftest import synthetic_frame
 from gmcpt.completion import complete, methods, register_method, Completion
-from gmcpt.completion.classical import push_pull
+from gmcpt.fills import push_pull
 from gmcpt.errors import GmcptError
 
 
@@ -41,7 +41,7 @@ def test_interp_keeps_samples_and_fills_well():
 
 
 def test_guided_fill_without_keeping_samples_smooths_them_and_keeps_edges():
-    from gmcpt.completion.classical import guided_fill
+    from gmcpt.fills import guided_fill
 
     rng = np.random.default_rng(3)
     height, width = 40, 40

@@ -54,29 +54,11 @@ def test_generator_covers_required_variety(mi):
     assert needed <= found, needed - found
 
 
-def test_interior_layout_is_its_own_seeded_set_of_sunlit_dining_rooms(mi):
-    from gmcpt.dataset.scenes import scene_description
-
-    interior = scene_description(3, 16, layout="interior")
-    assert _summary(scene_description(3, 16, layout="interior")) == _summary(interior)
-    assert _summary(interior) != _summary(scene_description(3, 16))          # not the mixed set's seed 3
-    assert _summary(scene_description(3, 16, layout="mixed")) == _summary(scene_description(3, 16))
-    for seed in range(6):
-        description = scene_description(seed, 16, layout="interior")
-        names = set(description)
-        assert {"table", "ceiling", "sun", "sky"} <= names
-        assert len([n for n in names if n.startswith("left_")]) == 4       # the left wall has a window
-        legs = [description[n]["radius"] for n in names if "chair" in n and "_leg" in n and not n.endswith("_cap")]
-        assert len(legs) >= 8 and max(legs) <= 0.02                          # >= 2 chairs on thin legs
-    with pytest.raises(ValueError, match="unknown scene layout"):
-        scene_description(0, 16, layout="attic")
-
-
 def test_scenes_load_and_render(mi):
     from gmcpt.dataset.scenes import build_scene
 
-    for seed, layout in ((0, "mixed"), (2_000_000, "mixed"), (0, "interior")):
-        scene = build_scene(seed, 16, layout=layout)
+    for seed in (0, 2_000_000):
+        scene = build_scene(seed, 16)
         image = np.asarray(mi.render(scene, spp=4))
         assert image.shape[:2] == (16, 16) and np.isfinite(image).all()
 
@@ -105,17 +87,15 @@ def test_splits_never_share_seeds():
         SplitSpec("train", 2_000_000).seeds()
 
 
-def test_a_dataset_keeps_one_layout(mi, tmp_path):
-    from dataclasses import replace
+def test_a_dataset_of_a_removed_scene_layout_is_not_extended(tmp_path):
+    from gmcpt.dataset import DatasetSpec, SplitSpec, build
 
-    from gmcpt.dataset import DatasetSpec, SplitSpec, build, example_path, load_example
-
-    spec = DatasetSpec(splits=(SplitSpec("train", 1, 16, 16),), pass_spp=8, layout="interior")
-    build(tmp_path, spec, workers=0, say=lambda m: None)
-    assert load_example(example_path(tmp_path, "train", 0))["meta"]["layout"] == "interior"
-    assert json.loads((tmp_path / "manifest.json").read_text())["layout"] == "interior"
-    with pytest.raises(ValueError, match="layout"):
-        build(tmp_path, replace(spec, layout="mixed"), workers=0, say=lambda m: None)
+    manifest = {**DatasetSpec().to_json(), "splits": {}, "layout": "interior"}
+    (tmp_path / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(ValueError, match="built with the scene layout interior"):
+        build(tmp_path, DatasetSpec(splits=(SplitSpec("train", 1, 16, 16),)), workers=0, say=lambda m: None)
+    (tmp_path / "manifest.json").write_text(json.dumps({**manifest, "layout": "mixed"}))   # what every build was
+    build(tmp_path, DatasetSpec(splits=(SplitSpec("train", 0, 16, 16),)), workers=0, say=lambda m: None)
 
 
 def test_build_resume_and_product_identical_inputs(mi, tmp_path):

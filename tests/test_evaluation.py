@@ -66,7 +66,7 @@ def test_readme_section_is_replaced_between_markers():
 
 def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
     """Every table, plot and README section from a small run on the Cornell box and one procedural scene."""
-    from gmcpt.evalscenes import CORNELL, ProceduralScene
+    from gmcpt.evaluation.scenes import CORNELL, ProceduralScene
     from gmcpt.evaluation.cli import evaluate
     from gmcpt.evaluation.config import EvalConfig
     from gmcpt.evaluation.document import readme_section, results_markdown

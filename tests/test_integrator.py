@@ -8,7 +8,7 @@ from gmcpt.errors import GmcptError
 
 @pytest.mark.parametrize("scene_file", [CORNELL, STILL_LIFE], ids=["cornell-box", "still-life"])
 def test_bundled_scene_renders_through_mi_render(mi, scene_file):
-    from gmcpt.layers import channel_names, unpack
+    from gmcpt.exr import channel_names, unpack
     from mitsuba_plugins import MaskedPathIntegrator
 
     # 64 px, not fewer: at 40 px the Cornell box's light and walls are a few pixels each and the
@@ -87,7 +87,7 @@ def test_weights_property_is_checked_at_load_and_reaches_the_gan(mi, tmp_path):
     import torch
     from gmcpt.gan.model import Generator
     from gmcpt.gan.weights import load_generator, save_weights
-    from gmcpt.layers import unpack
+    from gmcpt.exr import unpack
     from gmcpt.scene import masked_integrator
 
     torch.manual_seed(0)

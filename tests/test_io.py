@@ -6,8 +6,7 @@ import pytest
 
 from conftest import synthetic_frame
 from gmcpt.errors import GmcptError
-from gmcpt.imageio import atomic_output, check_writable, read_exr, write_exr
-from gmcpt.layers import channel_names, pack, unpack
+from gmcpt.exr import atomic_output, channel_names, check_writable, pack, read_exr, unpack, write_exr
 
 
 def test_pack_unpack_roundtrip():

@@ -6,8 +6,8 @@ from gmcpt.placement import feature_density
 
 
 def training_crop(size=64):
-    """A crop in the PatchSampler's channel layout (20 channels) with one vertical albedo edge."""
-    crop = np.zeros((size, size, 20), np.float32)
+    """A crop in the PatchSampler's channel layout (17 channels) with one vertical albedo edge."""
+    crop = np.zeros((size, size, 17), np.float32)
     crop[..., 3:6] = 0.3                       # noisy radiance, working domain / 255
     crop[:, size // 2:, 3:6] = 0.6             # ... brighter on the right
     crop[..., 6] = 0.01                        # noise std
@@ -17,7 +17,7 @@ def training_crop(size=64):
     crop[..., 13] = 0.5                        # depth
     crop[..., 14] = 1.0                        # visibility
     crop[..., 15] = 1.0                        # coverage
-    crop[..., 19] = feature_density(crop[..., 7:10], crop[..., 10:13], crop[..., 13], crop[..., 14], crop[..., 15])
+    crop[..., 16] = feature_density(crop[..., 7:10], crop[..., 10:13], crop[..., 13], crop[..., 14], crop[..., 15])
     return crop
 
 
@@ -36,7 +36,7 @@ def test_crop_masks_follow_the_edges(pattern):
     from gmcpt.gan.data import crop_mask
 
     crop = training_crop()
-    near_edge = crop[..., 19] > 1.5
+    near_edge = crop[..., 16] > 1.5
     masks = [crop_mask(crop, 0.2, pattern, np.random.default_rng(seed)) for seed in range(10)]
     assert np.mean([m[near_edge].mean() for m in masks]) > 1.5 * np.mean([m[~near_edge].mean() for m in masks])
 

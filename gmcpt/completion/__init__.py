@@ -1,18 +1,22 @@
 """The completion hook: a registry of reconstruction methods keyed by name.
 
 Each method is a plain function ``fn(frame: SparseFrame, **options) ->
-Completion``. :func:`complete` validates the frame once for all of them
-(non-finite samples are dropped from the mask, the image must be at least the
-method's ``min_size``), times the call and checks the result.
+Completion``. :func:`complete` checks the frame once for all of them
+(:func:`~gmcpt.completion.check.check_frame`: the image must be at least the
+method's ``min_size``, non-finite samples are dropped from the mask), times
+the call and checks the result. The options a caller will pass (method name,
+generator weights) are checked by :func:`~gmcpt.completion.check.check_options`.
 
-Methods shipped here: ``none`` (the sparse image as is) and ``interp``
-(feature-guided interpolation on demodulated radiance, see
-:mod:`gmcpt.completion.classical`).
+Methods shipped: ``none`` (the sparse image as is) and ``interp``
+(feature-guided interpolation) in :mod:`~gmcpt.completion.classical`;
+``pawnnm``, ``nnm`` and ``liu`` (a fill, then patch-group matrix completion)
+in :mod:`~gmcpt.completion.matrix`; ``gan`` and ``gan_pawnnm`` in
+:mod:`~gmcpt.completion.learned`.
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -77,49 +81,11 @@ def get_method(name: str) -> Method:
     return _REGISTRY[name]
 
 
-def check_weights(method: str | None, weights: str) -> None:
-    """Raise (one line) unless ``method`` takes generator weights and ``weights`` loads.
-
-    ``method`` None checks the file alone (the method is not known yet).
-    """
-    if method is not None and not get_method(method).takes("weights"):
-        raise GmcptError(f"weights apply to the GAN methods only, not to completion {method!r}")
-    from ..gan.weights import load_generator
-
-    load_generator(weights)
-
-
-def check_size(method: str, height: int, width: int) -> None:
-    """Raise if an image of this size is too small for ``method`` (e.g. its patch)."""
-    needed = get_method(method).min_size
-    if min(height, width) < needed:
-        raise GmcptError(f"image {width}x{height} is smaller than method {method!r} needs "
-                         f"(at least {needed}x{needed}, its patch size)")
-
-
-def sanitize(frame: SparseFrame) -> SparseFrame:
-    """Drop non-finite samples from the mask and zero non-finite features."""
-    buffers = (frame.radiance, frame.variance, frame.albedo, frame.normal, frame.depth, frame.visibility)
-    if all(np.isfinite(buffer).all() for buffer in buffers):
-        return frame
-    finite = np.isfinite(frame.radiance).all(axis=-1) & np.isfinite(frame.variance)
-    mask = frame.mask & finite
-    clean = lambda a: np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0).astype(np.float32)  # noqa: E731
-    radiance = np.where(mask[..., None], clean(frame.radiance), 0.0).astype(np.float32)
-    info = dict(frame.info, dropped_nonfinite_pixels=int((frame.mask & ~finite).sum()))
-    return replace(frame, radiance=radiance, mask=mask, variance=np.where(mask, clean(frame.variance), 0.0),
-                   albedo=clean(frame.albedo), normal=clean(frame.normal), depth=clean(frame.depth),
-                   visibility=clean(frame.visibility), info=info)
-
-
 def complete(frame: SparseFrame, method: str = "interp", **options) -> Completion:
     """Run completion ``method`` on ``frame`` and return the completed image."""
     entry = get_method(method)
+    frame = check_frame(frame, method)
     height, width = frame.shape
-    check_size(method, height, width)
-    frame = sanitize(frame)
-    if not frame.mask.any():
-        raise GmcptError("no finite rendered samples to complete from")
     start = time.perf_counter()
     result = entry.function(frame, **options)
     result.timings["completion_s"] = time.perf_counter() - start
@@ -128,5 +94,6 @@ def complete(frame: SparseFrame, method: str = "interp", **options) -> Completio
     return result
 
 
-from . import classical, lowrank  # noqa: E402,F401  (registers none, interp, pawnnm, nnm)
+from .check import check_frame, check_options, check_size, check_weights, sanitize  # noqa: E402,F401
+from . import classical, matrix  # noqa: E402,F401  (registers none, interp; pawnnm, nnm, liu)
 from . import learned  # noqa: E402,F401  (registers gan, gan_pawnnm)

@@ -5,7 +5,7 @@ the working domain and returns its output for every pixel: the traced pixels
 are replaced too, since the generator also denoises them (docs/design.md section 3: putting
 the 16-spp samples back costs 1-3 dB). ``gan_pawnnm`` hands that
 pre-completion to the low-rank refinement
-(:func:`gmcpt.completion.lowrank.refine_low_rank`).
+(:func:`gmcpt.completion.matrix.refine_low_rank`).
 
 Both take ``weights=`` (a shipped name such as ``gan-cpu`` or a ``.pt`` path;
 default :data:`gmcpt.gan.weights.DEFAULT_WEIGHTS`).
@@ -52,13 +52,13 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     """(working-domain image (H, W, 3), demodulation factor, timings) from the generator.
 
     The generator runs on the frame brought to :data:`~gmcpt.gan.infer.EXPOSURE_TARGET`
-    (:func:`~gmcpt.gan.infer.autoexposure`); the exposure is folded into the returned factor, so
+    (:func:`~gmcpt.gan.infer.target_exposure`); the exposure is folded into the returned factor, so
     ``domain.inverse(working, factor)`` is radiance at the frame's own exposure. The traced
     pixels are then blended back by :func:`~gmcpt.lowrank.noise.blend_samples`.
     """
     import torch
 
-    from ..gan.infer import autoexposure, precomplete
+    from ..gan.infer import precomplete, target_exposure
     from ..gan.weights import load_generator
 
     start = time.perf_counter()
@@ -67,7 +67,7 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     previous = torch.get_num_threads()
     torch.set_num_threads(int(os.environ.get("GMCPT_TORCH_THREADS", GAN_THREADS)))
     try:
-        working, factor = precomplete(generator, frame, domain, autoexposure(frame))
+        working, factor = precomplete(generator, frame, domain, target_exposure(frame))
     finally:
         torch.set_num_threads(previous)
     observed = domain.forward(frame.radiance, factor)  # in the generator's working domain (exposure folded in)
@@ -94,7 +94,7 @@ def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDo
     lost on every bundled scene but the still life (cornell-box at rate 0.3: b = 0 33.67 dB,
     0.25 33.14, 0.5 31.62; breakfast-room-open 25.38 / 24.21 / 22.93), so there is no such option.
     """
-    from .lowrank import LOW_RANK_DOMAIN, refine_low_rank
+    from .matrix import LOW_RANK_DOMAIN, refine_low_rank
 
     working, factor, timings = gan_precompletion(frame, domain, weights)
     gan_image = domain.inverse(working, factor)

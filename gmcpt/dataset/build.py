@@ -95,7 +95,6 @@ class DatasetSpec:
     exposure_range: tuple[float, float] = (0.4, 1.2)
     feature_spp: int = DEFAULT_FEATURE_SPP
     version: int = DATASET_VERSION
-    layout: str = "mixed"
 
     def to_json(self) -> dict:
         return asdict(self)
@@ -119,7 +118,7 @@ def pick_exposure(seed: int, resolution: int, spec: DatasetSpec) -> float:
 
     from .scenes import build_scene
 
-    preview = np.asarray(mi.render(build_scene(seed, resolution, 1.0, layout=spec.layout), spp=16,
+    preview = np.asarray(mi.render(build_scene(seed, resolution, 1.0), spp=16,
                                    seed=REFERENCE_SEED - 1))[..., :3]
     level = float(np.percentile(np.nan_to_num(preview).mean(axis=-1), 95))
     target = np.random.default_rng([seed, 0xE7905]).uniform(*spec.exposure_range)
@@ -148,7 +147,7 @@ def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
 
     start = time.perf_counter()
     exposure = pick_exposure(seed, split.resolution, spec)
-    scene = build_scene(seed, split.resolution, exposure, spec.spp, spec.layout)
+    scene = build_scene(seed, split.resolution, exposure, spec.spp)
     reference = render_reference(scene, split.reference_spp, spec.pass_spp, seed)
     rate = float(np.random.default_rng([seed, 0x4A7E]).uniform(*spec.rate_range))
     settings = RenderSettings(rate=rate, pattern="random", spp=spec.spp, seed=seed, feature_spp=spec.feature_spp)
@@ -158,8 +157,7 @@ def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
               "albedo": frame.albedo, "normal": frame.normal, "depth": frame.depth, "visibility": frame.visibility,
               "full_radiance": np.where(full.mask[..., None], full.radiance, 0.0).astype(np.float32),
               "full_variance": full.variance, "coverage": frame.coverage}
-    meta = {"version": spec.version, "seed": seed, "split": split.name, "layout": spec.layout,
-            "exposure": exposure, "rate": rate,
+    meta = {"version": spec.version, "seed": seed, "split": split.name, "exposure": exposure, "rate": rate,
             "resolution": split.resolution, "spp": spec.spp, "feature_spp": spec.feature_spp,
             "reference_spp": split.reference_spp,
             "full_mask_fraction": full.rendered_fraction, "seconds": time.perf_counter() - start}
@@ -216,7 +214,7 @@ def upgrade_example(path: Path, spec: DatasetSpec) -> dict:
     start = time.perf_counter()
     example = load_example(path)
     meta = example.pop("meta")
-    scene = build_scene(meta["seed"], meta["resolution"], meta["exposure"], meta["spp"], meta.get("layout", "mixed"))
+    scene = build_scene(meta["seed"], meta["resolution"], meta["exposure"], meta["spp"])
     features = render_features(scene, scene.sensors()[0], spec.feature_spp, meta["seed"])
     example.update({key: features[key] for key in FEATURE_KEYS})
     meta.update(version=spec.version, feature_spp=spec.feature_spp, seconds=meta["seconds"] + time.perf_counter() - start)
@@ -231,8 +229,9 @@ def _update_manifest(path: Path, spec: DatasetSpec) -> None:
         old = json.loads(path.read_text())
         if is_upgradable(old.get("version"), spec):  # upgraded in place (see upgrade_example)
             old.update(version=spec.version, feature_spp=spec.feature_spp)
-        old.setdefault("layout", "mixed")  # manifests from before layouts existed
-        for key in ("version", "spp", "rate_range", "pass_spp", "exposure_range", "feature_spp", "layout"):
+        if old.get("layout", "mixed") != "mixed":  # a scene set this version no longer renders
+            raise ValueError(f"{path.parent} was built with the scene layout {old['layout']}; this build renders mixed")
+        for key in ("version", "spp", "rate_range", "pass_spp", "exposure_range", "feature_spp"):
             if json.dumps(old.get(key)) != json.dumps(record[key]):
                 raise ValueError(f"{path.parent} was built with {key} = {old.get(key)}, this build has {record[key]}")
         record["splits"] = {**old.get("splits", {}), **record["splits"]}

@@ -26,8 +26,6 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--spp", type=int, default=16, help="spp of the sparse inputs")
     parser.add_argument("--rate", type=float, nargs=2, default=(0.15, 0.5), metavar=("LOW", "HIGH"),
                         help="range of the per-scene sampling rate")
-    parser.add_argument("--layout", default="mixed", choices=("mixed", "interior"),
-                        help="scene set (gmcpt.dataset.scenes.LAYOUTS): rooms and open scenes, or sunlit dining rooms")
     parser.add_argument("--workers", type=int, default=1, help="render processes (0: in this process)")
     parser.add_argument("--threads", type=int, default=0, help="Dr.Jit threads per worker (0: all cores)")
     return parser
@@ -43,7 +41,7 @@ def spec_from_args(args) -> "DatasetSpec":  # noqa: F821
     if args.spp < 1 or args.ref_spp < 1 or args.test_ref_spp < 1:
         raise GmcptError("spp values must be >= 1")
     return DatasetSpec(splits=tuple(s for s in splits if s.count > 0), spp=args.spp,
-                       rate_range=tuple(args.rate), layout=args.layout)
+                       rate_range=tuple(args.rate))
 
 
 def main(argv: list[str] | None = None) -> int:

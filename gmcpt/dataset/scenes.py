@@ -2,7 +2,7 @@
 
 :func:`scene_description` turns a seed into a ``mi.load_dict`` description;
 each seed is a different scene (the generator draws everything from
-``numpy.random.default_rng([seed, SCENE_STREAM])``). Two layouts:
+``numpy.random.default_rng([seed, SCENE_STREAM])``). Two layouts, 65 % rooms:
 
 - ``room``: floor, back and side walls, often a ceiling and a front wall behind
   the camera, sometimes a window with a sun (directional light) and sky
@@ -10,13 +10,6 @@ each seed is a different scene (the generator draws everything from
 - ``open``: a large floor with a few backdrop panels under an environment map
   (a numpy-made sky with an optional sun disc) or a constant sky, with a sun
   and sometimes point or spot lights.
-
-Those two make the ``mixed`` set (65 % rooms). The ``interior`` set
-(:data:`LAYOUTS`; its own random stream, so its seed 5 is not ``mixed``'s seed
-5) is furnished dining rooms lit mostly by the sun through a window: a table
-with tableware, chairs on thin legs (often white and glossy), pendant lamps on
-thin cords, pictures on the walls. They are what ``mixed`` has least of and
-what the breakfast room is made of.
 
 Objects (2-8): boxes, spheres, capped cylinders, thin poles, tables (thin
 legs), and meshes built in code (torus, cone, pyramid, prism, vase, blob), some
@@ -347,121 +340,12 @@ def _open(rng: np.random.Generator, exposure: float) -> tuple[dict, list, list]:
     return {**shapes, **lights}, origin, target
 
 
-def _point(transform, point) -> list[float]:
-    import mitsuba as mi
-    moved = transform @ mi.ScalarPoint3f(*point)
-    return [float(moved[i]) for i in range(3)]
-
-
-def _chair(rng: np.random.Generator, name: str, x: float, z: float, facing: float, bsdf: dict) -> dict:
-    """A chair at (x, z) whose seat faces ``facing`` degrees about y: seat, backrest, four thin legs."""
-    seat, height, leg = float(rng.uniform(0.38, 0.48)), float(rng.uniform(0.42, 0.48)), float(rng.uniform(0.008, 0.02))
-    turn = _T().translate([x, 0, z]).rotate([0, 1, 0], facing)
-    shapes = {f"{name}_seat": {"type": "cube", "bsdf": bsdf,
-                               "to_world": turn.translate([0, height, 0]).scale([seat / 2, 0.02, seat / 2])},
-              f"{name}_back": {"type": "cube", "bsdf": bsdf,
-                               "to_world": turn.translate([0, height + 0.22, -seat / 2]).rotate([1, 0, 0], -8)
-                               .scale([seat / 2, 0.2, 0.015])}}
-    for k, (sx, sz) in enumerate([(-1, -1), (-1, 1), (1, -1), (1, 1)]):
-        foot = _point(turn, [sx * seat * 0.42, 0.0, sz * seat * 0.42])
-        shapes.update(_cylinder(foot, height - 0.02, leg, bsdf, f"{name}_leg{k}"))
-    return shapes
-
-
-def _pendant(rng: np.random.Generator, name: str, x: float, z: float, ceiling: float, exposure: float) -> dict:
-    """A lamp hanging from the ceiling on a thin cord: a cone shade, sometimes with a bulb lit inside."""
-    drop = float(rng.uniform(0.6, 1.4))
-    size = float(rng.uniform(0.25, 0.45))
-    shade = random_material(rng, False, kinds=("plastic", "roughplastic", "roughconductor", "diffuse"),
-                            weights=(0.35, 0.35, 0.2, 0.1))
-    vertices, faces = meshes.cone(0.5, 0.5)
-    low = ceiling - drop
-    shapes = {f"{name}_cord": {"type": "cylinder", "p0": [x, low, z], "p1": [x, ceiling, z],
-                               "radius": float(rng.uniform(0.004, 0.01)),
-                               "bsdf": {"type": "diffuse", "reflectance": _rgb(rng.uniform(0.05, 0.8))}},
-              f"{name}_shade": meshes.to_mitsuba(f"{name}_shade", vertices, faces, shade,
-                                                 _T().translate([x, low - 0.25 * size, z]).scale(size))}
-    if rng.random() < 0.4:
-        radius = 0.04
-        shapes[f"{name}_bulb"] = {"type": "sphere", "center": [x, low - 0.45 * size, z], "radius": radius,
-                                  "emitter": {"type": "area", "radiance": _rgb(_warm_white(rng) * exposure
-                                                                               * rng.uniform(0.5, 3) / radius ** 2)}}
-    return shapes
-
-
-def _interior(rng: np.random.Generator, exposure: float) -> tuple[dict, list, list]:
-    """A dining room lit by the sun through a window in the left wall (see the module docstring)."""
-    width, depth, height = rng.uniform(4, 7), rng.uniform(4, 7), rng.uniform(2.6, 3.4)
-    hw, hd = width / 2, depth / 2
-    floor = random_material(rng, True, float(rng.uniform(2, 6)), ("textured", "roughplastic"), (0.7, 0.3))
-    shapes: dict = {"floor": {"type": "rectangle", "bsdf": floor,
-                              "to_world": _T().rotate([1, 0, 0], -90).scale([hw, hd, 1])}}
-    tint = textures.random_color(rng, 0.45, 0.85)
-    wall = {"type": "diffuse", "reflectance": _rgb(0.7 * tint.mean() + 0.3 * tint)} if rng.random() < 0.75 \
-        else _surface_material(rng, float(rng.uniform(1, 4)))  # mostly plain, near-neutral paint
-    hole = _window_hole(rng, depth, height, 2.2, (0.4, 1.0), (1.0, 2.0))
-    shapes.update(_walls(width, depth, height, wall, hole))
-    shapes.update(_wall("front", _T().translate([0, 0, hd]).rotate([0, 1, 0], 180), width, height, wall))
-    shapes["ceiling"] = {"type": "rectangle", "bsdf": {"type": "diffuse", "reflectance": _rgb(rng.uniform(0.5, 0.9))},
-                         "to_world": _T().translate([0, height, 0]).rotate([1, 0, 0], 90).scale([hw, hd, 1])}
-    if rng.random() < 0.7:  # window frame
-        frame, mid = {"type": "diffuse", "reflectance": _rgb(rng.uniform(0.1, 0.8))}, (hole[2] + hole[3]) / 2
-        shapes["bar_v"] = _box([-hw, mid, -(hole[0] + hole[1]) / 2], [0.05, hole[3] - hole[2], 0.04], 0, frame)
-        shapes["bar_h"] = _box([-hw, mid, -(hole[0] + hole[1]) / 2], [0.05, 0.04, hole[1] - hole[0]], 0, frame)
-    for i in range(int(rng.integers(0, 3))):  # pictures on the back and right walls
-        picture = {"type": "diffuse", "reflectance": _texture(rng, 1.0)}
-        w, h = float(rng.uniform(0.4, 1.0)), float(rng.uniform(0.4, 1.0))
-        cx, cy = float(rng.uniform(-hw + w, hw - w)), float(rng.uniform(1.2, height - 0.3 - h / 2))
-        base = _T().translate([cx, cy, -hd + 0.01]) if i == 0 else \
-            _T().translate([hw - 0.01, cy, rng.uniform(-hd + w, hd - w)]).rotate([0, 1, 0], -90)
-        shapes[f"picture{i}"] = {"type": "rectangle", "bsdf": picture, "to_world": base.scale([w / 2, h / 2, 1])}
-    # the dining set: a table on thin legs, tableware, chairs around it
-    tx, tz = float(rng.uniform(-0.3, 0.3) * hw), float(rng.uniform(-hd + 1.2, -0.3))
-    length, breadth, top = float(rng.uniform(1.0, 1.8)), float(rng.uniform(0.7, 1.0)), float(rng.uniform(0.72, 0.78))
-    table = random_material(rng, True, 1.0, ("textured", "diffuse", "roughplastic", "plastic"), (0.4, 0.2, 0.2, 0.2))
-    legs = random_material(rng, False, kinds=("diffuse", "roughconductor", "roughplastic"))
-    shapes["table"] = _box([tx, top - 0.02, tz], [length, 0.04, breadth], 0.0, table)
-    for k, (sx, sz) in enumerate([(-1, -1), (-1, 1), (1, -1), (1, 1)]):
-        shapes.update(_cylinder([tx + sx * length * 0.45, 0, tz + sz * breadth * 0.4], top - 0.04,
-                                float(rng.uniform(0.015, 0.035)), legs, f"table_leg{k}"))
-    white = rng.random() < 0.6
-    for k in range(int(rng.integers(2, 7))):
-        along, side = float(rng.uniform(-0.35, 0.35) * length), (-1) ** k
-        bsdf = random_material(rng, False, kinds=("plastic", "roughplastic"), weights=(0.5, 0.5)) if not white else \
-            {"type": str(rng.choice(["plastic", "roughplastic"])),
-             "diffuse_reflectance": _rgb(rng.uniform(0.75, 0.95))}
-        shapes.update(_chair(rng, f"chair{k}", tx + along, tz + side * (breadth / 2 + 0.25),
-                             (0.0 if side > 0 else 180.0) + float(rng.uniform(-20, 20)), bsdf))
-    ware = {"type": "plastic", "diffuse_reflectance": _rgb(rng.uniform(0.7, 0.95))}
-    for k in range(int(rng.integers(2, 9))):
-        x, z = tx + float(rng.uniform(-0.4, 0.4) * length), tz + float(rng.uniform(-0.35, 0.35) * breadth)
-        r = float(rng.uniform(0.03, 0.09))
-        if rng.random() < 0.5:
-            shapes.update(_cylinder([x, top, z], float(rng.uniform(0.04, 0.2)), r, ware, f"ware{k}"))
-        else:
-            shapes[f"ware{k}"] = {"type": "sphere", "center": [x, top + r, z], "radius": r, "bsdf": ware}
-    for k in range(int(rng.integers(0, 3))):
-        shapes.update(_pendant(rng, f"lamp{k}", tx + float(rng.uniform(-0.4, 0.4) * length),
-                               tz + float(rng.uniform(-0.2, 0.2)), height, exposure))
-    shapes.update(_objects(rng, (hw - 1.6, hw - 0.3, -hd + 0.3, hd - 2.0)) if rng.random() < 0.4 else {})
-    lights = _sun(rng, [rng.uniform(0.8, 1.2), -rng.uniform(0.3, 1.0), rng.uniform(-0.6, 0.6)], exposure)
-    lights.update(_sky(rng, exposure))
-    target = [tx + rng.uniform(-0.5, 0.5), rng.uniform(0.6, 1.4), tz + rng.uniform(-0.8, 0.2)]
-    origin = [rng.uniform(-0.4, 0.4) * hw, rng.uniform(1.0, 2.0), rng.uniform(hd - 1.0, hd - 0.2)]
-    return {**shapes, **lights}, origin, target
-
-
 def _mixed(rng: np.random.Generator, exposure: float) -> tuple[dict, list, list]:
     return (_room if rng.random() < 0.65 else _open)(rng, exposure)
 
 
-#: Scene sets: name -> (layout function, random stream).
-LAYOUTS = {"mixed": (_mixed, SCENE_STREAM), "interior": (_interior, SCENE_STREAM + 1)}
-
-
-def scene_description(seed: int, resolution: int = 128, exposure: float = 1.0, spp: int = 16,
-                      layout: str = "mixed") -> dict:
-    """The ``mi.load_dict`` description of procedural scene ``seed`` of the ``layout`` set.
+def scene_description(seed: int, resolution: int = 128, exposure: float = 1.0, spp: int = 16) -> dict:
+    """The ``mi.load_dict`` description of procedural scene ``seed``.
 
     Parameters
     ----------
@@ -469,22 +353,18 @@ def scene_description(seed: int, resolution: int = 128, exposure: float = 1.0, s
     resolution : square film side in pixels.
     exposure : multiplier on every emitter (radiance is linear in it).
     spp : the sensor sampler's sample count.
-    layout : a key of :data:`LAYOUTS`.
     """
-    if layout not in LAYOUTS:
-        raise ValueError(f"unknown scene layout {layout!r}; choose from {', '.join(LAYOUTS)}")
-    make, stream = LAYOUTS[layout]
-    rng = np.random.default_rng([int(seed), stream])
-    children, origin, target = make(rng, float(exposure))
+    rng = np.random.default_rng([int(seed), SCENE_STREAM])
+    children, origin, target = _mixed(rng, float(exposure))
     return {"type": "scene", "integrator": {"type": "path", "max_depth": MAX_DEPTH},
             "sensor": _camera(rng, origin, target, resolution, spp), **children}
 
 
-def build_scene(seed: int, resolution: int = 128, exposure: float = 1.0, spp: int = 16, layout: str = "mixed"):
-    """Load procedural scene ``seed`` of the ``layout`` set as an ``mi.Scene``."""
+def build_scene(seed: int, resolution: int = 128, exposure: float = 1.0, spp: int = 16):
+    """Load procedural scene ``seed`` as an ``mi.Scene``."""
     import mitsuba as mi
     # Mitsuba's shape merging (optimize=True) orders the merged scene's shapes, and so its
     # area emitters, differently from one load to the next within a process (measured,
     # Mitsuba 3.9.1): emitter sampling, hence every sample, would then depend on what the
     # process loaded before. Serial loading without merging keeps the order of the description.
-    return mi.load_dict(scene_description(seed, resolution, exposure, spp, layout), parallel=False, optimize=False)
+    return mi.load_dict(scene_description(seed, resolution, exposure, spp), parallel=False, optimize=False)

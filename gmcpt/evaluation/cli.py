@@ -5,7 +5,7 @@
     python -m gmcpt eval --quick --out /tmp/eval --no-readme
 
 References (4096 spp, and a second independent one per scene for its noise
-level) are rendered on the first run and cached (``gmcpt.reference``);
+level) are rendered on the first run and cached (``gmcpt.evaluation.reference``);
 rendering them takes tens of minutes, printed as it goes.
 """
 from __future__ import annotations
@@ -22,9 +22,9 @@ from dataclasses import asdict, replace
 from pathlib import Path
 
 from ..errors import GmcptError
-from ..evalscenes import QUALITY_SCENES, by_name, procedural_scenes
-from ..imageio import atomic_output, check_writable
+from ..exr import atomic_output, check_writable
 from .config import CONFIGS, SECOND_REFERENCE_SEED
+from .scenes import QUALITY_SCENES, by_name, procedural_scenes
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -38,7 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="python -m gmcpt eval", description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="the quick configuration (default: full)")
     parser.add_argument("--out", default=str(ROOT / "docs"), help="folder of results.md, results.json, plots")
-    parser.add_argument("--scenes", nargs="+", help="named scenes of gmcpt.evalscenes (default: the quality scenes)")
+    parser.add_argument("--scenes", nargs="+", help="named scenes of gmcpt.evaluation.scenes (default: the quality scenes)")
     parser.add_argument("--procedural", type=int, help="held-out procedural scenes (default: the configuration's)")
     parser.add_argument("--readme", default=str(ROOT / "README.md"), help="README whose results section to rewrite")
     parser.add_argument("--no-readme", dest="readme", action="store_const", const=None)

@@ -79,7 +79,7 @@ def results_markdown(run: dict) -> str:
         "",
         f"Scenes: {scenes}. Held-out procedural scenes are seeds of the dataset's test split, never trained on; "
         "`breakfast-room-open` is `../shared/scenes/breakfast-room` with its window panes left out "
-        "(see `gmcpt/evalscenes.py` for why).",
+        "(see `gmcpt/evaluation/scenes.py` for why).",
         "",
         f"Settings: {_settings_line(run)}",
         "",

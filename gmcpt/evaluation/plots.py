@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..imageio import atomic_output
+from ..exr import atomic_output
 from ..metrics import flip_map, tonemap
 from .report import contender_name, contenders
 

@@ -46,22 +46,16 @@ def export(trainer, name: str, command: str) -> dict:
     """Save the trainer's generator as shipped weights ``name`` with full metadata."""
     from .weights import WEIGHTS_DIR, save_weights
 
-    def manifest_of(folder) -> dict:
-        path = Path(folder) / "manifest.json"
-        return json.loads(path.read_text()) if path.is_file() else {}
-
-    (dataset, own), *extra_sets = trainer.train_sets
-    manifest = manifest_of(dataset)
-    extras = [{"path": str(folder), "manifest": manifest_of(folder), "train_seeds": [min(seeds), max(seeds)],
-               "train_scenes": len(seeds)} for folder, seeds in extra_sets]
+    dataset, seeds = trainer.config.train.dataset, trainer.train_seeds
+    manifest_path = Path(dataset) / "manifest.json"
+    manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
     metadata = {"name": name, "command": command, "config": trainer.config.to_dict(),
                 "dataset": {"path": str(dataset), "version": manifest.get("version"), "manifest": manifest,
-                            "train_seeds": [min(own), max(own)],
-                            "train_scenes": len(own),
-                            "val_seeds": [e["meta"]["seed"] for e in trainer.val],
-                            **({"extra_datasets": extras} if extras else {})},
+                            "train_seeds": [min(seeds), max(seeds)],
+                            "train_scenes": len(seeds),
+                            "val_seeds": [e["meta"]["seed"] for e in trainer.val]},
                 "training": trainer.summary(), "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    return save_weights(WEIGHTS_DIR / f"{name}.pt", trainer.trained, metadata)
+    return save_weights(WEIGHTS_DIR / f"{name}.pt", trainer.generator, metadata)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -61,81 +61,45 @@ def example_frame(example: dict) -> SparseFrame:
                        coverage=example.get("coverage"))
 
 
-def reference_noise_psnr(example: dict) -> float:
-    """Estimated PSNR (dB, tonemapped sRGB as :func:`gmcpt.metrics.psnr`) of a dataset example's reference
-    against the noise-free image.
-
-    The reference averages ``reference_spp`` samples a pixel; the 16-spp full-frame render's variance of
-    the mean, scaled by ``spp / reference_spp``, estimates its variance, which the slope of the tonemap
-    (0 above the clamp) carries to display values. Heavy-tailed radiance makes the 16-spp variance
-    itself noisy, so this ranks scenes rather than measures one.
-    """
-    meta = example["meta"]
-    variance = example["full_variance"][..., None] * meta["spp"] / meta["reference_spp"]
-    linear = np.clip(example["reference"], 1e-6, None)
-    slope = np.where(linear <= 0.0031308, 12.92, 1.055 / 2.4 * linear ** (1 / 2.4 - 1))
-    error = float(np.mean(variance * np.where(linear > 1.0, 0.0, slope) ** 2))
-    return float("inf") if error <= 0 else 10.0 * float(np.log10(1.0 / error))
-
-
-def working_to_radiance(working: torch.Tensor, to_radiance: torch.Tensor, domain: WorkingDomain) -> torch.Tensor:
-    """Linear radiance of (B, 3, H, W) working-domain / 255 images; ``to_radiance`` is the per-pixel factor
-    :class:`PatchSampler` gives (the demodulation factor divided by the exposure), so the result is at
-    the scene's own exposure, as the metrics see it. Differentiable."""
-    return to_radiance * torch.expm1(working * (SCALE / domain.scale))
-
-
 class TrainingBatch(NamedTuple):
     """Crops of one training step, each (B, C, c, c)."""
 
     radiance: torch.Tensor     # sparse working-domain radiance / 255
     features: torch.Tensor
     target: torch.Tensor       # reference, working domain / 255
-    to_radiance: torch.Tensor  # (B, 3, c, c) factor of :func:`working_to_radiance`
 
 
 class PatchSampler:
     """Random training crops from dataset examples, with fresh masks.
 
-    Each scene is kept in memory as one (H, W, 20) array: reference (3; denoised first by
-    ``reference_denoiser``, :func:`gmcpt.denoise.clean_reference`) and
+    Each scene is kept in memory as one (H, W, 17) array: reference (3) and
     full-frame noisy radiance (3) in the working domain / 255, noise std (1),
-    albedo (3), normal (3), depth, visibility, coverage, and the factor back to linear radiance at
-    the scene's dataset exposure (3), and the feature sampling density (1, :func:`gmcpt.placement.feature_density`).
+    albedo (3), normal (3), depth, visibility, coverage, and the feature sampling density
+    (1, :func:`gmcpt.placement.feature_density`).
     """
 
     def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
-                 rate_range: tuple[float, float] = (0.15, 0.5), autoexposure: bool = False,
-                 min_reference_psnr: float = 0.0, reference_denoiser: str = "none",
-                 masks: tuple[str, ...] = ("random",)):
+                 rate_range: tuple[float, float] = (0.15, 0.5), masks: tuple[str, ...] = ("random",)):
         from ..dataset import load_example
-        from ..denoise import clean_reference
-        from .infer import autoexposure as exposure_of, exposed
-
-        if not paths:
-            raise ValueError("no training examples")
         from ..masks import check_pattern
         from ..placement import feature_density
 
+        if not paths:
+            raise ValueError("no training examples")
         self.crop, self.rate_range = crop, rate_range
         self.masks = tuple(check_pattern(pattern) for pattern in masks)
-        self.scenes, self.skipped = [], []
+        self.scenes = []
         for path in paths:
             example = load_example(path)
-            if min_reference_psnr and reference_noise_psnr(example) < min_reference_psnr:
-                self.skipped.append(path)  # its reference is noisier than what the generator should learn
-                continue
             traced = np.ones(example["full_radiance"].shape[:2], bool)
             full = dataclasses.replace(example_frame(example), radiance=example["full_radiance"], mask=traced,
                                        variance=example["full_variance"])
             factor = domain.frame_factor(full)
-            exposure = exposure_of(full) if autoexposure else 1.0
-            full = exposed(full, exposure)
-            parts = [domain.forward(clean_reference(example, reference_denoiser) * exposure, factor) / SCALE,
+            parts = [domain.forward(example["reference"], factor) / SCALE,
                      domain.forward(full.radiance, factor) / SCALE,
                      working_std(domain, full.radiance, full.variance, factor, traced)[..., None],
                      example["albedo"], example["normal"], example["depth"][..., None],
-                     example["visibility"][..., None], frame_coverage(full)[..., None], factor / exposure,
+                     example["visibility"][..., None], frame_coverage(full)[..., None],
                      feature_density(example["albedo"], example["normal"], example["depth"], example["visibility"],
                                      frame_coverage(full))[..., None]]
             self.scenes.append(np.concatenate(parts, -1).astype(np.float32))
@@ -165,14 +129,13 @@ class PatchSampler:
                                            data[i, ..., 14], None if std is None else std[i],
                                            data[i, ..., 15] if use_coverage else None) for i in range(size)])
         to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(0, 3, 1, 2))).float()  # noqa: E731
-        return TrainingBatch(to_tensor(radiance), to_tensor(features), to_tensor(data[..., 0:3]),
-                             to_tensor(data[..., 16:19]))
+        return TrainingBatch(to_tensor(radiance), to_tensor(features), to_tensor(data[..., 0:3]))
 
 
 def crop_mask(crop: np.ndarray, rate: float, pattern: str, rng: np.random.Generator) -> np.ndarray:
     """A training crop's mask at ``rate``, drawn as the renderer draws ``pattern`` over a whole frame.
 
-    ``random``: each pixel with chance ``rate``. ``adaptive``: the frame's feature density (channel 19,
+    ``random``: each pixel with chance ``rate``. ``adaptive``: the frame's feature density (channel 16,
     mean 1 over the frame), as many picks as it gives the crop. ``two_pass``: half of those from the
     feature density, the rest from :func:`gmcpt.placement.disagreement_density` of the first half's
     working-domain samples. Other patterns: :func:`gmcpt.masks.make_mask` on the crop.
@@ -185,7 +148,7 @@ def crop_mask(crop: np.ndarray, rate: float, pattern: str, rng: np.random.Genera
         return rng.random((height, width)) < rate
     if pattern not in ("adaptive", "two_pass"):
         return make_mask(height, width, rate, pattern, int(rng.integers(1 << 31)))
-    density = crop[..., 19]
+    density = crop[..., 16]
     count = max(1, min(height * width, int(round(rate * float(density.sum())))))
     if pattern == "adaptive":
         return sample_by_density(density, count, rng)

@@ -21,7 +21,7 @@ from .model import Generator
 EXPOSURE_TARGET = 2.5
 
 
-def autoexposure(frame: SparseFrame, target: float = EXPOSURE_TARGET) -> float:
+def target_exposure(frame: SparseFrame, target: float = EXPOSURE_TARGET) -> float:
     """The factor that brings the 95th percentile of the traced pixels' mean radiance to ``target``.
 
     1 for a frame with no traced pixels; clipped to [1e-2, 1e3] like the dataset's exposures.
@@ -42,7 +42,7 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
                 exposure: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """(completed image in the working domain (H, W, 3), 0..255-like; demodulation factor (H, W, 3)).
 
-    The generator sees the frame scaled by ``exposure`` (see :func:`autoexposure`); the
+    The generator sees the frame scaled by ``exposure`` (see :func:`target_exposure`); the
     exposure is folded into the returned factor, so ``domain.inverse(working, factor)`` is
     radiance at the frame's own exposure, and ``domain.forward(frame.radiance, factor)`` is
     the frame in the working domain the generator ran in. The frame is padded (reflect) to a

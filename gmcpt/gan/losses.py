@@ -7,14 +7,11 @@ Every term compares the generator output ``G(c_in)`` with the reference
 - L_tex  :func:`texture_loss`: the Wasserstein generator term, ``-E[D(G(x))]``;
   the critic minimises :func:`critic_loss` + lambda * :func:`gradient_penalty`.
 - L_per  :func:`perceptual_loss`: mean squared distance between feature maps of
-  a fixed extractor (:class:`FixedFeatureExtractor`, the default, or the
-  critic's detached intermediate activations).
+  a fixed extractor (:class:`FixedFeatureExtractor`).
 - L_sharp :func:`sharpness_loss`: mean squared distance between gradient
   magnitude maps (:func:`sharpness_map`).
 - L_SSIM :func:`ssim_loss`: 1 - SSIM (Gaussian window 11, sigma 1.5).
 - L1 :func:`l1_loss`: the added pixel term (docs/design.md section 3).
-- L_display :func:`display_loss`: L1 of the images as the metrics see them (linear radiance at the
-  scene's own exposure, clamped to [0, 1], sRGB curve); off (weight 0) unless a config asks.
 """
 from __future__ import annotations
 
@@ -34,7 +31,6 @@ class LossWeights:
     gamma: float = 0.95    # sharpness
     omega: float = 0.095   # SSIM
     l1: float = 1.0        # added L1 (0 disables)
-    display: float = 0.0   # L1 on tonemapped sRGB (0 disables)
     gp_lambda: float = 10.0
 
     def to_dict(self) -> dict:
@@ -49,18 +45,6 @@ def l1_loss(output: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
 def l2_loss(output: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
     """Mean squared difference."""
     return ((output - target) ** 2).mean()
-
-
-def srgb(linear: torch.Tensor) -> torch.Tensor:
-    """Linear radiance -> display sRGB in [0, 1] (clamp, then the sRGB curve), differentiable."""
-    x = linear.clamp(0.0, 1.0)
-    curve = 1.055 * x.clamp_min(0.0031308) ** (1 / 2.4) - 0.055
-    return torch.where(x <= 0.0031308, 12.92 * x, curve)
-
-
-def display_loss(output_radiance: torch.Tensor, target_radiance: torch.Tensor) -> torch.Tensor:
-    """L_display: mean absolute difference of the tonemapped images (:func:`srgb`)."""
-    return (srgb(output_radiance) - srgb(target_radiance)).abs().mean()
 
 
 def texture_loss(critic_fake: torch.Tensor) -> torch.Tensor:
@@ -185,12 +169,10 @@ def perceptual_loss(output_features: list[torch.Tensor], target_features: list[t
 
 def hybrid_loss(output: torch.Tensor, target: torch.Tensor, critic_fake: torch.Tensor | None,
                 output_features: list[torch.Tensor], target_features: list[torch.Tensor],
-                weights: LossWeights, radiance: tuple[torch.Tensor, torch.Tensor] | None = None
-                ) -> tuple[torch.Tensor, dict[str, float]]:
-    """Eq. 8 (+ L1, + display L1): the generator's total loss and each term's value.
+                weights: LossWeights) -> tuple[torch.Tensor, dict[str, float]]:
+    """Eq. 8 (+ L1): the generator's total loss and each term's value.
 
     ``critic_fake`` may be None (critic not yet enabled): the texture term is then 0.
-    ``radiance``: (output, target) as linear radiance, needed when ``weights.display`` > 0.
     """
     terms = {"tex": texture_loss(critic_fake) if critic_fake is not None else output.new_zeros(()),
              "per": perceptual_loss(output_features, target_features),
@@ -198,11 +180,6 @@ def hybrid_loss(output: torch.Tensor, target: torch.Tensor, critic_fake: torch.T
              "l1": l1_loss(output, target)}
     total = (weights.alpha * terms["tex"] + weights.beta * terms["per"] + weights.gamma * terms["sharp"]
              + weights.omega * terms["ssim"] + weights.l1 * terms["l1"])
-    if weights.display:
-        if radiance is None:
-            raise ValueError("the display term needs the output and target as linear radiance")
-        terms["display"] = display_loss(*radiance)
-        total = total + weights.display * terms["display"]
     return total, {name: float(value.detach()) for name, value in terms.items()}
 
 

@@ -6,16 +6,13 @@ albedo, normal, depth, visibility and, optionally, the standard deviation of
 the traced samples and the coverage of the feature pass) into a shared feature map; every residual block maps it,
 pooled to the block's resolution, to a per-channel scale and shift applied
 after each convolution (``h * (scale + 1) + shift``). The network starts from
-a fixed fill of the sparse input (no parameters; ``base``: a push-pull
-pyramid, or the feature-guided fill of ``interp``, which keeps the edges the
-feature buffers see) and produces every pixel, traced ones included, so it
-fills and denoises at once: either as a correction added to the fill
-(``output="residual"``) or as per-pixel weights over the traced samples near
-each pixel and the fill, plus a small correction (``output="kernel"``,
-:class:`KernelHead`).
+a fixed fill of the sparse input (no parameters: :func:`smoothed_fill`, the
+feature-guided fill of ``interp`` with the traced pixels smoothed too, which
+keeps the edges the feature buffers see) and adds a correction to every
+pixel, traced ones included, so it fills and denoises at once.
 
-Default size (``GeneratorConfig()``): widths 32/48/96 at 1/2, 1/4 and 1/8
-resolution, about 0.6 M parameters.
+Default size (``GeneratorConfig()``, the shipped ``cpu`` preset): widths 32/48/96 at 1/2, 1/4 and 1/8
+resolution, 2/2/3 encoder and 2/2 decoder blocks, about 0.9 M parameters.
 
 Critic: 4x4 stride-2 convolutions with LeakyReLU and no normalisation (batch norm
 would break the per-sample gradient penalty), conditioned on the same
@@ -31,6 +28,9 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
+
+from ..fills import guided_fill
+from .retired import drop_retired
 
 #: Feature channels: mask, albedo (3), normal (3), depth, visibility.
 FEATURE_CHANNELS = 9
@@ -50,37 +50,14 @@ class GeneratorConfig:
     use_coverage : add the feature pass's ``coverage`` (the fraction of a pixel's feature rays on a
         diffuse surface, :func:`gmcpt.render.render_features`) as a feature: at a silhouette it says how
         much of the pixel the albedo describes.
-    base : the fixed fill the network corrects: ``"push_pull"`` (feature-blind pyramid),
-        ``"guided"`` (:func:`gmcpt.completion.classical.guided_fill`, runs on the CPU in numpy) or
-        ``"guided_smooth"`` (the same, with the traced pixels smoothed too rather than kept).
-    base_radius_scale : widens the guided fills' window (its radius times this; 1 = ``interp``'s).
-    output : ``"residual"``: the network adds a correction to the fill; ``"kernel"``: it predicts,
-        for every pixel, weights over the traced samples of a ``kernel_size`` square window and
-        the fill (a softmax over those that exist) and adds a small correction to their weighted
-        mean (see :class:`KernelHead`).
-    kernel_size : side of the window of the ``"kernel"`` output (odd).
     """
 
     widths: tuple[int, int, int] = (32, 48, 96)
-    encoder_blocks: tuple[int, int, int] = (1, 1, 2)
-    decoder_blocks: tuple[int, int] = (1, 1)
+    encoder_blocks: tuple[int, int, int] = (2, 2, 3)
+    decoder_blocks: tuple[int, int] = (2, 2)
     condition_width: int = 24
     use_variance: bool = True
-    use_coverage: bool = False
-    base: str = "push_pull"
-    base_radius_scale: float = 1.0
-    output: str = "residual"
-    kernel_size: int = 9
-
-    def __post_init__(self):
-        if self.base not in BASES:
-            raise ValueError(f"generator base must be one of {', '.join(BASES)}, got {self.base!r}")
-        if self.output not in OUTPUTS:
-            raise ValueError(f"generator output must be one of {', '.join(OUTPUTS)}, got {self.output!r}")
-        if not self.base_radius_scale > 0:
-            raise ValueError(f"base_radius_scale must be > 0, got {self.base_radius_scale!r}")
-        if self.kernel_size < 1 or self.kernel_size % 2 == 0:
-            raise ValueError(f"kernel_size must be a positive odd number, got {self.kernel_size}")
+    use_coverage: bool = True
 
     @property
     def feature_channels(self) -> int:
@@ -91,6 +68,8 @@ class GeneratorConfig:
 
     @classmethod
     def from_dict(cls, data: dict) -> "GeneratorConfig":
+        """The config stored in a weights file (keys of retired options dropped, :mod:`gmcpt.gan.retired`)."""
+        data = drop_retired("generator", data)
         return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
 
 
@@ -108,100 +87,15 @@ class CriticConfig:
         return cls(widths=tuple(data["widths"]))
 
 
-def push_pull(values: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
-    """Fill (B, C, H, W) ``values`` known where (B, 1, H, W) ``weights`` > 0 (pyramid push-pull)."""
-    height, width = values.shape[-2:]
-    if height == 1 and width == 1:
-        return values * (weights > 0)
-    pad = (0, width % 2, 0, height % 2)
-    w = F.pad(weights, pad)
-    v = F.pad(values * weights, pad)
-    sum_w = F.avg_pool2d(w, 2) * 4
-    coarse = push_pull(F.avg_pool2d(v, 2) * 4 / sum_w.clamp_min(1e-8), sum_w.clamp(max=1.0))
-    up = F.interpolate(coarse, scale_factor=2, mode="nearest")[..., :height, :width]
-    return weights * values + (1 - weights) * up
-
-
-def guided_base(radiance: torch.Tensor, features: torch.Tensor, keep_samples: bool = True,
-                radius_scale: float = 1.0) -> torch.Tensor:
-    """The feature-guided fill of each (B, 3, H, W) ``radiance`` from its (B, F, H, W) ``features``
-    (``keep_samples=False``: the traced pixels are smoothed by the same weights, see ``guided_fill``;
-    ``radius_scale`` widens its window, :class:`~gmcpt.completion.classical.GuidedFillParams`)."""
-    from ..completion.classical import GuidedFillParams, guided_fill
-
-    params = GuidedFillParams(radius_scale=radius_scale)
+def smoothed_fill(radiance: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
+    """The fill the generator corrects: the feature-guided fill of each (B, 3, H, W) ``radiance`` from its
+    (B, F, H, W) ``features``, with the traced pixels smoothed by the same weights (``guided_fill`` with
+    ``keep_samples=False``; runs on the CPU in numpy, no parameters)."""
     values = radiance.detach().permute(0, 2, 3, 1).cpu().numpy()
     aux = features.detach().permute(0, 2, 3, 1).cpu().numpy()
-    filled = [guided_fill(values[i], aux[i, ..., 0] > 0, aux[i, ..., 1:FEATURE_CHANNELS], params, keep_samples)
+    filled = [guided_fill(values[i], aux[i, ..., 0] > 0, aux[i, ..., 1:FEATURE_CHANNELS], keep_samples=False)
               for i in range(len(values))]
     return torch.from_numpy(np.stack(filled)).permute(0, 3, 1, 2).to(radiance)
-
-
-#: The fixed fills a generator can start from.
-BASES = {"push_pull": lambda radiance, features, radius_scale=1.0: push_pull(radiance, features[:, :1]),
-         "guided": guided_base,
-         "guided_smooth": lambda radiance, features, radius_scale=1.0: guided_base(radiance, features, False,
-                                                                                    radius_scale)}
-
-#: How the last layer turns into an image (:class:`GeneratorConfig`.output).
-OUTPUTS = ("residual", "kernel")
-
-
-class KernelHead(nn.Module):
-    """Per-pixel weights over the traced samples near a pixel, plus the fill, and a correction.
-
-    From the top level's features (half resolution, ``width`` channels) a 1x1
-    convolution predicts, for each full-resolution pixel (via ``pixel_shuffle``),
-    ``k * k`` logits for the samples of its ``k x k`` window, one for the fill's
-    value at the pixel, and 3 correction channels. Logits of untraced window
-    pixels are dropped; the softmax of the rest weights the candidates, so the
-    result is a convex combination of rendered samples (and the fill) that the
-    network only has to choose, not to synthesise, which is what makes kernel
-    prediction learn denoising from little data (Bako et al. 2017). The
-    correction starts at 0; the logits start as a Gaussian of the distance
-    (sigma ``k / 4``), so an untrained head is a spatial filter.
-
-    Measured with the ``cpu`` preset and ``output="kernel"``, ``kernel_size=9`` (4000 steps,
-    26 min on 2 threads): it learns faster (validation PSNR 28.32 dB after 250 steps against
-    26.36 for the residual output) and ends higher on the validation split (30.42 against
-    29.80 dB), but level on held-out scenes: test split (6 scenes, 128x128) ``gan`` 34.25
-    against 34.12 dB; the 5 evaluation scenes (256x256, rates 0.2/0.3/0.4) ``gan`` 31.28/31.95/32.34
-    against 31.41/31.90/32.22 and ``gan_pawnnm`` 32.04/32.75/33.05 against 32.18/32.82/33.19.
-    Trained on 250 scenes instead of 150: validation 30.59 dB, ``gan`` 31.57/32.21/32.62 on the
-    evaluation scenes but ``gan_pawnnm`` level (32.18/32.83/33.16), and 0.52 s a 256x256 frame on
-    one core against 0.34 s (``benchmarks/gan_inference.py``), over the 0.5 s budget. The shipped
-    preset keeps the residual output.
-    """
-
-    def __init__(self, width: int, kernel_size: int):
-        super().__init__()
-        self.kernel_size = kernel_size
-        self.taps = kernel_size * kernel_size
-        self.conv = nn.Conv2d(width, 4 * (self.taps + 1 + 3), 1)
-        nn.init.zeros_(self.conv.weight)
-        offsets = torch.arange(kernel_size, dtype=torch.float32) - kernel_size // 2
-        distance2 = (offsets[:, None] ** 2 + offsets[None, :] ** 2).flatten()
-        prior = torch.cat([-distance2 / (2 * (kernel_size / 4) ** 2), torch.zeros(4)])
-        with torch.no_grad():  # pixel_shuffle takes channel c * 4 + i to output channel c
-            self.conv.bias.copy_(prior.repeat_interleave(4))
-
-    def forward(self, x: torch.Tensor, radiance: torch.Tensor, mask: torch.Tensor, fill: torch.Tensor) -> torch.Tensor:
-        out = F.pixel_shuffle(self.conv(F.leaky_relu(x, 0.2)), 2)
-        logits, fill_logit, correction = out.split([self.taps, 1, 3], dim=1)
-        height, width = radiance.shape[-2:]
-        pad = self.kernel_size // 2
-        padded_radiance = F.pad(radiance, (pad, pad, pad, pad))
-        padded_mask = F.pad(mask, (pad, pad, pad, pad))
-        windows = [(dy, dx) for dy in range(self.kernel_size) for dx in range(self.kernel_size)]
-        # a loop over the taps instead of F.unfold: 3x faster on the CPU (no (B, 3, k*k, H, W) copy)
-        traced = torch.cat([padded_mask[..., dy:dy + height, dx:dx + width] for dy, dx in windows], 1)
-        logits = logits.masked_fill(traced <= 0, float("-inf"))
-        top = torch.maximum(logits.amax(1, keepdim=True), fill_logit)
-        weights, fill_weight = torch.exp(logits - top), torch.exp(fill_logit - top)
-        total = fill_weight * fill
-        for tap, (dy, dx) in enumerate(windows):
-            total = total + weights[:, tap:tap + 1] * padded_radiance[..., dy:dy + height, dx:dx + width]
-        return total / (fill_weight + weights.sum(1, keepdim=True)) + correction
 
 
 class ModulatedResBlock(nn.Module):
@@ -268,12 +162,9 @@ class Generator(nn.Module):
         self.dec1 = nn.ModuleList(ModulatedResBlock(w1, c) for _ in range(config.decoder_blocks[1]))
         self.up0 = nn.Conv2d(w1, w0, 1)
         self.dec0 = nn.ModuleList(ModulatedResBlock(w0, c) for _ in range(config.decoder_blocks[0]))
-        if config.output == "kernel":
-            self.tail = KernelHead(w0, config.kernel_size)
-        else:
-            self.tail = nn.Conv2d(w0, 3 * 4, 3, padding=1)
-            nn.init.zeros_(self.tail.weight)
-            nn.init.zeros_(self.tail.bias)
+        self.tail = nn.Conv2d(w0, 3 * 4, 3, padding=1)
+        nn.init.zeros_(self.tail.weight)
+        nn.init.zeros_(self.tail.bias)
 
     @staticmethod
     def _run(blocks: nn.ModuleList, x: torch.Tensor, condition: torch.Tensor) -> torch.Tensor:
@@ -282,7 +173,7 @@ class Generator(nn.Module):
         return x
 
     def forward(self, radiance: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
-        fill = BASES[self.config.base](radiance, features, radius_scale=self.config.base_radius_scale)
+        fill = smoothed_fill(radiance, features)
         cond = self.condition(F.pixel_unshuffle(features, 2))
         x = F.pixel_unshuffle(torch.cat([radiance, fill, features], 1), 2)
         x0 = self._run(self.enc0, self.head(x), cond[0])
@@ -290,8 +181,6 @@ class Generator(nn.Module):
         x2 = self._run(self.enc2, self.down2(F.leaky_relu(x1, 0.2)), cond[2])
         y1 = self._run(self.dec1, x1 + self.up1(F.interpolate(x2, scale_factor=2, mode="bilinear")), cond[1])
         y0 = self._run(self.dec0, x0 + self.up0(F.interpolate(y1, scale_factor=2, mode="bilinear")), cond[0])
-        if self.config.output == "kernel":
-            return self.tail(y0, radiance, features[:, :1], fill)
         return fill + F.pixel_shuffle(self.tail(F.leaky_relu(y0, 0.2)), 2)
 
 
@@ -308,7 +197,7 @@ class Critic(nn.Module):
         self.score = nn.Linear(channels, 1)
 
     def features(self, image: torch.Tensor, features: torch.Tensor) -> list[torch.Tensor]:
-        """Activations after each stage (usable as a perceptual feature extractor)."""
+        """Activations after each stage."""
         x, outputs = torch.cat([image, features], 1), []
         for stage in self.stages:
             x = F.leaky_relu(stage(x), 0.2)

@@ -4,7 +4,10 @@ A config (``configs/cpu.json``, ``configs/gpu.json`` or any JSON file) has four
 sections: ``train`` (:class:`TrainConfig`), ``generator``
 (:class:`~gmcpt.gan.model.GeneratorConfig`), ``critic``
 (:class:`~gmcpt.gan.model.CriticConfig`) and ``loss``
-(:class:`~gmcpt.gan.losses.LossWeights`).
+(:class:`~gmcpt.gan.losses.LossWeights`). A key left out takes its dataclass
+default, and the defaults are the ``cpu`` preset; keys of options measured and
+not adopted, which older weights files and checkpoints record, are dropped on
+reading (:mod:`gmcpt.gan.retired`).
 
 Each step draws a batch of random crops with fresh masks, updates the WGAN-GP
 critic every ``critic_every`` steps (from ``critic_start``) and the generator
@@ -16,7 +19,6 @@ the L1, L2 and Wasserstein distances (paper Fig. 4) and the validation PSNR.
 """
 from __future__ import annotations
 
-import copy
 import json
 import math
 import os
@@ -27,19 +29,18 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..denoise import REFERENCE_DENOISERS
 from ..domain import WorkingDomain
-from .data import working_to_radiance
 from .losses import (FixedFeatureExtractor, LossWeights, critic_loss, gradient_penalty, hybrid_loss, l2_loss,
                      wasserstein_distance)
 from .model import Critic, CriticConfig, Generator, GeneratorConfig, parameter_count
+from .retired import drop_retired
 
 CONFIG_DIR = Path(__file__).resolve().parent / "configs"
 
 
 @dataclass(frozen=True)
 class TrainConfig:
-    """Optimisation settings.
+    """Optimisation settings (the defaults are the shipped ``cpu`` preset).
 
     Attributes
     ----------
@@ -52,22 +53,11 @@ class TrainConfig:
     lr_g, lr_d : Adam learning rates (cosine decay to 5% over the run).
     critic_every : update the critic every this many steps (1: every step).
     critic_start : first step with the critic (and the texture term).
-    perceptual : ``fixed`` (:class:`FixedFeatureExtractor`) or ``critic`` (its detached features).
     seed : seeds torch and the batch sampler.
     threads : torch CPU threads (0: torch's default).
     eval_every, checkpoint_every : in steps.
     max_train_scenes : use only the first N training scenes of ``dataset`` (0: all).
-    min_reference_psnr : leave out training scenes whose reference is estimated noisier than this
-        (dB, :func:`gmcpt.gan.data.reference_noise_psnr`; 0: keep all).
-    ema : decay per step of an exponential moving average of the generator's weights, which
-        validation, the summary and ``--export`` then use (0: off, the last step's weights).
-    reference_denoiser : ``"oidn"``: denoise each training scene's reference before training
-        (:func:`gmcpt.denoise.clean_reference`; the validation references stay as rendered);
-        ``"none"``: train on the references as rendered.
-    extra_datasets : further dataset folders (e.g. a ``--layout interior`` build) whose whole
-        ``train`` split joins the training scenes; validation stays ``dataset``'s.
-    autoexposure : train (and validate) on scenes brought to the exposure the product runs the
-        generator at (:func:`gmcpt.gan.infer.autoexposure`) rather than at their dataset exposure.
+    device : torch device of the models and the batches.
     """
 
     dataset: str = "data/procedural"
@@ -75,23 +65,17 @@ class TrainConfig:
     batch: int = 8
     crop: int = 64
     rate_range: tuple[float, float] = (0.15, 0.5)
-    masks: tuple[str, ...] = ("random",)
-    lr_g: float = 4e-4
-    lr_d: float = 1e-4
-    critic_every: int = 1
+    masks: tuple[str, ...] = ("random", "adaptive", "two_pass")
+    lr_g: float = 1e-3
+    lr_d: float = 3e-4
+    critic_every: int = 4
     critic_start: int = 0
-    perceptual: str = "fixed"
     seed: int = 1
     threads: int = 1
     eval_every: int = 250
     checkpoint_every: int = 250
-    max_train_scenes: int = 0
-    extra_datasets: tuple[str, ...] = ()
-    min_reference_psnr: float = 0.0
-    reference_denoiser: str = "none"
-    ema: float = 0.0
+    max_train_scenes: int = 300
     device: str = "cpu"
-    autoexposure: bool = False
 
     def __post_init__(self):
         from ..masks import PATTERNS
@@ -99,11 +83,6 @@ class TrainConfig:
         unknown = [pattern for pattern in self.masks if pattern not in PATTERNS]
         if unknown or not self.masks:
             raise ValueError(f"train.masks must name mask patterns from {', '.join(PATTERNS)}, got {list(self.masks)}")
-        if not 0 <= self.ema < 1:
-            raise ValueError(f"train.ema must be in [0, 1), got {self.ema!r}")
-        if self.reference_denoiser not in REFERENCE_DENOISERS:
-            raise ValueError(f"train.reference_denoiser must be one of {', '.join(REFERENCE_DENOISERS)}, "
-                             f"got {self.reference_denoiser!r}")
 
 
 @dataclass(frozen=True)
@@ -118,7 +97,8 @@ class FullConfig:
                 "critic": self.critic.to_dict(), "loss": self.loss.to_dict()}
 
 
-def _build(cls, data: dict):
+def _build(cls, section: str, data: dict):
+    data = drop_retired(section, data)
     known = {f.name for f in fields(cls)}
     unknown = set(data) - known
     if unknown:
@@ -139,39 +119,36 @@ def load_config(name_or_path: str, overrides: dict | None = None) -> FullConfig:
 
 
 def config_from_dict(data: dict) -> FullConfig:
-    """A config from its four sections; keys left out take their defaults."""
-    return FullConfig(train=_build(TrainConfig, data.get("train", {})),
-                      generator=_build(GeneratorConfig, data.get("generator", {})),
-                      critic=_build(CriticConfig, data.get("critic", {})),
-                      loss=_build(LossWeights, data.get("loss", {})))
+    """A config from its four sections; keys left out take their defaults, retired keys are dropped
+    (:mod:`gmcpt.gan.retired`)."""
+    return FullConfig(train=_build(TrainConfig, "train", data.get("train", {})),
+                      generator=_build(GeneratorConfig, "generator", data.get("generator", {})),
+                      critic=_build(CriticConfig, "critic", data.get("critic", {})),
+                      loss=_build(LossWeights, "loss", data.get("loss", {})))
 
 
-def validate(generator: Generator, examples: list[dict], domain: WorkingDomain, autoexposure: bool = False) -> dict:
-    """Mean PSNR (tonemapped sRGB) of the generator alone on stored product frames.
-
-    ``autoexposure``: bring each frame to :data:`~gmcpt.gan.infer.EXPOSURE_TARGET` first, as
-    the product does (otherwise the frame runs at its dataset exposure).
-    """
+def validate(generator: Generator, examples: list[dict], domain: WorkingDomain) -> dict:
+    """Mean PSNR (tonemapped sRGB) of the generator alone on stored product frames, at their dataset exposure."""
     from ..metrics import psnr
     from .data import example_frame
-    from .infer import autoexposure as exposure_of, precomplete
+    from .infer import precomplete
 
     generator.eval()
     scores = []
     for example in examples:
-        frame = example_frame(example)
-        working, factor = precomplete(generator, frame, domain, exposure_of(frame) if autoexposure else 1.0)
+        working, factor = precomplete(generator, example_frame(example), domain)
         scores.append(psnr(domain.inverse(working, factor), example["reference"]))
     generator.train()
     return {"val_psnr": float(np.mean(scores)), "val_psnr_each": [round(s, 3) for s in scores]}
 
 
 def interp_baseline(examples: list[dict]) -> float:
-    from ..completion import complete
+    """Mean PSNR of the feature-guided fill alone (the ``interp`` method, :func:`gmcpt.fills.interpolate`)."""
+    from ..fills import interpolate
     from ..metrics import psnr
     from .data import example_frame
 
-    return float(np.mean([psnr(complete(example_frame(e), "interp").image, e["reference"]) for e in examples]))
+    return float(np.mean([psnr(interpolate(example_frame(e)), e["reference"]) for e in examples]))
 
 
 def plot_curves(history: list[dict], path: Path, title: str = "") -> None:
@@ -224,8 +201,6 @@ class Trainer:
         self.device = torch.device(cfg.device)
         self.domain = WorkingDomain()
         self.generator = Generator(config.generator).to(self.device)
-        #: the weights' moving average (train.ema), or None
-        self.averaged = copy.deepcopy(self.generator).requires_grad_(False) if cfg.ema else None
         self.critic = Critic(config.generator.feature_channels, config.critic).to(self.device)
         self.extractor = FixedFeatureExtractor().to(self.device)
         self.opt_g = torch.optim.Adam(self.generator.parameters(), lr=cfg.lr_g, betas=(0.9, 0.99))
@@ -236,24 +211,13 @@ class Trainer:
                 raise ValueError(f"{cfg.dataset} has {len(train_paths)} training scenes, the config asks for "
                                  f"{cfg.max_train_scenes}; finish the dataset build first")
             train_paths = train_paths[:cfg.max_train_scenes]
-        #: (dataset folder, its training seeds) for ``dataset`` and each of ``extra_datasets``
-        self.train_sets = [(cfg.dataset, [int(p.stem) for p in train_paths])]
-        for extra in cfg.extra_datasets:
-            extra_paths = list_examples(extra, "train")
-            if not extra_paths:
-                raise ValueError(f"{extra} has no training scenes; build it first (python -m gmcpt dataset)")
-            train_paths = train_paths + extra_paths
-            self.train_sets.append((extra, [int(p.stem) for p in extra_paths]))
-        self.train_seeds = [seed for _, seeds in self.train_sets for seed in seeds]
-        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range, cfg.autoexposure,
-                                    cfg.min_reference_psnr, cfg.reference_denoiser, cfg.masks)
+        self.train_seeds = [int(p.stem) for p in train_paths]
+        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range, cfg.masks)
         self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")]
         self.rng = np.random.default_rng([cfg.seed, 0x7EA1])
         self.step, self.history, self.seconds = 0, [], 0.0
-        skipped = f" ({len(self.sampler.skipped)} left out: noisy references)" if self.sampler.skipped else ""
         say(f"generator {parameter_count(self.generator) / 1e6:.3f} M parameters, critic "
-            f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes{skipped}, "
-            f"{len(self.val)} val")
+            f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes, {len(self.val)} val")
 
     # ---------------------------------------------------------------- checkpoints
     @property
@@ -264,7 +228,6 @@ class Trainer:
         state = {"step": self.step, "seconds": self.seconds, "config": json.dumps(self.config.to_dict()),
                  "generator": self.generator.state_dict(), "critic": self.critic.state_dict(),
                  "opt_g": self.opt_g.state_dict(), "opt_d": self.opt_d.state_dict(),
-                 **({} if self.averaged is None else {"averaged": self.averaged.state_dict()}),
                  "torch_rng": torch.get_rng_state(),
                  "numpy_rng": json.dumps(self.rng.bit_generator.state), "history": json.dumps(self.history)}
         self.out.mkdir(parents=True, exist_ok=True)
@@ -280,8 +243,6 @@ class Trainer:
         if json.loads(json.dumps(stored)) != json.loads(json.dumps(self.config.to_dict())):
             raise ValueError(f"{self.checkpoint_path} was made with another config; use a new --out")
         self.generator.load_state_dict(state["generator"])
-        if self.averaged is not None:
-            self.averaged.load_state_dict(state["averaged"])
         self.critic.load_state_dict(state["critic"])
         self.opt_g.load_state_dict(state["opt_g"])
         self.opt_d.load_state_dict(state["opt_d"])
@@ -302,7 +263,7 @@ class Trainer:
         for optimizer, base in ((self.opt_g, cfg.lr_g), (self.opt_d, cfg.lr_d)):
             for group in optimizer.param_groups:
                 group["lr"] = base * self._learning_rate_scale()
-        radiance, features, target, to_radiance = (
+        radiance, features, target = (
             t.to(self.device) for t in self.sampler.batch(self.rng, cfg.batch, self.config.generator.use_variance,
                                                           self.config.generator.use_coverage))
         fake = self.generator(radiance, features)
@@ -318,27 +279,11 @@ class Trainer:
             record.update(wdist=float(wasserstein_distance(real_score, fake_score).detach()), gp=float(penalty.detach()))
         self.critic.requires_grad_(False)
         fake_score = self.critic(fake, features) if adversarial and weights.alpha else None
-        if cfg.perceptual == "critic":
-            out_features = self.critic.features(fake, features)
-            target_features = [f.detach() for f in self.critic.features(target, features)]
-        else:
-            out_features, target_features = self.extractor(fake), self.extractor(target)
-        linear = None
-        if weights.display:
-            linear = (working_to_radiance(fake, to_radiance, self.domain),
-                      working_to_radiance(target, to_radiance, self.domain))
-        loss_g, terms = hybrid_loss(fake, target, fake_score, out_features, target_features, weights, linear)
+        loss_g, terms = hybrid_loss(fake, target, fake_score, self.extractor(fake), self.extractor(target), weights)
         self.critic.requires_grad_(True)
         self.opt_g.zero_grad(set_to_none=True)
         loss_g.backward()
         self.opt_g.step()
-        if self.averaged is not None:
-            with torch.no_grad():
-                for average, weight in zip(self.averaged.state_dict().values(), self.generator.state_dict().values()):
-                    if average.is_floating_point():
-                        average.lerp_(weight, 1.0 - cfg.ema)
-                    else:
-                        average.copy_(weight)
         record.update(terms, loss=float(loss_g.detach()), l2=float(l2_loss(fake.detach(), target)))
         return record
 
@@ -355,7 +300,7 @@ class Trainer:
             self.history.append({"step": self.step, **{k: round(v, 6) for k, v in record.items()}})
             last = self.step == cfg.steps
             if self.val and (self.step % cfg.eval_every == 0 or last):
-                self.history.append({"step": self.step, **validate(self.trained, self.val, self.domain, cfg.autoexposure)})
+                self.history.append({"step": self.step, **validate(self.generator, self.val, self.domain)})
                 recent = [h for h in self.history[-cfg.eval_every - 1:] if "l1" in h]
                 critic = [h["wdist"] for h in recent if "wdist" in h]  # none before critic_start
                 self.say(f"step {self.step}/{cfg.steps} ({self.seconds / 60:.1f} min): "
@@ -367,11 +312,6 @@ class Trainer:
                 plot_curves(self.history, self.out / "curves.png", f"{self.out.name}")
         (self.out / "history.json").write_text(json.dumps(self.history))
         return self.summary()
-
-    @property
-    def trained(self) -> Generator:
-        """The generator the run produces: the moving average of its weights with ``train.ema``, else itself."""
-        return self.generator if self.averaged is None else self.averaged
 
     def summary(self) -> dict:
         val = [h for h in self.history if "val_psnr" in h]

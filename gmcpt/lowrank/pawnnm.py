@@ -29,10 +29,10 @@ Choices beyond the paper, each measured on the synthetic benchmark
   (re-imposed Monte Carlo noise caps the exact variant).
 * ``noise_power``: with a per-pixel variance, each group's threshold weight
   follows the local noise level (measured on rendered frames, see
-  :data:`DEFAULT`).
+  :data:`~gmcpt.lowrank.params.DEFAULT`).
 * ``wiener``: with a per-pixel variance, a last pass Wiener-filters the
   rendered samples, group by group, with the result as the pilot
-  (:mod:`gmcpt.lowrank.wiener`; measured on rendered frames, see :data:`DEFAULT`).
+  (:mod:`gmcpt.lowrank.wiener`; measured on rendered frames, see :data:`~gmcpt.lowrank.params.DEFAULT`).
 
 Tiling only partitions the *reference patches*: each tile matches its
 references against the whole current image (candidates may lie in the
@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
@@ -53,190 +52,11 @@ import torch
 from .linalg import stable_eigh
 from .matching import block_match
 from .noise import local_noise_scale
+from .params import DEFAULT, LowRankParams
 from .patches import aggregate, coverage, gather_groups, pixel_indices, reference_positions
 from .wiener import group_wiener
 
-__all__ = ["LowRankParams", "PAPER_PRESET", "DEFAULT", "NNM_PRESET", "complete_low_rank",
-           "complete_matrix", "low_rank_estimate"]
-
-
-@dataclass(frozen=True)
-class LowRankParams:
-    """Settings of :func:`complete_low_rank`.
-
-    Attributes
-    ----------
-    patch_size : int
-        Side of the square patches (paper: n_p = m_p, "try 5-8").
-    step : int
-        Stride of the reference-patch grid, ``1 <= step < patch_size``; the
-        last row / column of patches is always included.  The paper asks for
-        ``step < patch_size / 2`` in section III-B but overlaps patches "by two
-        pixels" in section IV-C; PAPER_PRESET uses 3, DEFAULT 5.
-    search_radius : int
-        Half side of the square search window for block matching.
-    group_size : int
-        K, patches per group (reference included).
-    iterations : int
-        k, outer iterations of Algorithm 1.
-    w0 : float
-        Initial threshold weight, on the scale of the working domain
-        (an 8-bit-like 0..255 range).  For ``threshold="weighted"`` a
-        singular value sigma survives only if ``sigma**2 > w`` (roughly), so
-        w is a squared singular value; for ``"constant"`` it is a singular value.
-    c : float
-        Weight shrink factor per iteration, ``w <- c w`` (paper: 0.9).
-    eps : float
-        Regulariser in ``xi_i = w / (sigma_i + eps)``.
-    rendered_weight, filled_weight : float
-        Reliability of rendered / pre-completed pixels in the block-matching
-        distance (only their ratio matters).
-    feature_weight : float
-        Weight of the guide feature channels in the matching distance
-        (0 = off; ignored when no guide is given).  The distance is the
-        reliability-weighted mean squared colour difference per pixel and
-        channel plus ``feature_weight`` times the mean squared guide
-        difference per pixel and feature, so with guide channels on the
-        image's 0..255 scale, 1 weighs a feature like a colour channel.
-    rematch_every : int
-        Re-run block matching on the current estimate every this many
-        iterations (1 = every iteration, as in Algorithm 1).
-    threshold : {"weighted", "constant"}
-        PAWNNM weights ``w / (sigma + eps)`` or the constant-threshold NNM ablation.
-    data_term : {"exact", "soft"}
-        ``"exact"`` re-imposes the rendered samples after each iteration
-        (Algorithm 1 step 8), so their Monte Carlo noise stays in the output.
-        ``"soft"`` does the same in all but the last iteration and then
-        returns ``x_hat + delta * Phi * (M - x_hat)`` with the per-pixel Wiener
-        factor ``delta = tau2 / (tau2 + var)``: ``var`` is the variance of the
-        sample mean, ``tau2`` the error variance of the low-rank estimate,
-        measured from the residual at the rendered pixels (``mean((M -
-        x_hat)^2) - mean(var)``).  Softening every iteration instead lets the
-        iteration forget the data and over-smooths the missing pixels
-        (measured: 1.2 dB worse than this, at 16 iterations without momentum).
-        Needs ``variance`` (or ``soft_delta``).
-    soft_delta : float or None
-        Constant delta for ``data_term="soft"`` when no variance is given.
-    noise_power : float
-        With a ``variance``, each group's threshold weight is ``w`` times its pixels' mean
-        :func:`~gmcpt.lowrank.noise.local_noise_scale` (the traced pixels' variance within
-        ``noise_radius``, relative to the frame's, to this power): noisy regions are denoised
-        harder, clean ones kept sharper, as WNNM's threshold grows with the noise variance. 0 = one
-        weight for the whole frame (the paper).
-    noise_radius : int
-        Window half side of that local variance.
-    wiener : float
-        With a ``variance``, after the iterations the estimate is the pilot of a collaborative Wiener pass
-        over the rendered samples, on the last iteration's groups (:func:`~gmcpt.lowrank.wiener.group_wiener`),
-        whose noise energy this scales; 0 = no pass (the paper).
-    momentum : float
-        Over-relaxation of the fixed-point iteration, ``x <- x_new + momentum
-        * (x_new - x)`` at the missing pixels between iterations (0 =
-        Algorithm 1 as printed).  Measured: 0.6-0.85 gain 0.8-0.9 dB at 8-12
-        iterations; 1.0 diverges.
-    tile_size : int or None
-        Reference patches are processed in tiles of this many pixels a side
-        (memory grows with the tile, not the frame); None makes one tile (on
-        CPU it is still cut into row bands so every thread has work).
-    device : str
-        Torch device, e.g. ``"cpu"`` or ``"cuda"``.
-    """
-
-    patch_size: int = 7
-    step: int = 5
-    search_radius: int = 10
-    group_size: int = 16
-    iterations: int = 11
-    w0: float = 1e4
-    c: float = 0.9
-    eps: float = 1e-8
-    rendered_weight: float = 1.0
-    filled_weight: float = 0.5
-    feature_weight: float = 0.3
-    rematch_every: int = 4
-    threshold: str = "weighted"
-    data_term: str = "soft"
-    soft_delta: float | None = None
-    noise_power: float = 0.5
-    noise_radius: int = 5
-    wiener: float = 2.0
-    momentum: float = 0.8
-    tile_size: int | None = 128
-    device: str = "cpu"
-
-    def __post_init__(self):
-        ints = dict(patch_size=1, step=1, search_radius=0, group_size=1, iterations=0,
-                    rematch_every=1, noise_radius=1)
-        for name, low in ints.items():
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or v < low:
-                raise ValueError(f"{name} must be an integer >= {low}, got {v!r}")
-        if self.step > max(1, self.patch_size - 1):
-            raise ValueError(f"step must be < patch_size so patches overlap, got {self.step}")
-        for name in ("w0", "eps", "rendered_weight", "filled_weight", "feature_weight", "noise_power", "wiener"):
-            v = getattr(self, name)
-            if not np.isfinite(v) or v < 0:
-                raise ValueError(f"{name} must be finite and >= 0, got {v!r}")
-        if self.rendered_weight <= 0 or self.filled_weight <= 0:
-            raise ValueError("rendered_weight and filled_weight must be > 0")
-        if not 0 < self.c <= 1:
-            raise ValueError(f"c must be in (0, 1], got {self.c!r}")
-        if self.threshold not in ("weighted", "constant"):
-            raise ValueError(f"threshold must be 'weighted' or 'constant', got {self.threshold!r}")
-        if self.data_term not in ("exact", "soft"):
-            raise ValueError(f"data_term must be 'exact' or 'soft', got {self.data_term!r}")
-        if not 0 <= self.momentum < 1:
-            raise ValueError(f"momentum must be in [0, 1), got {self.momentum!r}")
-        if self.soft_delta is not None and not 0 <= self.soft_delta <= 1:
-            raise ValueError(f"soft_delta must be in [0, 1], got {self.soft_delta!r}")
-        if self.tile_size is not None and (not isinstance(self.tile_size, (int, np.integer))
-                                           or self.tile_size < 1):
-            raise ValueError(f"tile_size must be a positive integer or None, "
-                             f"got {self.tile_size!r}")
-        try:
-            torch.device(self.device)
-        except (RuntimeError, TypeError) as err:
-            raise ValueError(f"device {self.device!r} is not a torch device") from err
-
-
-#: The paper's literal settings (w0, c, k; Algorithm 1 re-forms the groups every
-#: iteration); patch 7x7, step 3, K = 70 as in the measurement of docs/design.md section 2.
-PAPER_PRESET = LowRankParams(patch_size=7, step=3, search_radius=10, group_size=70,
-                             iterations=45, w0=80.5, c=0.9, rematch_every=1, feature_weight=0.0,
-                             threshold="weighted", data_term="exact", momentum=0.0, noise_power=0.0, wiener=0.0)
-
-#: Tuned default. First from benchmarks/sweep_lowrank.py on two synthetic
-#: 256x256 frames (30 % samples, noise std 12): patch 7, step 5, K 16, 11
-#: iterations, c 0.9, momentum 0.8, soft data term, re-matching every 4
-#: iterations (one change at a time, dB: K 24 +0.2 at 1.7x time, 15 iterations
-#: +0.3 at 1.3x, step 3 +0.1 at 2.7x, c = 1 -0.7, no momentum -0.9, exact data
-#: term -2.0). Then from benchmarks/sweep_rendered.py on the rendered frames of
-#: cornell-box and still-life (256x256, 16 spp, rates 0.2/0.3/0.4, seed 0),
-#: scored by the worst frame's tonemapped-PSNR gain over interp: w0 3e4 -> 1e4,
-#: search radius 8 -> 10, feature weight 0 -> 0.3 together +0.4 dB (worst frame
-#: +2.3 -> +2.8), and the low-rank domain's albedo_eps 0.02 -> 0.2 another +0.9
-#: (worst frame +3.6; see gmcpt.completion.lowrank.LOW_RANK_DOMAIN). Tried and
-#: left: K 24 (-2.6 dB on cornell-box at rate 0.2), c 0.8, momentum 0.6,
-#: patch 5 or 8, 16 iterations, two passes.
-DEFAULT = LowRankParams()
-
-#: Then (2026-11-23) ``noise_power`` 0 -> 0.5, thresholds that follow the local noise: ``pawnnm`` on the
-#: dataset's validation split 29.61 -> 29.77 dB, on the 5 evaluation scenes (rendered, rates
-#: 0.2/0.3/0.4) 32.65/33.30/33.93 -> 32.77/33.57/34.22 (power 1: 32.76/33.60/34.25, the breakfast room
-#: -0.2 dB).
-#: Then (2026-11-23) ``wiener`` 0 -> 2, the collaborative Wiener pass: ``pawnnm`` on the validation split
-#: 29.77 -> 30.41 dB, ``gan_pawnnm`` 31.50 -> 31.59 (before the mean patch's own factor, with re-matched
-#: groups: on a step-3 grid, noise scale 1: 30.33 and 31.58, 2: 30.46 and 31.57, 4: 30.51 and 31.52; on
-#: the step-5 grid ``pawnnm`` 2: 30.41, 4: 30.46, 8: 30.43, ``gan_pawnnm`` 1: 31.59, 2: 31.57, 4: 31.52);
-#: on the 5 evaluation scenes 32.77/33.57/34.22 -> 32.84/33.74/34.57 and
-#: 33.97/34.51/35.00 -> 34.06/34.62/35.06, for +0.1 s on a 256x256 frame. The pass reuses the last
-#: iteration's groups: re-matching on the result scored the same on validation for +0.25 s. On a
-#: reference grid of step 3 instead of 5: +0.04 dB for twice the time; 32 patches a group: +0.1 dB for
-#: four times.
-
-#: NNM ablation: constant threshold (w0 is then a singular value, not its square), one for the frame,
-#: no Wiener pass: the rule of the paper's Table 2 against PAWNNM's weights and nothing of ours.
-NNM_PRESET = replace(DEFAULT, threshold="constant", w0=300.0, noise_power=0.0, wiener=0.0)
+__all__ = ["complete_low_rank", "complete_matrix", "low_rank_estimate"]
 
 
 def _shrink_factor(s: torch.Tensor, w: float, eps: float, threshold: str) -> torch.Tensor:
@@ -297,7 +117,7 @@ def complete_matrix(matrix, observed, *, w0: float, c: float = 0.9, iterations: 
     observed : array_like of bool
         ``(d, K)`` mask of known entries.
     w0, c, iterations, eps, threshold
-        As in :class:`LowRankParams`.
+        As in :class:`~gmcpt.lowrank.params.LowRankParams`.
 
     Returns
     -------
@@ -443,7 +263,7 @@ def complete_low_rank(pre_completed, observed, mask, *, variance=None, guide=Non
         range comparable to the image (0..255-like), used in block matching
         when ``params.feature_weight > 0``.
     params : LowRankParams
-        Settings; see :data:`DEFAULT` and :data:`PAPER_PRESET`.
+        Settings; see :data:`~gmcpt.lowrank.params.DEFAULT` and :data:`~gmcpt.lowrank.params.PAPER_PRESET`.
 
     Returns
     -------

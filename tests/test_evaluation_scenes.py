@@ -24,7 +24,7 @@ def test_without_unknown_id_is_a_one_line_error(mi):
 
 
 def test_reference_key_tells_variants_apart():
-    from gmcpt.reference import reference_key
+    from gmcpt.evaluation.reference import reference_key
 
     plain = reference_key(CORNELL, 64, 256, 1)
     assert reference_key(CORNELL, 64, 256, 1, without=()) == plain
@@ -32,7 +32,7 @@ def test_reference_key_tells_variants_apart():
 
 
 def test_by_name():
-    from gmcpt.evalscenes import BREAKFAST_OPEN, QUALITY_SCENES, by_name
+    from gmcpt.evaluation.scenes import BREAKFAST_OPEN, QUALITY_SCENES, by_name
 
     assert by_name(None) == list(QUALITY_SCENES)
     assert by_name(["breakfast-room-open"]) == [BREAKFAST_OPEN]

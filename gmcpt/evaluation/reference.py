@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from .imageio import atomic_output, read_rgb_exr, write_exr
+from ..exr import atomic_output, read_rgb_exr, write_exr
 
 
 def cache_dir() -> Path:
@@ -41,7 +41,7 @@ def render_reference(scene_path: str | Path, resolution: int = 256, spp: int = 4
 
     ``without`` lists ids of scene elements left out (see :func:`gmcpt.scene.load_scene`).
     """
-    from .scene import load_scene
+    from ..scene import load_scene
 
     key = reference_key(scene_path, resolution, spp, seed, parameters, without)
     return cached_reference(key, lambda: load_scene(scene_path, (resolution, resolution), parameters, without),

@@ -22,7 +22,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SHARED_SCENES = ROOT.parent / "shared" / "scenes"
 
 
@@ -38,12 +38,12 @@ class EvalScene:
         return self.path.is_file()
 
     def load(self, resolution: int):
-        from .scene import load_scene
+        from ..scene import load_scene
 
         return load_scene(self.path, (resolution, resolution), without=self.without)
 
     def reference(self, resolution: int = 256, spp: int = 4096, **options):
-        """The cached reference (:func:`gmcpt.reference.render_reference`; ``options``: seed, progress, ...)."""
+        """The cached reference (:func:`gmcpt.evaluation.reference.render_reference`; ``options``: seed, progress, ...)."""
         from .reference import render_reference
 
         return render_reference(self.path, resolution, spp, without=self.without, **options)
@@ -69,12 +69,12 @@ class ProceduralScene:
         return True
 
     def exposure(self, resolution: int) -> float:
-        from .dataset.build import DatasetSpec, pick_exposure
+        from ..dataset.build import DatasetSpec, pick_exposure
 
         return pick_exposure(self.seed, resolution, DatasetSpec())
 
     def load(self, resolution: int, spp: int = 16):
-        from .dataset.scenes import build_scene
+        from ..dataset.scenes import build_scene
 
         return build_scene(self.seed, resolution, self.exposure(resolution), spp)
 
@@ -87,14 +87,14 @@ class ProceduralScene:
         # leading 1 keeps the keys of references made when it was the dataset version
         digest = hashlib.sha256(json.dumps([1, self.seed, exposure]).encode())
         for module in ("scenes.py", "meshes.py", "textures.py"):
-            digest.update((Path(__file__).parent / "dataset" / module).read_bytes())
+            digest.update((Path(__file__).parents[1] / "dataset" / module).read_bytes())
         key = f"{self.name}-{resolution}px-{spp}spp-s{seed}-{digest.hexdigest()[:12]}"
         return cached_reference(key, lambda: self.load(resolution), spp, seed, pass_spp, progress, self.name)
 
 
 def procedural_scenes(count: int) -> list[ProceduralScene]:
     """The first ``count`` held-out (test split) procedural scenes."""
-    from .dataset import SPLIT_SEED_BASE
+    from ..dataset import SPLIT_SEED_BASE
 
     return [ProceduralScene(SPLIT_SEED_BASE["test"] + index) for index in range(count)]
 

@@ -1,7 +1,7 @@
 """Matrix-completion methods: ``pawnnm``, its ``nnm`` ablation and the image-only ``liu`` baseline.
 
 Both pre-complete with the classical feature-guided fill (``interp``'s
-:func:`~gmcpt.completion.classical.guided_fill`), then refine the whole frame
+:func:`~gmcpt.fills.guided_fill`), then refine the whole frame
 with weighted block matching + low-rank group recovery
 (:func:`gmcpt.lowrank.complete_low_rank`) in the working domain of
 :mod:`gmcpt.domain`. :func:`refine_low_rank` is the shared second stage, which
@@ -9,16 +9,16 @@ the GAN methods reuse with their own pre-completion.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..domain import WorkingDomain
+from ..fills import guided_fill, push_pull
 from ..frame import SparseFrame
-from dataclasses import replace
-
 from ..lowrank import DEFAULT, NNM_PRESET, LowRankParams, complete_low_rank
 from ..lowrank.noise import working_variance
 from . import Completion, register_method
-from .classical import guided_fill, push_pull
 
 #: Working domain of the low-rank stage. A larger albedo regulariser than the
 #: classical and GAN stages use (0.2 against 0.02): the 1-spp albedo buffer is

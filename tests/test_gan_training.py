@@ -1,0 +1,136 @@
+"""GAN training: configs (presets, retired options), the patch sampler's inputs, the loop, its command line."""
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from gan_helpers import SMALL, generator_inputs, tiny_dataset
+from gmcpt.gan import losses
+from gmcpt.gan.model import Generator, GeneratorConfig
+
+
+def _other_than(value):
+    """A value of the same JSON type as ``value`` but not equal to it."""
+    if isinstance(value, bool):
+        return not value
+    if isinstance(value, str):
+        return value + "_other"
+    return [*value, "x"] if isinstance(value, list) else value + 1
+
+
+def test_stored_configs_with_retired_options_still_read():
+    from gmcpt.gan.retired import RETIRED
+    from gmcpt.gan.train import config_from_dict, load_config
+    from gmcpt.gan.weights import DEFAULT_WEIGHTS, weights_path
+
+    # every retired key at the value that reads as today's behaviour (None: any value)
+    stored = {section: {key: 9 if value is None else value for key, value in keys.items()}
+              for section, keys in RETIRED.items()}
+    assert config_from_dict(stored) == config_from_dict({}) == load_config("cpu")
+    generator_config = {**GeneratorConfig().to_dict(), **stored["generator"]}
+    assert GeneratorConfig.from_dict(json.loads(json.dumps(generator_config))) == GeneratorConfig()
+    # the training config a shipped weights file records
+    metadata = json.loads(weights_path(DEFAULT_WEIGHTS).with_suffix(".json").read_text())
+    assert config_from_dict(metadata["config"]).generator == GeneratorConfig.from_dict(metadata["generator_config"])
+    # a retired option asking for its removed behaviour is refused in one line
+    for section, keys in RETIRED.items():
+        for key, value in keys.items():
+            if value is None:
+                continue
+            with pytest.raises(ValueError, match=f"{section}.{key} = .* is a retired option") as error:
+                config_from_dict({section: {key: _other_than(value)}})
+            assert "\n" not in str(error.value)
+    with pytest.raises(ValueError, match="unknown TrainConfig keys: steps_"):
+        config_from_dict({"train": {"steps_": 1}})
+
+
+def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
+    from gmcpt.gan import cli, weights
+    from gmcpt.gan.train import Trainer, load_config
+
+    data = tmp_path / "data"
+    tiny_dataset(data)
+    overrides = {"train.dataset": str(data), "train.steps": 2, "train.max_train_scenes": 0, "train.batch": 2, "train.crop": 16,
+                 "train.eval_every": 2, "train.checkpoint_every": 1, "critic.widths": [8, 8],
+                 "generator.widths": [8, 8, 8], "generator.encoder_blocks": [1, 1, 1], "generator.condition_width": 4}
+    config = load_config("cpu", overrides)
+    out = tmp_path / "run"
+    first = Trainer(config, out, lambda m: None).run()
+    assert first["steps"] == 2 and (out / "checkpoint.pt").is_file() and (out / "curves.png").is_file()
+    history = json.loads((out / "history.json").read_text())
+    assert {"l1", "l2", "wdist"} <= set(history[1]) and any("val_psnr" in h for h in history)
+    resumed = Trainer(load_config("cpu", {**overrides, "train.steps": 3}), out, lambda m: None)
+    with pytest.raises(ValueError, match="another config"):
+        resumed.run()   # a changed config never silently resumes
+    again = Trainer(config, out, lambda m: None)
+    assert again.load_checkpoint() and again.step == 2
+    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    record = cli.export(again, "tiny", "python -m gmcpt train ...")
+    assert record["dataset"]["version"] == 1 and (tmp_path / "shipped" / "tiny.pt").is_file()
+
+
+def test_progress_before_the_critic_starts_says_so_without_warnings(tmp_path):
+    import warnings
+
+    from gmcpt.gan.train import Trainer, load_config
+
+    data = tmp_path / "data"
+    tiny_dataset(data)
+    config = load_config("cpu", {"train.dataset": str(data), "train.steps": 4, "train.max_train_scenes": 0,
+                                 "train.batch": 2, "train.crop": 16, "train.eval_every": 1, "train.critic_start": 2,
+                                 "train.critic_every": 1, "critic.widths": [8, 8], "generator.widths": [8, 8, 8],
+                                 "generator.encoder_blocks": [1, 1, 1], "generator.condition_width": 4})
+    messages = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # np.nanmean of nothing used to warn "Mean of empty slice"
+        Trainer(config, tmp_path / "run", messages.append).run()
+    progress = [m for m in messages if m.startswith("step ")]
+    assert "wdist - (critic not started)" in progress[0] and "wdist -0" not in progress[0]
+    assert "critic not started" not in progress[-1] and "wdist " in progress[-1]
+
+
+def test_coverage_feature_is_the_frames_buffer_or_the_0_1_rule(tmp_path):
+    import dataclasses
+
+    from gmcpt.dataset import list_examples
+    from gmcpt.domain import WorkingDomain
+    from gmcpt.gan.data import PatchSampler, frame_inputs
+    from tests.conftest import synthetic_frame
+
+    frame, _ = synthetic_frame(16, 16)
+    coverage = np.linspace(0, 1, 256, dtype=np.float32).reshape(16, 16)
+    with_buffer = dataclasses.replace(frame, coverage=coverage)
+    config = GeneratorConfig(use_coverage=True)
+    _, plain, _ = frame_inputs(with_buffer, WorkingDomain(), use_variance=True)
+    _, features, _ = frame_inputs(with_buffer, WorkingDomain(), use_variance=True, use_coverage=True)
+    assert features.shape[1] == config.feature_channels == plain.shape[1] + 1
+    assert torch.equal(features[:, :-1], plain)
+    assert np.array_equal(features[0, -1].numpy(), coverage)
+    _, rule, _ = frame_inputs(dataclasses.replace(frame, coverage=None), WorkingDomain(), True, True)
+    assert np.array_equal(rule[0, -1].numpy(), (frame.albedo.max(-1) >= 0.02).astype(np.float32))
+
+    tiny_dataset(tmp_path)
+    sampler = PatchSampler(list_examples(tmp_path, "train"), crop=16)
+    batch = sampler.batch(np.random.default_rng(0), 4, use_variance=True, use_coverage=True).features
+    assert batch.shape[1] == config.feature_channels
+    # the tiny dataset's files have no coverage buffer: the 0/1 rule over the crop's albedo channels
+    assert torch.equal(batch[:, -1], (batch[:, 1:4].amax(1) >= 0.02).float())
+    generator = Generator(dataclasses.replace(SMALL, use_coverage=True))
+    radiance, _ = generator_inputs(batch=4)
+    assert generator(radiance, batch[:, :generator.config.feature_channels]).shape == (4, 3, 16, 16)
+
+
+def test_train_cli_reports_a_missing_dataset(tmp_path, capsys):
+    from gmcpt.gan.cli import main
+
+    assert main(["--config", "cpu", "--dataset", str(tmp_path / "none"), "--out", str(tmp_path / "r")]) == 2
+    assert "python -m gmcpt dataset" in capsys.readouterr().err
+
+
+def test_presets_load():
+    from gmcpt.gan.train import load_config
+
+    cpu, gpu = load_config("cpu"), load_config("gpu")
+    assert cpu.train.device == "cpu" and gpu.train.device == "cuda"
+    assert cpu.loss == gpu.loss == losses.LossWeights()
