@@ -118,7 +118,7 @@ def _upsampled(bins: np.ndarray, size: int, height: int, width: int) -> np.ndarr
 
 def _disagreement(pixels: np.ndarray, values: np.ndarray, noise: np.ndarray, mask: np.ndarray,
                   edges_density: np.ndarray, floor: float) -> np.ndarray:
-    """:func:`disagreement_density` of the traced pixels ``pixels`` (flat indices) and their values and noise."""
+    """The second pass's density from the traced pixels ``pixels`` (flat indices), their working values and noise."""
     height, width = mask.shape
     bins_high, bins_wide = -(-height // ERROR_BIN), -(-width // ERROR_BIN)
     rows, columns = np.divmod(pixels, width)
@@ -141,32 +141,24 @@ def _disagreement(pixels: np.ndarray, values: np.ndarray, noise: np.ndarray, mas
     return density
 
 
-def disagreement_density(working: np.ndarray, noise: np.ndarray, mask: np.ndarray, edges_density: np.ndarray,
-                         floor: float = FLOOR) -> np.ndarray:
+def error_density(radiance: np.ndarray, variance: np.ndarray, mask: np.ndarray, albedo: np.ndarray,
+                  coverage: np.ndarray | None, edges_density: np.ndarray, floor: float = FLOOR) -> np.ndarray:
     """(H, W) float32 density of the second pass of ``two_pass``, mean 1, 0 on traced pixels.
 
     A cheap stand-in for the completion's error, from the first pass alone: the spread of the traced
     samples about their mean over a window of ``ERROR_WINDOW`` x ``ERROR_WINDOW`` bins of
     ``ERROR_BIN`` x ``ERROR_BIN`` pixels, less the part their own noise explains, given to every pixel
     of the window's centre bin; the feature density ``edges_density`` is added so a region the first
-    pass barely sampled is not judged smooth by default.
+    pass barely sampled is not judged smooth by default. Only the traced pixels are read.
 
     Parameters
     ----------
-    working : (H, W) traced values in the working domain (demodulated, log-compressed), any value elsewhere.
-    noise : (H, W) variance of each traced value in the same domain.
-    mask : (H, W) bool, the traced pixels.
+    radiance : (H, W, 3) linear radiance of the first pass (any value on untraced pixels).
+    variance : (H, W) variance of each traced pixel's mean.
+    mask : (H, W) bool, the first pass's traced pixels.
+    albedo, coverage : the feature buffers (coverage None: from ``albedo``).
     edges_density : (H, W) the first pass's density (:func:`feature_density`).
-    """
-    pixels = np.flatnonzero(mask)
-    return _disagreement(pixels, working.ravel()[pixels], noise.ravel()[pixels], mask, edges_density, floor)
-
-
-def error_density(radiance: np.ndarray, variance: np.ndarray, mask: np.ndarray, albedo: np.ndarray,
-                  coverage: np.ndarray | None, edges_density: np.ndarray, floor: float = FLOOR) -> np.ndarray:
-    """:func:`disagreement_density` of a first pass's linear radiance (H, W, 3) and variance of the mean (H, W).
-
-    Only the traced pixels are read (their working domain alone: a fraction of the frame's work).
+    floor : share of the density spread evenly, in [0, 1].
     """
     domain = WorkingDomain()
     pixels = np.flatnonzero(mask)

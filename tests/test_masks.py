@@ -4,7 +4,7 @@ from scipy import ndimage
 
 from gmcpt.errors import GmcptError
 from gmcpt.masks import FEATURE_PATTERNS, PATTERNS, make_mask, mask_rng, sample_by_density
-from gmcpt.placement import feature_density
+from gmcpt.placement import error_density, feature_density
 
 
 def edge_density(height, width):
@@ -83,3 +83,33 @@ def test_bad_rate(rate):
 def test_unknown_pattern():
     with pytest.raises(GmcptError, match="unknown mask pattern"):
         make_mask(8, 8, 0.5, "poisson")
+
+
+def test_error_density_follows_radiance_structure_the_features_do_not_explain():
+    # flat features; the radiance has a shadow edge at x = 40 that no feature buffer shows
+    height, width = 64, 80
+    albedo = np.full((height, width, 3), 0.5, np.float32)
+    normal = np.zeros((height, width, 3), np.float32)
+    normal[..., 2] = 1
+    flat = feature_density(albedo, normal, np.full((height, width), 0.5, np.float32),
+                           np.ones((height, width), np.float32), np.ones((height, width), np.float32))
+    first = sample_by_density(flat, height * width // 6, mask_rng(2))
+    radiance = np.where(np.arange(width)[None, :, None] < 40, 0.05, 1.0) * np.ones((height, width, 3), np.float32)
+    variance = np.full((height, width), 1e-6, np.float32)
+    density = error_density(np.where(first[..., None], radiance, 0), np.where(first, variance, 0), first,
+                            albedo, np.ones((height, width), np.float32), flat)
+    assert density.dtype == np.float32 and density.shape == (height, width)
+    assert np.isclose(density.mean(), 1.0, atol=1e-4) and (density[first] == 0).all()
+    def near_over_far(values):
+        untraced = ~first
+        near = values[:, 36:44][untraced[:, 36:44]].mean()
+        far = np.concatenate([values[:, :24][untraced[:, :24]], values[:, 56:][untraced[:, 56:]]]).mean()
+        return near / far
+
+    assert near_over_far(density) > 2
+    # a noisy but flat frame: its noise explains the spread, no region is preferred
+    rng = np.random.default_rng(0)
+    noisy = (0.5 + 0.05 * rng.standard_normal((height, width, 1))) * np.ones(3, np.float32)
+    flat_error = error_density(np.where(first[..., None], noisy, 0), np.where(first, 0.05 ** 2, 0), first,
+                               albedo, np.ones((height, width), np.float32), flat)
+    assert 0.7 < near_over_far(flat_error) < 1.4

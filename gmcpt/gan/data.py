@@ -72,22 +72,19 @@ class TrainingBatch(NamedTuple):
 class PatchSampler:
     """Random training crops from dataset examples, with fresh masks.
 
-    Each scene is kept in memory as one (H, W, 17) array: reference (3) and
+    Each scene is kept in memory as one (H, W, 16) array: reference (3) and
     full-frame noisy radiance (3) in the working domain / 255, noise std (1),
-    albedo (3), normal (3), depth, visibility, coverage, and the feature sampling density
-    (1, :func:`gmcpt.placement.feature_density`).
+    albedo (3), normal (3), depth, visibility and coverage. Masks are uniformly random, the paper's
+    (a generator trained on the product's placements too scored no better: docs/experiments.md).
     """
 
     def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
-                 rate_range: tuple[float, float] = (0.15, 0.5), masks: tuple[str, ...] = ("random",)):
+                 rate_range: tuple[float, float] = (0.15, 0.5)):
         from ..dataset import load_example
-        from ..masks import check_pattern
-        from ..placement import feature_density
 
         if not paths:
             raise ValueError("no training examples")
         self.crop, self.rate_range = crop, rate_range
-        self.masks = tuple(check_pattern(pattern) for pattern in masks)
         self.scenes = []
         for path in paths:
             example = load_example(path)
@@ -99,9 +96,7 @@ class PatchSampler:
                      domain.forward(full.radiance, factor) / SCALE,
                      working_std(domain, full.radiance, full.variance, factor, traced)[..., None],
                      example["albedo"], example["normal"], example["depth"][..., None],
-                     example["visibility"][..., None], frame_coverage(full)[..., None],
-                     feature_density(example["albedo"], example["normal"], example["depth"], example["visibility"],
-                                     frame_coverage(full))[..., None]]
+                     example["visibility"][..., None], frame_coverage(full)[..., None]]
             self.scenes.append(np.concatenate(parts, -1).astype(np.float32))
 
     def batch(self, rng: np.random.Generator, size: int, use_variance: bool, use_coverage: bool = False
@@ -118,11 +113,7 @@ class PatchSampler:
             crops.append(crop)
         data = np.stack(crops)
         rates = rng.uniform(*self.rate_range, size=(size, 1, 1))
-        if self.masks == ("random",):
-            mask = rng.random(data.shape[:3]) < rates
-        else:
-            mask = np.stack([crop_mask(crop, float(rate), self.masks[rng.integers(len(self.masks))], rng)
-                             for crop, rate in zip(data, rates.ravel())])
+        mask = rng.random(data.shape[:3]) < rates
         radiance = data[..., 3:6] * mask[..., None]
         std = data[..., 6] * mask if use_variance else None
         features = np.stack([feature_stack(mask[i], data[i, ..., 7:10], data[i, ..., 10:13], data[i, ..., 13],
@@ -130,30 +121,3 @@ class PatchSampler:
                                            data[i, ..., 15] if use_coverage else None) for i in range(size)])
         to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(0, 3, 1, 2))).float()  # noqa: E731
         return TrainingBatch(to_tensor(radiance), to_tensor(features), to_tensor(data[..., 0:3]))
-
-
-def crop_mask(crop: np.ndarray, rate: float, pattern: str, rng: np.random.Generator) -> np.ndarray:
-    """A training crop's mask at ``rate``, drawn as the renderer draws ``pattern`` over a whole frame.
-
-    ``random``: each pixel with chance ``rate``. ``adaptive``: the frame's feature density (channel 16,
-    mean 1 over the frame), as many picks as it gives the crop. ``two_pass``: half of those from the
-    feature density, the rest from :func:`gmcpt.placement.disagreement_density` of the first half's
-    working-domain samples. Other patterns: :func:`gmcpt.masks.make_mask` on the crop.
-    """
-    from ..masks import make_mask, sample_by_density
-    from ..placement import FIRST_PASS_SHARE, disagreement_density
-
-    height, width = crop.shape[:2]
-    if pattern == "random":
-        return rng.random((height, width)) < rate
-    if pattern not in ("adaptive", "two_pass"):
-        return make_mask(height, width, rate, pattern, int(rng.integers(1 << 31)))
-    density = crop[..., 16]
-    count = max(1, min(height * width, int(round(rate * float(density.sum())))))
-    if pattern == "adaptive":
-        return sample_by_density(density, count, rng)
-    first = sample_by_density(density, max(1, int(round(count * FIRST_PASS_SHARE))), rng)
-    working = crop[..., 3:6].mean(axis=-1) * SCALE
-    noise = np.where(first, (crop[..., 6] * SCALE) ** 2, 0.0)
-    errors = disagreement_density(working, noise, first, density)
-    return first | sample_by_density(errors, count - int(first.sum()), rng, exclude=first)

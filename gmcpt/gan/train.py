@@ -48,8 +48,6 @@ class TrainConfig:
     steps : generator updates.
     batch, crop : crops per step and their side in pixels.
     rate_range : sampling rates drawn per crop.
-    masks : mask patterns a crop's mask is drawn from, one picked at random per crop
-        (:func:`gmcpt.gan.data.crop_mask`); the product's placement should be among them.
     lr_g, lr_d : Adam learning rates (cosine decay to 5% over the run).
     critic_every : update the critic every this many steps (1: every step).
     critic_start : first step with the critic (and the texture term).
@@ -65,7 +63,6 @@ class TrainConfig:
     batch: int = 8
     crop: int = 64
     rate_range: tuple[float, float] = (0.15, 0.5)
-    masks: tuple[str, ...] = ("random", "adaptive", "two_pass")
     lr_g: float = 1e-3
     lr_d: float = 3e-4
     critic_every: int = 4
@@ -76,13 +73,6 @@ class TrainConfig:
     checkpoint_every: int = 250
     max_train_scenes: int = 300
     device: str = "cpu"
-
-    def __post_init__(self):
-        from ..masks import PATTERNS
-
-        unknown = [pattern for pattern in self.masks if pattern not in PATTERNS]
-        if unknown or not self.masks:
-            raise ValueError(f"train.masks must name mask patterns from {', '.join(PATTERNS)}, got {list(self.masks)}")
 
 
 @dataclass(frozen=True)
@@ -212,7 +202,7 @@ class Trainer:
                                  f"{cfg.max_train_scenes}; finish the dataset build first")
             train_paths = train_paths[:cfg.max_train_scenes]
         self.train_seeds = [int(p.stem) for p in train_paths]
-        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range, cfg.masks)
+        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range)
         self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")]
         self.rng = np.random.default_rng([cfg.seed, 0x7EA1])
         self.step, self.history, self.seconds = 0, [], 0.0
