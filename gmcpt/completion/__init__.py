@@ -81,13 +81,26 @@ def get_method(name: str) -> Method:
     return _REGISTRY[name]
 
 
-def complete(frame: SparseFrame, method: str = "interp", **options) -> Completion:
-    """Run completion ``method`` on ``frame`` and return the completed image."""
+def complete(frame: SparseFrame, method: str = "interp", tile: int | None = None, **options) -> Completion:
+    """Run completion ``method`` on ``frame`` and return the completed image.
+
+    ``tile``: complete frames larger than ``tile`` x ``tile`` pixels in overlapping tiles of that side,
+    blended (:mod:`gmcpt.completion.tiles`); None completes the whole frame at once.
+    """
+    from .tiles import DEFAULT_OVERLAP, complete_in_tiles
+
     entry = get_method(method)
     frame = check_frame(frame, method)
     height, width = frame.shape
     start = time.perf_counter()
-    result = entry.function(frame, **options)
+    if tile is not None and max(height, width) > tile:
+        if tile < max(entry.min_size, 2 * DEFAULT_OVERLAP):
+            raise GmcptError(f"tile {tile} is too small: at least {max(entry.min_size, 2 * DEFAULT_OVERLAP)} "
+                             f"pixels for {method!r}")
+        image, timings = complete_in_tiles(frame, lambda part: entry.function(part, **options), tile)
+        result = Completion(image, timings)
+    else:
+        result = entry.function(frame, **options)
     result.timings["completion_s"] = time.perf_counter() - start
     if result.image.shape != (height, width, 3) or not np.isfinite(result.image).all():
         raise GmcptError(f"completion method {method!r} returned an invalid image")
