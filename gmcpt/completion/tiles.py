@@ -20,17 +20,20 @@ DEFAULT_OVERLAP = 32
 
 
 def tile_spans(length: int, tile: int, overlap: int) -> list[tuple[int, int]]:
-    """``(start, stop)`` of tiles of side ``tile`` covering ``[0, length)``, overlapping by at least ``overlap``.
+    """``(start, stop)`` of the fewest tiles of side at most ``tile`` that cover ``[0, length)`` overlapping by
+    at least ``overlap``.
 
-    One span when the frame fits in a tile. Starts are spread evenly, so every overlap is about the same.
+    One span when the frame fits in a tile. The tiles share one side, the smallest that gives that
+    overlap (so little is completed twice), and their starts are spread evenly.
     """
     if tile <= overlap:
         raise ValueError(f"tile ({tile}) must be larger than the overlap ({overlap})")
     if length <= tile:
         return [(0, length)]
     count = -(-(length - overlap) // (tile - overlap))
-    starts = np.round(np.linspace(0, length - tile, count)).astype(int)
-    return [(int(start), int(start) + tile) for start in starts]
+    side = -(-(length + (count - 1) * overlap) // count)
+    starts = np.round(np.linspace(0, length - side, count)).astype(int)
+    return [(int(start), int(start) + side) for start in starts]
 
 
 def _ramp(spans: list[tuple[int, int]], index: int, length: int) -> np.ndarray:
