@@ -7,7 +7,8 @@
     python -m gmcpt eval [--quick] (docs/results.md and plots, see gmcpt.evaluation.cli)
 
 Bad input ends with one ``error: ...`` line on stderr and exit status 2; no
-output file is written or replaced.
+output file is written or replaced. Ctrl-C ends it with ``error: interrupted``
+(exit 130), SIGTERM with ``error: terminated`` (143), temporary files removed.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import sys
 import time
 from pathlib import Path
 
+from . import interrupts
 from .errors import GmcptError
 
 EXIT_BAD_INPUT = 2
@@ -158,9 +160,6 @@ SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli", "eval":
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv and argv[0] in SUBCOMMANDS:
-        import importlib
-        return importlib.import_module(SUBCOMMANDS[argv[0]]).main(argv[1:])
     start = time.perf_counter()
     quiet = False
 
@@ -168,12 +167,19 @@ def main(argv: list[str] | None = None) -> int:
         if not quiet:
             print(f"[gmcpt {time.perf_counter() - start:6.1f}s] {message}", file=sys.stderr, flush=True)
 
+    handlers = {}
     try:
+        if argv and argv[0] in SUBCOMMANDS:
+            import importlib
+            handlers = interrupts.install()
+            return importlib.import_module(SUBCOMMANDS[argv[0]]).main(argv[1:])
         args = build_parser().parse_args(argv)
         quiet = args.quiet
         import gmcpt  # noqa: F401  (LLVM, variant, plugin registration)
         import mitsuba as mi
+        import OpenEXR  # noqa: F401  (native modules are imported before signals raise: see gmcpt.interrupts)
         mi.set_log_level(mi.LogLevel.Error)
+        handlers = interrupts.install()  # from here a signal raises, and no temporary file is left behind
         record = run(args, say)
         if "metrics" in record:
             m = record["metrics"]
@@ -182,9 +188,15 @@ def main(argv: list[str] | None = None) -> int:
     except GmcptError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("error: interrupted", file=sys.stderr)
-        return 130
+    except (KeyboardInterrupt, interrupts.Terminated) as error:
+        return interrupts.report(error)
+    except MemoryError:  # a run this machine cannot hold
+        print("error: out of memory; lower the resolution (--res), or free memory", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as error:  # the environment: a file that cannot be read, a device that fails
+        where = f" ({error.filename})" if error.filename else ""
+        print(f"error: {error.strerror or error}{where}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except Exception as error:  # an internal error is still one line, unless debugging
         if os.environ.get("GMCPT_DEBUG"):
             raise
@@ -192,6 +204,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: internal error ({type(error).__name__}): {message} (set GMCPT_DEBUG=1 for a traceback)",
               file=sys.stderr)
         return EXIT_INTERNAL
+    finally:
+        interrupts.restore(handlers)
 
 
 if __name__ == "__main__":
