@@ -1,5 +1,5 @@
 """Writing and interruptions (issue 26, causes 9-12): a full disk, a failed rename, SIGTERM while writing,
-Ctrl-C while starting.
+Ctrl-C while starting; and the evaluation's refusals without the shared scenes beside the checkout.
 
 A full disk and a failed rename are simulated in-process (the write or the rename raises as the
 library does on a real full disk); the signals are sent to a real command-line process.
@@ -163,3 +163,22 @@ def test_ctrl_c_during_start_up_is_one_line(tmp_path, command):
     stdout, stderr = process.communicate(timeout=120)
     assert_one_line(process.returncode, stderr, "interrupted", code=130)
     assert stdout == "" and list(tmp_path.iterdir()) == []
+
+
+# the evaluation without ../shared beside the checkout
+@pytest.mark.parametrize("args, message", [(["--out", "README.md", "--no-readme"], "--out README.md is not a folder"),
+                                           (["--scenes", "breakfast-room", "--procedural", "0", "--out", "README.md"],
+                                            "no evaluation scene is available")])
+def test_eval_refusals_without_the_shared_scenes(tmp_path, args, message):
+    environment = {**os.environ, "PYTHONWARNINGS": "ignore", "GMCPT_SHARED_SCENES": str(tmp_path / "absent")}
+    result = subprocess.run([sys.executable, "-m", "gmcpt", "eval", *args], capture_output=True, text=True, cwd=ROOT,
+                            env=environment, timeout=300)
+    assert_one_line(result.returncode, result.stderr, message)
+
+
+def test_shared_scenes_folder_follows_the_environment(tmp_path):
+    environment = {**os.environ, "GMCPT_SHARED_SCENES": str(tmp_path)}
+    code = "from gmcpt.evaluation.scenes import BREAKFAST; print(BREAKFAST.path, BREAKFAST.available())"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, env=environment,
+                            timeout=300)
+    assert result.stdout.split() == [str(tmp_path / "breakfast-room" / "scene.xml"), "False"], result.stderr
