@@ -16,21 +16,24 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from ._llvm import configure_llvm as _configure_llvm
 from .errors import GmcptError
+from .interrupts import startup as _startup
 
-_configure_llvm()
+with _startup():  # the command line: a Ctrl-C during these imports is one line (see gmcpt.interrupts)
+    from ._llvm import configure_llvm as _configure_llvm
 
-from .variant import ensure_variant  # noqa: E402
+    _configure_llvm()
 
-ensure_variant()
+    from .variant import ensure_variant
 
-from .frame import SparseFrame  # noqa: E402
-from .completion import Completion, complete, methods  # noqa: E402
-from .render import render_sparse_frame  # noqa: E402
-from .plugins import register_plugins  # noqa: E402
+    ensure_variant()
 
-register_plugins()  # masked_path (mitsuba_plugins, which imports this package; never the other way)
+    from .frame import SparseFrame
+    from .completion import Completion, complete, methods
+    from .render import render_sparse_frame
+    from .plugins import register_plugins
+
+    register_plugins()  # masked_path (mitsuba_plugins, which imports this package; never the other way)
 
 __all__ = ["GmcptError", "SparseFrame", "Completion", "complete", "methods",
            "render_sparse_frame", "ensure_variant", "__version__"]

@@ -7,7 +7,8 @@
     python -m gmcpt eval [--quick] (docs/results.md and plots, see gmcpt.evaluation.cli)
 
 Bad input ends with one ``error: ...`` line on stderr and exit status 2; no
-output file is written or replaced.
+output file is written or replaced. Ctrl-C ends it with ``error: interrupted``
+(exit 130), SIGTERM with ``error: terminated`` (143), temporary files removed.
 """
 from __future__ import annotations
 
@@ -17,7 +18,9 @@ import sys
 import time
 from pathlib import Path
 
+from . import interrupts
 from .errors import GmcptError
+from .frame import DEFAULT_FEATURE_SPP
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1
@@ -53,9 +56,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _validate(args) -> None:
+    """Every check on the command line's own values, before any work (the scene's are checked once loaded)."""
     from .completion import check_options
-    from .exr import check_writable
+    from .files import check_not_inputs, check_writable
+    from .gan.weights import weights_path
+    from .limits import check_feature_spp, check_resolution, check_seed, check_spp
     from .masks import check_pattern, check_rate
+    from .scene import scene_inputs
 
     if not args.out.lower().endswith(".exr"):
         raise GmcptError(f"--out must name an .exr file, got {args.out}")
@@ -63,18 +70,24 @@ def _validate(args) -> None:
         check_writable(path)
     if args.rate is not None:
         check_rate(args.rate)
-    if args.spp is not None and args.spp < 1:
-        raise GmcptError(f"--spp must be >= 1, got {args.spp}")
-    if args.feature_spp is not None and args.feature_spp < 1:
-        raise GmcptError(f"--feature-spp must be >= 1, got {args.feature_spp}")
+    if args.spp is not None:
+        check_spp(args.spp, "--spp")
+    if args.feature_spp is not None:
+        check_feature_spp(args.feature_spp, "--feature-spp")
+    if args.seed is not None:
+        check_seed(args.seed, "--seed")
     if args.mask is not None:
         check_pattern(args.mask)
-    check_options(args.method, args.weights)
-    if args.res is not None and min(args.res) < 1:
-        raise GmcptError(f"--res must be positive, got {args.res[0]} {args.res[1]}")
+    if args.res is not None:
+        check_resolution(*args.res, args.feature_spp or DEFAULT_FEATURE_SPP, "--res")
     for define in args.defines:
         if "=" not in define:
             raise GmcptError(f"-D expects NAME=VALUE, got {define!r}")
+    weights = [weights_path(args.weights)] if args.weights else []
+    check_not_inputs(_outputs(args.out), {"scene file": scene_inputs(args.scene), "weights file": weights,
+                                          "weights record": [path.with_suffix(".json") for path in weights],
+                                          "reference": [args.reference] if args.reference else []})
+    check_options(args.method, args.weights)
 
 
 def _weights_record(integrator) -> dict:
@@ -88,6 +101,18 @@ def _weights_record(integrator) -> dict:
     return {"weights": name, "weights_sha256": load_generator(name)[1].get("sha256")}
 
 
+def _reference(path: str):
+    """The reference image, refused (one line) if metrics against it would be NaN."""
+    from .exr import read_rgb_exr
+    from .metrics import check_reference
+
+    reference = read_rgb_exr(path)
+    try:
+        return check_reference(reference)
+    except GmcptError as error:
+        raise GmcptError(f"reference {path}: {error}") from None
+
+
 def _outputs(out: str):
     from .outputs import sidecar_paths
     return sidecar_paths(out)
@@ -96,22 +121,24 @@ def _outputs(out: str):
 def run(args, say=lambda message: None) -> dict:
     """Render, complete and write; returns the JSON record."""
     from .completion import check_size, complete
-    from .exr import read_rgb_exr
+    from .limits import check_resolution
     from .metrics import all_metrics
     from .outputs import library_versions, write_outputs
     from .render import render_sparse_frame
-    from .scene import load_scene, masked_integrator
+    from .scene import load_scene, masked_integrator, scene_sensor
 
     started = time.perf_counter()
     _validate(args)
-    reference = read_rgb_exr(args.reference) if args.reference else None
+    reference = _reference(args.reference) if args.reference else None
     parameters = dict(define.split("=", 1) for define in args.defines)
     scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
     integrator = masked_integrator(scene, rate=args.rate, mask=args.mask, seed=args.seed,
                                    feature_spp=args.feature_spp, completion=args.method, weights=args.weights)
-    # every check on the input happens before the first progress line
-    size = scene.sensors()[0].film().crop_size()
+    # every check on the input happens before the first progress line (render_sparse_frame checks the
+    # scene's own resolution and spp before its first one)
+    size = scene_sensor(scene, path=args.scene).film().crop_size()
     width, height = int(size[0]), int(size[1])
+    check_resolution(width, height, integrator.feature_spp)
     check_size(integrator.completion, height, width)
     if reference is not None and reference.shape != (height, width, 3):
         raise GmcptError(f"reference {args.reference} is {reference.shape[1]}x{reference.shape[0]}, "
@@ -158,9 +185,6 @@ SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli", "eval":
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv and argv[0] in SUBCOMMANDS:
-        import importlib
-        return importlib.import_module(SUBCOMMANDS[argv[0]]).main(argv[1:])
     start = time.perf_counter()
     quiet = False
 
@@ -168,12 +192,19 @@ def main(argv: list[str] | None = None) -> int:
         if not quiet:
             print(f"[gmcpt {time.perf_counter() - start:6.1f}s] {message}", file=sys.stderr, flush=True)
 
+    handlers = {}
     try:
+        if argv and argv[0] in SUBCOMMANDS:
+            import importlib
+            handlers = interrupts.install()
+            return importlib.import_module(SUBCOMMANDS[argv[0]]).main(argv[1:])
         args = build_parser().parse_args(argv)
         quiet = args.quiet
         import gmcpt  # noqa: F401  (LLVM, variant, plugin registration)
         import mitsuba as mi
+        import OpenEXR  # noqa: F401  (native modules are imported before signals raise: see gmcpt.interrupts)
         mi.set_log_level(mi.LogLevel.Error)
+        handlers = interrupts.install()  # from here a signal raises, and no temporary file is left behind
         record = run(args, say)
         if "metrics" in record:
             m = record["metrics"]
@@ -182,9 +213,15 @@ def main(argv: list[str] | None = None) -> int:
     except GmcptError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("error: interrupted", file=sys.stderr)
-        return 130
+    except (KeyboardInterrupt, interrupts.Terminated) as error:
+        return interrupts.report(error)
+    except MemoryError:  # the estimate (gmcpt.limits) let through a run this machine cannot hold
+        print("error: out of memory; lower the resolution (--res), or free memory", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as error:  # the environment: a file that cannot be read, a device that fails
+        where = f" ({error.filename})" if error.filename else ""
+        print(f"error: {error.strerror or error}{where}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except Exception as error:  # an internal error is still one line, unless debugging
         if os.environ.get("GMCPT_DEBUG"):
             raise
@@ -192,6 +229,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: internal error ({type(error).__name__}): {message} (set GMCPT_DEBUG=1 for a traceback)",
               file=sys.stderr)
         return EXIT_INTERNAL
+    finally:
+        interrupts.restore(handlers)
 
 
 if __name__ == "__main__":

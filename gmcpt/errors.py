@@ -7,3 +7,7 @@ class GmcptError(Exception):
     The CLI prints ``error: <message>`` on one line and exits non-zero; library
     callers can catch it like any other exception.
     """
+
+
+class BadValue(GmcptError, ValueError):
+    """A bad argument to a library function: a :class:`GmcptError`, and a ``ValueError`` as these functions raised before."""

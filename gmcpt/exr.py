@@ -14,74 +14,25 @@ them, ``layer.channel``)::
     variance.Y                 variance of each traced pixel's mean
     coverage.Y                 fraction of feature rays on a diffuse surface (see gmcpt.domain)
 
-Writers write where they are told; callers wrap them in :func:`atomic_output`
+Writers write where they are told; callers write through :mod:`gmcpt.files`
 (the data lands in a temporary file beside the target and is renamed over it
 only when complete), so an error never leaves a half-written or clobbered file.
 """
 from __future__ import annotations
 
-import contextlib
 import os
-import tempfile
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from .domain import frame_coverage
-from .errors import GmcptError
+from .errors import BadValue, GmcptError
+from .files import atomic_output, captured_output, check_writable  # noqa: F401  (atomic_output, check_writable: re-exported)
 from .frame import SparseFrame
 
 LAYERS = (("", "RGB"), ("sparse", "RGB"), ("mask", "Y"), ("albedo", "RGB"), ("normal", "XYZ"),
           ("depth", "Y"), ("visibility", "Y"), ("variance", "Y"), ("coverage", "Y"))
-
-
-@contextlib.contextmanager
-def atomic_output(path: str | os.PathLike):
-    """Yield a temporary path next to ``path``; rename it over ``path`` on success.
-
-    An ``OSError`` while creating, writing or renaming (a read-only file system, a full disk)
-    becomes a one-line :class:`GmcptError` naming ``path``; ``path`` itself is left as it was.
-    """
-    path = Path(path)
-    try:
-        handle, temporary = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    except OSError as error:
-        raise _write_error(path, error) from None
-    os.close(handle)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(temporary, 0o666 & ~umask)  # mkstemp makes 0600; give the usual mode
-    try:
-        yield temporary
-        os.replace(temporary, path)
-    except OSError as error:
-        raise _write_error(path, error) from None
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(temporary)
-
-
-def _write_error(path: Path, error: OSError) -> GmcptError:
-    return GmcptError(f"cannot write {path}: {error.strerror or error}")
-
-
-def check_writable(path: str | os.PathLike) -> Path:
-    """Fail early, with one line, if ``path`` cannot be created or replaced."""
-    path = Path(path)
-    parent = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise GmcptError(f"output path {path} is a directory")
-    if not parent.is_dir():
-        raise GmcptError(f"output directory {parent} does not exist")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise GmcptError(f"output directory {parent} is not writable")
-    try:  # access() says yes to root, and on /proc: try it
-        handle, probe = tempfile.mkstemp(prefix=f".{path.name}.", dir=parent)
-        os.close(handle)
-        os.unlink(probe)
-    except OSError as error:
-        raise _write_error(path, error) from None
-    return path
 
 
 def write_exr(path: str | os.PathLike, channels: dict[str, np.ndarray], attributes: dict | None = None) -> None:
@@ -101,14 +52,21 @@ def read_exr(path: str | os.PathLike) -> dict[str, np.ndarray]:
 
     if not Path(path).is_file():
         raise GmcptError(f"EXR file not found: {path}")
-    try:
-        with OpenEXR.File(str(path), separate_channels=True) as exr:
-            return {name: np.asarray(channel.pixels, dtype=np.float32)
-                    for name, channel in exr.channels().items()}
-    except GmcptError:
-        raise
-    except Exception as error:
-        raise GmcptError(f"cannot read EXR {path}: {error}") from None
+    with captured_output() as printed:  # OpenEXR prints its own lines about a damaged file
+        try:
+            with OpenEXR.File(str(path), separate_channels=True) as exr:
+                channels = {name: np.asarray(channel.pixels, dtype=np.float32)
+                            for name, channel in exr.channels().items()}
+            error = None
+        except Exception as raised:
+            error = raised
+    if error is None:  # what it said about a file that still read
+        sys.stdout.write(printed.get(1, ""))
+        sys.stderr.write(printed.get(2, ""))
+        return channels
+    detail = next((line for line in printed.get(2, "").splitlines() if line.strip()), "").removeprefix(f"{path}: ")
+    raise GmcptError(f"cannot read EXR {path} (truncated or not an EXR file): "
+                     + " ".join((detail or str(error)).split()))
 
 
 def read_rgb_exr(path: str | os.PathLike) -> np.ndarray:
@@ -150,7 +108,7 @@ def unpack(tensor: np.ndarray, spp: int = 1) -> tuple[SparseFrame, np.ndarray]:
     array = np.asarray(tensor, dtype=np.float32)
     expected = len(channel_names())
     if array.ndim != 3 or array.shape[-1] != expected:
-        raise ValueError(f"expected an (H, W, {expected}) tensor, got shape {array.shape}")
+        raise BadValue(f"expected an (H, W, {expected}) tensor, got shape {array.shape}")
     image, sparse, mask, albedo, normal, depth, visibility, variance, coverage = np.split(
         array, np.cumsum([len(c) for _, c in LAYERS])[:-1], axis=-1)
     frame = SparseFrame(radiance=sparse, mask=mask[..., 0] > 0.5, variance=variance[..., 0], albedo=albedo,

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import BadValue
+
 
 def tonemap(linear: np.ndarray) -> np.ndarray:
     """Linear radiance -> display sRGB in [0, 1] (clamp, then sRGB OETF)."""
@@ -19,9 +21,18 @@ def tonemap(linear: np.ndarray) -> np.ndarray:
     return np.asarray(colour.cctf_encoding(np.clip(linear, 0.0, 1.0), function="sRGB"), dtype=np.float32)
 
 
+def check_reference(reference: np.ndarray) -> np.ndarray:
+    """Refuse (one line) a reference with NaN or infinite values: every metric against it would be NaN."""
+    bad = int(np.size(reference) - np.count_nonzero(np.isfinite(reference)))
+    if bad:
+        raise BadValue(f"the reference has {bad} NaN/Inf values; metrics against it would be NaN")
+    return reference
+
+
 def _check(image: np.ndarray, reference: np.ndarray) -> None:
     if image.shape != reference.shape:
-        raise ValueError(f"image shape {image.shape} differs from reference shape {reference.shape}")
+        raise BadValue(f"image shape {image.shape} differs from reference shape {reference.shape}")
+    check_reference(reference)
 
 
 def mse(image: np.ndarray, reference: np.ndarray) -> float:

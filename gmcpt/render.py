@@ -18,6 +18,7 @@ towards a sampled emitter point per primary ray).
 """
 from __future__ import annotations
 
+import hashlib
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -28,8 +29,11 @@ import numpy as np
 
 from .domain import ALBEDO_MIN
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame  # noqa: F401  (DEFAULT_FEATURE_SPP re-exported)
-from .masks import DEFAULT_PATTERN, FEATURE_PATTERNS, make_mask, mask_rng, sample_by_density, sample_count
+from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seed, check_spp
+from .masks import (DEFAULT_PATTERN, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
+                    sample_by_density, sample_count)
 from .placement import FIRST_PASS_SHARE, error_density, feature_density
+from .scene import scene_sensor
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
 FEATURE_SEED_OFFSET = 0x5EED_F00D
@@ -42,13 +46,32 @@ FEATURE_RAY_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFr
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """What to trace. ``spp=0`` keeps the sensor's sample count."""
+    """What to trace. ``spp=0`` keeps the sensor's sample count.
+
+    Checked when made (:mod:`gmcpt.limits`): a bad value raises a one-line :class:`~gmcpt.errors.GmcptError`.
+    """
 
     rate: float = 0.3
     pattern: str = DEFAULT_PATTERN
     seed: int = 0
     spp: int = 0
     feature_spp: int = DEFAULT_FEATURE_SPP
+
+    def __post_init__(self):
+        check_rate(self.rate)
+        check_pattern(self.pattern)
+        check_seed(self.seed)
+        if self.spp != 0:
+            check_spp(self.spp)
+        check_feature_spp(self.feature_spp)
+
+
+def pass_seed(seed: int, index: int, passes: int) -> int:
+    """The sampler seed of radiance pass ``index`` of ``passes``: ``seed`` itself when there is one pass,
+    else a 32-bit hash of (seed, index), which stays in range for every seed."""
+    if passes == 1:
+        return seed
+    return int.from_bytes(hashlib.blake2b(f"{seed}/{index}".encode(), digest_size=4).digest(), "little")
 
 
 def _sensor_film_size(sensor: mi.Sensor) -> tuple[int, int]:
@@ -97,7 +120,7 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
     """
     height, width = _sensor_film_size(sensor)
     lanes = height * width * feature_spp
-    sampler = _seeded_sampler(sensor, feature_spp, seed + FEATURE_SEED_OFFSET, lanes)
+    sampler = _seeded_sampler(sensor, feature_spp, (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT, lanes)
     pixel = dr.arange(mi.UInt32, lanes) // feature_spp
     ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
     si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
@@ -178,8 +201,7 @@ def _trace_mean(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
             break
         say(f"path tracing: {pixels.size} px x {spp} spp"
             + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
-        s, q, n = trace_pixels(scene, sensor, integrator, pixels, this_spp,
-                               seed if passes == 1 else seed * passes + index)
+        s, q, n = trace_pixels(scene, sensor, integrator, pixels, this_spp, pass_seed(seed, index, passes))
         total, squares, count, done = total + s, squares + q, count + n, done + this_spp
     inverse_count = 1.0 / np.maximum(count, 1)
     mean = total * inverse_count[:, None]
@@ -225,9 +247,10 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     rest of the budget on other pixels, with other sampler seeds.
     """
     say = progress or (lambda message: None)
-    sensor = sensor if sensor is not None else scene.sensors()[0]
+    sensor = sensor if sensor is not None else scene_sensor(scene)
     height, width = _sensor_film_size(sensor)
-    spp = settings.spp or sensor.sampler().sample_count()
+    check_resolution(width, height, settings.feature_spp)
+    spp = check_spp(settings.spp or sensor.sampler().sample_count())
     timings = {}
 
     start = time.perf_counter()
@@ -262,7 +285,7 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
         start = time.perf_counter()
         second_pixels = np.flatnonzero(second)
         mean, variance_of_mean, second_count = _trace_mean(
-            scene, sensor, integrator, second_pixels, spp, (settings.seed + SECOND_PASS_SEED_OFFSET) % (1 << 32), say)
+            scene, sensor, integrator, second_pixels, spp, (settings.seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT, say)
         timings["render_s"] += time.perf_counter() - start
         second_valid = second_count > 0
         radiance[second_pixels] = np.where(second_valid[:, None], mean, 0.0)

@@ -8,6 +8,7 @@ from pathlib import Path
 import mitsuba as mi
 
 from .errors import GmcptError
+from .plugins import mitsuba_message, plugin_errors
 
 
 @contextlib.contextmanager
@@ -24,16 +25,82 @@ def _resolving_from(folder: Path):
             resolver.append(entry)
 
 
+def _resolve(name: str, folders: tuple[Path, ...]) -> Path | None:
+    """The file ``name`` names, looked up as Mitsuba does: absolute, else in ``folders`` in order."""
+    if not name or "$" in name:
+        return None
+    if Path(name).is_absolute():
+        return Path(name)
+    return next((folder / name for folder in folders if (folder / name).is_file()), None)
+
+
+def _inline_includes(root: ET.Element, folders: tuple[Path, ...], depth: int = 0) -> list[Path]:
+    """Replace each ``<include filename=...>`` by the children of the file it names; returns the files included.
+
+    As in Mitsuba, a relative name resolves from the including file's folder, then the scene's; the
+    included files' own relative file names are made absolute, so they still resolve once inlined.
+    """
+    included_files = []
+    for parent in list(root.iter()):
+        for index, child in reversed(list(enumerate(parent))):
+            path = _resolve(child.get("filename", ""), folders) if child.tag == "include" else None
+            if path is None or not path.is_file() or depth > 16:
+                continue  # not an include, or one Mitsuba reports while loading
+            try:
+                included = ET.parse(path).getroot()
+            except ET.ParseError as error:
+                raise GmcptError(f"malformed included XML {path}: {error}") from None
+            inner = (path.resolve().parent, *folders)
+            for node in included.iter("string"):
+                name = _resolve(node.get("value", ""), inner[:1]) if node.get("name") == "filename" else None
+                if name is not None:
+                    node.set("value", str(name))
+            included_files += [path, *_inline_includes(included, inner, depth + 1)]
+            parent.remove(child)
+            for offset, element in enumerate(included):
+                parent.insert(index + offset, element)
+    return included_files
+
+
 def _set_film_size(root: ET.Element, width: int, height: int) -> None:
-    films = root.findall("./sensor/film")
-    if not films:
-        raise GmcptError("cannot set the resolution: the scene has no <sensor><film>")
-    for film in films:
+    for sensor in root.findall("./sensor"):
+        film = sensor.find("film")
+        if film is None:  # the default film, made explicit to set its size
+            film = ET.SubElement(sensor, "film", type="hdrfilm")
         for name, value in (("width", width), ("height", height)):
             node = film.find(f"integer[@name='{name}']")
             if node is None:
                 node = ET.SubElement(film, "integer", name=name)
             node.set("value", str(value))
+
+
+def _no_sensor(path: Path) -> GmcptError:
+    return GmcptError(f"scene {path} has no <sensor> (a camera) to render from")
+
+
+def scene_sensor(scene: mi.Scene, index: int = 0, path: str | Path | None = None) -> mi.Sensor:
+    """Sensor ``index`` of ``scene``; a one-line :class:`GmcptError` when the scene has no such sensor."""
+    sensors = scene.sensors()
+    if not sensors:
+        raise _no_sensor(path or "(loaded)")
+    if not -len(sensors) <= index < len(sensors):
+        raise GmcptError(f"the scene has {len(sensors)} sensor(s), there is no sensor {index}")
+    return sensors[index]
+
+
+def scene_inputs(path: str | Path) -> list[Path]:
+    """The files a scene reads: itself, the files it includes and the files it names (meshes, textures)."""
+    path = Path(path)
+    try:
+        root = ET.parse(path).getroot()
+        files = [path, *_inline_includes(root, (path.resolve().parent,))]
+    except (OSError, ET.ParseError, GmcptError):
+        return [path]  # load_scene says what is wrong with it
+    for node in root.iter("string"):
+        name = node.get("value", "") if node.get("name") == "filename" else ""
+        if name and "$" not in name:
+            files.append(path.resolve().parent / name)  # an absolute name stays as it is
+    return files
 
 
 def _remove_elements(root: ET.Element, ids: tuple[str, ...], path: Path) -> None:
@@ -65,17 +132,24 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         raise GmcptError(f"malformed scene XML {path}: {error}") from None
     if root.tag != "scene":
         raise GmcptError(f"{path} is not a Mitsuba scene (root element <{root.tag}>)")
+    if resolution is not None or without:
+        _inline_includes(root, (path.resolve().parent,))
+        if not root.findall("./sensor"):
+            raise _no_sensor(path)
     if resolution is not None:
         _set_film_size(root, *resolution)
     if without:
         _remove_elements(root, tuple(without), path)
     text = ET.tostring(root, encoding="unicode")
     try:
-        with _resolving_from(path.resolve().parent):
-            return mi.load_string(text, **(parameters or {}))
+        with _resolving_from(path.resolve().parent), plugin_errors(f"cannot load scene {path}: "):
+            scene = mi.load_string(text, **(parameters or {}))
+    except GmcptError:
+        raise
     except Exception as error:  # Mitsuba reports all load errors as RuntimeError
-        message = " ".join(str(error).split())
-        raise GmcptError(f"cannot load scene {path}: {message}") from None
+        raise GmcptError(f"cannot load scene {path}: {mitsuba_message(error)}") from None
+    scene_sensor(scene, path=path)
+    return scene
 
 
 def masked_integrator(scene: mi.Scene, **overrides) -> mi.Integrator:
@@ -101,4 +175,5 @@ def masked_integrator(scene: mi.Scene, **overrides) -> mi.Integrator:
     description = {"type": "masked_path", **{key: value for key, value in settings.items() if value is not None}}
     if nested is not None:
         description["integrator"] = nested
-    return mi.load_dict(description)
+    with plugin_errors():
+        return mi.load_dict(description)

@@ -6,8 +6,11 @@ import mitsuba as mi
 from gmcpt.completion import check_options, complete
 from gmcpt.errors import GmcptError
 from gmcpt.exr import channel_names, pack
+from gmcpt.limits import check_feature_spp, check_seed
 from gmcpt.masks import DEFAULT_PATTERN, check_pattern, check_rate
+from gmcpt.plugins import constructor
 from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
+from gmcpt.scene import scene_sensor
 
 DEFAULT_COMPLETION = "gan_pawnnm"
 
@@ -76,10 +79,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         super().__init__(props)
         self.rate = check_rate(props.get("rate", 0.3))
         self.mask_pattern = check_pattern(props.get("mask", DEFAULT_PATTERN))
-        self.seed = int(props.get("seed", 0))
-        self.feature_spp = int(props.get("feature_spp", DEFAULT_FEATURE_SPP))
-        if self.feature_spp < 1:
-            raise GmcptError(f"feature_spp must be >= 1, got {self.feature_spp}")
+        self.seed = check_seed(props.get("seed", 0))
+        self.feature_spp = check_feature_spp(props.get("feature_spp", DEFAULT_FEATURE_SPP))
         self.completion = props.get("completion", DEFAULT_COMPLETION)
         self.weights = props.get("weights", "") or None
         check_options(self.completion, self.weights)  # fail at load time on an unknown name, a bad weights file
@@ -115,7 +116,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         if not develop:
             raise GmcptError("masked_path only renders developed images (develop=True)")
         if isinstance(sensor, int):
-            sensor = scene.sensors()[sensor]
+            sensor = scene_sensor(scene, sensor)
         frame, timings = render_sparse_frame(scene, self.integrator, sensor, self.settings(seed, spp))
         result = complete(frame, self.completion, **self.completion_options())
         self.last_frame, self.last_timings = frame, {**timings, **result.timings}
@@ -135,5 +136,5 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
 def register() -> None:
     """Register ``masked_path`` with Mitsuba for the active variant."""
-    mi.register_integrator("masked_path", lambda props: MaskedPathIntegrator(props))
+    mi.register_integrator("masked_path", constructor(MaskedPathIntegrator))
 

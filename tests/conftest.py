@@ -10,7 +10,6 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "scenes"
 CORNELL = SCENES / "cornell-box" / "scene.xml"
 STILL_LIFE = SCENES / "still-life" / "scene.xml"
-BREAKFAST = ROOT.parent / "shared" / "scenes" / "breakfast-room" / "scene.xml"
 
 
 @pytest.fixture(scope="session")
@@ -23,9 +22,11 @@ def mi():
 
 @pytest.fixture
 def breakfast_room():
-    if not BREAKFAST.is_file():
-        pytest.skip(f"breakfast-room scene not found at {BREAKFAST} (shared scenes absent)")
-    return BREAKFAST
+    from gmcpt.evaluation.scenes import BREAKFAST
+
+    if not BREAKFAST.available():
+        pytest.skip(f"breakfast-room scene not found at {BREAKFAST.path} (shared scenes absent)")
+    return BREAKFAST.path
 
 
 def run_cli(*args, cwd=None):

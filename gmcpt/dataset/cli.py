@@ -10,6 +10,7 @@ import argparse
 import json
 import sys
 
+from .. import interrupts
 from ..errors import GmcptError
 
 
@@ -46,10 +47,8 @@ def spec_from_args(args) -> "DatasetSpec":  # noqa: F821
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``python -m gmcpt dataset``; returns the exit status."""
-    import signal
-
     # a terminated build stops its workers too (the `finally` in build); it resumes later
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
+    handlers = interrupts.install()
     try:
         args = build_parser().parse_args(argv)
         spec = spec_from_args(args)
@@ -61,6 +60,10 @@ def main(argv: list[str] | None = None) -> int:
     except (GmcptError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except (KeyboardInterrupt, interrupts.Terminated) as error:
+        return interrupts.report(error)
+    finally:
+        interrupts.restore(handlers)
 
 
 if __name__ == "__main__":

@@ -115,17 +115,9 @@ def main(argv: list[str] | None = None) -> int:
             if args.procedural < 0:
                 raise GmcptError("--procedural must be >= 0")
             config = replace(config, procedural=args.procedural)
-        try:
-            chosen = by_name(args.scenes, QUALITY_SCENES)
-        except ValueError as error:
-            raise GmcptError(str(error)) from None
-        scenes = []
-        for scene in chosen:
-            if scene.available():
-                scenes.append(scene)
-            else:
-                say(f"skipping {scene.name}: {scene.path} not found")
-        scenes += procedural_scenes(config.procedural)
+        chosen = by_name(args.scenes, QUALITY_SCENES)
+        missing = [scene for scene in chosen if not scene.available()]
+        scenes = [scene for scene in chosen if scene.available()] + procedural_scenes(config.procedural)
         if not scenes:
             raise GmcptError("no evaluation scene is available")
         out = Path(args.out)
@@ -141,6 +133,8 @@ def main(argv: list[str] | None = None) -> int:
             import pyoidn  # noqa: F401
         except ImportError:
             raise GmcptError("the evaluation's denoiser baseline needs pyoidn: pip install -e '.[dev]'") from None
+        for scene in missing:  # after every check, so that a refusal stays one line
+            say(f"skipping {scene.name}: {scene.path} not found")
 
         import gmcpt  # noqa: F401  (LLVM, variant)
         import mitsuba as mi

@@ -19,11 +19,16 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import BadValue
+
 ROOT = Path(__file__).resolve().parents[2]
-SHARED_SCENES = ROOT.parent / "shared" / "scenes"
+#: the shared scenes beside the checkout (``$GMCPT_SHARED_SCENES`` overrides); a fresh clone has none,
+#: and every use of them skips the scenes that are not there
+SHARED_SCENES = Path(os.environ.get("GMCPT_SHARED_SCENES") or ROOT.parent / "shared" / "scenes")
 
 
 @dataclass(frozen=True)
@@ -110,11 +115,11 @@ ALL_SCENES = (CORNELL, STILL_LIFE, BREAKFAST_OPEN, BREAKFAST)
 
 
 def by_name(names: list[str] | None, default=QUALITY_SCENES) -> list[EvalScene]:
-    """Scenes named in ``names`` (default: ``default``); raises ValueError for an unknown name."""
+    """Scenes named in ``names`` (default: ``default``); raises :class:`~gmcpt.errors.BadValue` for an unknown name."""
     if not names:
         return list(default)
     known = {scene.name: scene for scene in ALL_SCENES}
     unknown = [name for name in names if name not in known]
     if unknown:
-        raise ValueError(f"unknown scene {', '.join(unknown)}; choose from {', '.join(known)}")
+        raise BadValue(f"unknown scene {', '.join(unknown)}; choose from {', '.join(known)}")
     return [known[name] for name in names]

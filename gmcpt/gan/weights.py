@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import warnings
 from pathlib import Path
 
 import torch
@@ -76,6 +77,22 @@ def _stored(tensor: torch.Tensor) -> torch.Tensor:
     return tensor.clone()
 
 
+def _metadata(path: Path, hint: str) -> dict:
+    """The record beside a weights file (``NAME.json``), {} if there is none; one line if it is unreadable."""
+    meta_path = path.with_suffix(".json")
+    if not meta_path.is_file():
+        return {}
+    try:
+        metadata = json.loads(meta_path.read_text())
+        problem = None if isinstance(metadata, dict) else "is not a JSON object"
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        problem = f"is not readable JSON ({getattr(error, 'strerror', None) or ' '.join(str(error).split())})"
+    if problem:
+        raise GmcptError(f"the record of GAN weights {meta_path} {problem}; restore it, or remove it to load "
+                         f"{path.name} without its sha256 check; {hint}")
+    return metadata
+
+
 def load_generator(name_or_path: str | Path | None = None, check_hash: bool = True) -> tuple[Generator, dict]:
     """The generator (eval mode) and its metadata; cached per file and modification time.
 
@@ -92,14 +109,17 @@ def load_generator(name_or_path: str | Path | None = None, check_hash: bool = Tr
     key = (str(path.resolve()), path.stat().st_mtime)
     if key in _cache:
         return _cache[key]
-    meta_path = path.with_suffix(".json")
-    metadata = json.loads(meta_path.read_text()) if meta_path.is_file() else {}
+    metadata = _metadata(path, hint)
     if check_hash and metadata.get("sha256") and metadata["sha256"] != sha256(path):
-        raise GmcptError(f"GAN weights {path} do not match the sha256 in {meta_path.name} (corrupt or replaced); {hint}")
+        raise GmcptError(f"GAN weights {path} do not match the sha256 in {path.with_suffix('.json').name} "
+                         f"(corrupt or replaced); {hint}")
     try:
-        payload = torch.load(path, map_location="cpu", weights_only=True)
-        if payload.get("format") != FORMAT:
-            raise ValueError(f"format {payload.get('format')}, expected {FORMAT}")
+        with warnings.catch_warnings():  # torch's warnings about a file it then refuses: the error says it all
+            warnings.simplefilter("ignore")
+            payload = torch.load(path, map_location="cpu", weights_only=True)
+        if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+            raise ValueError(f"format {payload.get('format') if isinstance(payload, dict) else None}, "
+                             f"expected {FORMAT}")
         generator = Generator(GeneratorConfig.from_dict(json.loads(payload["generator_config"])))
         generator.load_state_dict(payload["state_dict"])
     except Exception as error:  # unpickling, shape or key errors: all mean a bad file
