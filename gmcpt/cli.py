@@ -41,7 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--seed", type=int, help="seed of mask and samplers (default: scene's, else 0)")
     parser.add_argument("--mask", help="sample placement: two_pass, adaptive, random, stratified, blue_noise "
                         "(default: the scene's, else two_pass)")
-    parser.add_argument("--method", help="completion method (default: the scene's, else gan_pawnnm); see --list-methods")
+    parser.add_argument("--method", help="completion method: gan_pawnnm, gan, pawnnm, nnm, liu, interp, none (default: the scene's, else gan_pawnnm)")
+    parser.add_argument("--tile", type=int, help="complete frames larger than this in overlapping tiles of at most "
+                        "this side (bounded memory); 0: the whole frame at once (default: the scene's, else 1024)")
     parser.add_argument("--weights", help="GAN weights for the gan methods: a shipped name or a .pt path "
                         "(default: the scene's, else gan-cpu)")
     parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="override the film resolution")
@@ -61,6 +63,7 @@ def _validate(args) -> None:
     from .files import check_not_inputs, check_writable
     from .gan.weights import weights_path
     from .limits import check_feature_spp, check_resolution, check_seed, check_spp
+    from .completion.tiles import check_tile
     from .masks import check_pattern, check_rate
     from .scene import scene_inputs
 
@@ -70,6 +73,8 @@ def _validate(args) -> None:
         check_writable(path)
     if args.rate is not None:
         check_rate(args.rate)
+    if args.tile is not None:
+        check_tile(args.tile)
     if args.spp is not None:
         check_spp(args.spp, "--spp")
     if args.feature_spp is not None:
@@ -133,7 +138,8 @@ def run(args, say=lambda message: None) -> dict:
     parameters = dict(define.split("=", 1) for define in args.defines)
     scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
     integrator = masked_integrator(scene, rate=args.rate, mask=args.mask, seed=args.seed,
-                                   feature_spp=args.feature_spp, completion=args.method, weights=args.weights)
+                                   feature_spp=args.feature_spp, completion=args.method, weights=args.weights,
+                                   tile=args.tile)
     # every check on the input happens before the first progress line (render_sparse_frame checks the
     # scene's own resolution and spp before its first one)
     size = scene_sensor(scene, path=args.scene).film().crop_size()
@@ -159,7 +165,7 @@ def run(args, say=lambda message: None) -> dict:
         "output": str(Path(args.out).resolve()),
         "parameters": {"rate": settings.rate, "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
                        "feature_spp": settings.feature_spp, "method": integrator.completion,
-                       **_weights_record(integrator),
+                       "tile": integrator.tile, **_weights_record(integrator),
                        "resolution": [width, height], "scene_parameters": parameters,
                        "integrator": " ".join(str(integrator.integrator).split())},
         "versions": library_versions(),

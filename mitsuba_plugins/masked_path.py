@@ -4,6 +4,7 @@ from __future__ import annotations
 import mitsuba as mi
 
 from gmcpt.completion import check_options, complete
+from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
 from gmcpt.errors import GmcptError
 from gmcpt.exr import channel_names, pack
 from gmcpt.limits import check_feature_spp, check_seed
@@ -51,6 +52,10 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - |string|
        - Generator weights of the GAN methods: a shipped name or a ``.pt`` path, checked at load time.
          (Default: the shipped ``gan-cpu``)
+     * - tile
+       - |int|
+       - Largest side of the tiles a larger frame is completed in (overlapping, blended), so memory stays
+         bounded at any resolution; 0 completes the whole frame at once. (Default: 1024)
      * - (Nested plugin)
        - :paramtype:`integrator`
        - The integrator that computes radiance along each traced ray. (Default: ``path``)
@@ -83,6 +88,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         self.feature_spp = check_feature_spp(props.get("feature_spp", DEFAULT_FEATURE_SPP))
         self.completion = props.get("completion", DEFAULT_COMPLETION)
         self.weights = props.get("weights", "") or None
+        self.tile = check_tile(props.get("tile", DEFAULT_TILE))
         check_options(self.completion, self.weights)  # fail at load time on an unknown name, a bad weights file
         nested = [props[name] for name in props.keys() if isinstance(props[name], mi.Integrator)]
         if len(nested) > 1:
@@ -101,11 +107,11 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
     def plugin_properties(self) -> dict:
         """The plugin's own properties as set (``rate``, ``mask``, ...), for a copy with some changed."""
         return {"rate": self.rate, "mask": self.mask_pattern, "seed": self.seed, "feature_spp": self.feature_spp,
-                "completion": self.completion, "weights": self.weights}
+                "completion": self.completion, "weights": self.weights, "tile": self.tile}
 
     def completion_options(self) -> dict:
         """Keyword options for :func:`gmcpt.completion.complete` beside the method name."""
-        return {} if self.weights is None else {"weights": self.weights}
+        return {"tile": self.tile, **({} if self.weights is None else {"weights": self.weights})}
 
     def settings(self, seed: int = 0, spp: int = 0) -> RenderSettings:
         return RenderSettings(rate=self.rate, pattern=self.mask_pattern, seed=self.seed + int(seed),

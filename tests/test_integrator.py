@@ -82,7 +82,7 @@ def test_weights_property_is_checked_at_load_and_reaches_the_gan(mi, tmp_path):
                          ({"weights": "gan-cpu", "completion": "pawnnm"}, "GAN methods only")]:
         with pytest.raises((GmcptError, RuntimeError), match=message):
             mi.load_dict({"type": "masked_path", **bad})
-    assert mi.load_dict({"type": "masked_path"}).completion_options() == {}
+    assert mi.load_dict({"type": "masked_path"}).completion_options() == {"tile": 1024}
     # other weights (an untrained generator of the same shape) change the completed pixels
     import torch
     from gmcpt.gan.model import Generator
@@ -97,6 +97,6 @@ def test_weights_property_is_checked_at_load_and_reaches_the_gan(mi, tmp_path):
     images = {}
     for weights in ("gan-cpu", str(other)):
         integrator = masked_integrator(scene, weights=weights)
-        assert integrator.completion_options() == {"weights": weights}
+        assert integrator.completion_options() == {"tile": 1024, "weights": weights}
         frame, images[weights] = unpack(np.asarray(mi.render(scene, integrator=integrator)))
     assert not np.allclose(images["gan-cpu"][~frame.mask], images[str(other)][~frame.mask])

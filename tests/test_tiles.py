@@ -67,3 +67,32 @@ def test_too_small_a_tile_is_refused():
     frame, _ = gradient_frame(size=128)
     with pytest.raises(GmcptError, match="too small"):
         complete(frame, "interp", tile=16)
+
+
+@pytest.mark.parametrize("tile", [-1, 8, 63, 2.5])
+def test_bad_tile_values_are_refused(tile):
+    from gmcpt.completion.tiles import check_tile
+
+    with pytest.raises(GmcptError, match="tile must be 0"):
+        check_tile(tile)
+
+
+def test_cli_tiles_a_frame_larger_than_the_tile(tmp_path):
+    """The command line completes in tiles, records the tile, and refuses a bad one in one line."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    scene = root / "scenes" / "cornell-box" / "scene.xml"
+    command = [sys.executable, str(root / "render_and_complete.py"), str(scene), "--res", "96", "72", "--spp", "2",
+               "--method", "interp", "-q"]
+    done = subprocess.run(command + ["--tile", "64", "--out", str(tmp_path / "tiled.exr")], capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stderr
+    record = json.loads((tmp_path / "tiled.json").read_text())
+    assert record["parameters"]["tile"] == 64
+    bad = subprocess.run(command + ["--tile", "10", "--out", str(tmp_path / "bad.exr")], capture_output=True, text=True)
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "tile" in bad.stderr
+    assert not (tmp_path / "bad.exr").exists()

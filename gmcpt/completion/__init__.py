@@ -84,8 +84,8 @@ def get_method(name: str) -> Method:
 def complete(frame: SparseFrame, method: str = "interp", tile: int | None = None, **options) -> Completion:
     """Run completion ``method`` on ``frame`` and return the completed image.
 
-    ``tile``: complete frames larger than ``tile`` x ``tile`` pixels in overlapping tiles of that side,
-    blended (:mod:`gmcpt.completion.tiles`); None completes the whole frame at once.
+    ``tile``: complete frames larger than ``tile`` x ``tile`` pixels in overlapping tiles of at most that
+    side, blended (:mod:`gmcpt.completion.tiles`); None or 0 completes the whole frame at once.
     """
     from .tiles import DEFAULT_OVERLAP, complete_in_tiles
 
@@ -93,7 +93,7 @@ def complete(frame: SparseFrame, method: str = "interp", tile: int | None = None
     frame = check_frame(frame, method)
     height, width = frame.shape
     start = time.perf_counter()
-    if tile is not None and max(height, width) > tile:
+    if tile and max(height, width) > tile:
         if tile < max(entry.min_size, 2 * DEFAULT_OVERLAP):
             raise GmcptError(f"tile {tile} is too small: at least {max(entry.min_size, 2 * DEFAULT_OVERLAP)} "
                              f"pixels for {method!r}")

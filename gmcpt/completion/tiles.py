@@ -17,6 +17,18 @@ from ..frame import SparseFrame
 
 #: Default overlap between neighbouring tiles, in pixels: a few patches of the matching stage.
 DEFAULT_OVERLAP = 32
+#: Default largest tile side of the command line and ``masked_path``: frames up to 1024x1024 complete
+#: whole; larger ones in tiles, so memory stays bounded (0: always the whole frame).
+DEFAULT_TILE = 1024
+
+
+def check_tile(tile: int) -> int:
+    """``tile`` as an int: 0 (the whole frame) or a side of at least twice the overlap; else one-line error."""
+    from ..errors import GmcptError
+
+    if isinstance(tile, bool) or int(tile) != tile or (tile != 0 and tile < 2 * DEFAULT_OVERLAP):
+        raise GmcptError(f"tile must be 0 (the whole frame) or at least {2 * DEFAULT_OVERLAP} pixels, got {tile}")
+    return int(tile)
 
 
 def tile_spans(length: int, tile: int, overlap: int) -> list[tuple[int, int]]:
