@@ -8,9 +8,9 @@ One helper for the dataset build, training, the evaluation and ``batch``::
 
 On a terminal (``stream.isatty()``) the bar shows count, rate and time left,
 and :meth:`Progress.write` prints a message above it without breaking it.
-Elsewhere (a log file, a pipe, CI) each update with a note, or every
-``log_every`` updates, becomes one line from :func:`status_line`, handed to
-``say``; so does each message. Quiet, nothing is printed at all.
+Elsewhere (a log file, a pipe, CI) every ``log_every``-th update (with its
+note) becomes one line from :func:`status_line`, handed to ``say``; so does
+each message. Quiet, nothing is printed at all.
 """
 from __future__ import annotations
 
@@ -78,7 +78,7 @@ class Progress:
     say : where log lines and messages go when no bar is drawn (default: ``stream``).
     quiet : print nothing.
     initial : units already done (a resumed job).
-    log_every : without a bar, a line every this many updates even without a note (0: only notes).
+    log_every : without a bar, a line every this many updates (0: none; messages only).
     stream : the bar's stream and the terminal test (default ``sys.stderr``).
     """
 
@@ -105,7 +105,7 @@ class Progress:
             if note:
                 self.bar.set_postfix_str(note, refresh=False)
             self.bar.update(n)
-        elif note or (self.log_every and (self.done - self.initial) % self.log_every == 0):
+        elif self.log_every and (self.done - self.initial) % self.log_every == 0:
             self.say(status_line(self.desc, self.done, self.total, time.perf_counter() - self.start, self.unit,
                                  note, self.initial))
 

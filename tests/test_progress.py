@@ -22,12 +22,13 @@ def test_status_line_counts_rate_and_time_left():
 def test_log_lines_off_a_terminal_and_silence_when_quiet():
     lines, stream = [], io.StringIO()
     with Progress(4, "batch", "frame", say=lines.append, stream=stream, log_every=2) as bar:
-        bar.update()                     # no note, not a 2nd update: no line
+        bar.update(note="cornell-box 1.0s")   # not a 2nd update: no line
         bar.update()
         bar.update(note="still-life 3.0s")
+        bar.update(note="breakfast-room 9.0s")
         bar.write("a message")
     assert len(lines) == 3 and lines[0].startswith("batch 2/4 frames (")
-    assert lines[1].startswith("batch 3/4 frames: still-life 3.0s (") and "left)" in lines[1]
+    assert lines[1].startswith("batch 4/4 frames: breakfast-room 9.0s (") and "left)" in lines[1]
     assert lines[2] == "a message" and stream.getvalue() == ""
     quiet = []
     with Progress(2, "batch", say=quiet.append, quiet=True, stream=Terminal()) as bar:
