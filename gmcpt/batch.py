@@ -199,15 +199,15 @@ def _prepare_out(out: Path) -> bool:
 
 
 def _validate_batch(args) -> list[dict]:
-    from .cluster import check_address
+    from .cluster import check_address, check_reachable
 
     if args.threads < 1:
         raise GmcptError(f"--threads must be >= 1, got {args.threads}")
     if args.retries < 0 or (args.gpus is not None and args.gpus < 0):
         raise GmcptError("--retries and --gpus must be >= 0")
-    if args.ray is not None:
-        check_address(args.ray)
     jobs = plan(args)
+    if args.ray is not None:
+        check_reachable(check_address(args.ray))
     created = _prepare_out(Path(args.out))
     try:
         for job in jobs:

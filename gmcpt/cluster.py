@@ -35,6 +35,27 @@ def check_address(address: str) -> str:
     raise GmcptError(f"--ray expects local, auto, HOST:PORT or ray://HOST:PORT, got {address!r}")
 
 
+def host_port(address: str) -> tuple[str, int] | None:
+    """(host, port) of a ``HOST:PORT`` or ``ray://HOST:PORT`` address; None for ``local`` and ``auto``."""
+    if address in (LOCAL, "auto"):
+        return None
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    return host.strip("[]"), int(port)
+
+
+def check_reachable(address: str, timeout: float = 10.0) -> None:
+    """Fail in one line if nothing listens at ``address`` (ray.init would retry for ever)."""
+    import socket
+
+    target = host_port(address)
+    if target is None:
+        return
+    try:
+        socket.create_connection(target, timeout=timeout).close()
+    except OSError as error:
+        raise GmcptError(f"cannot reach the Ray cluster at {address}: {error.strerror or error}") from None
+
+
 def _package_path() -> str:
     return str(Path(__file__).resolve().parents[1])
 
@@ -47,6 +68,7 @@ def connected(address: str, quiet: bool = False):
     died, a task runs again) go to stderr meanwhile: stdout stays the command's result.
     """
     check_address(address)
+    check_reachable(address)
     try:
         import ray
     except ImportError:

@@ -100,6 +100,24 @@ def test_batch_resumes_skipping_complete_frames(one_process, tmp_path):
     assert same_outputs(out, copy, ["cornell-box_seed-0001", "cornell-box_seed-0002"])
 
 
+def test_a_task_run_again_keeps_the_frame_its_first_run_wrote(one_process, tmp_path):
+    """A worker lost after writing a frame but before reporting it: the retry finds the frame, writes nothing."""
+    import torch
+
+    from gmcpt.batch import build_parser, plan, render_job
+
+    out, _ = one_process
+    jobs = plan(build_parser().parse_args([str(CORNELL), *TINY, "--sweep", "seed=1", "--out", str(out)]))
+    before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    threads = torch.get_num_threads()
+    try:
+        row = render_job(jobs[0])
+    finally:
+        torch.set_num_threads(threads)
+    assert row["status"] == "found" and row["name"] == "cornell-box_seed-0001"
+    assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
+
+
 def test_ray_batch_is_bit_identical_and_survives_a_killed_worker(one_process, tmp_path):
     """Two scenes, two frames each, as Ray tasks; the first task kills its own process, Ray runs it again."""
     pytest.importorskip("ray")
@@ -131,6 +149,7 @@ BAD = {"missing scene": (["nope.xml"], "scene file not found"),
        "bad frames": ([CORNELL, "--frames", "5:2"], "--frames expects START:STOP"),
        "bad sweep": ([CORNELL, "--sweep", "seed"], "--sweep expects NAME=V1,V2"),
        "bad ray address": ([CORNELL, "--ray", "somewhere"], "--ray expects local, auto"),
+       "no ray cluster there": ([CORNELL, "--ray", "127.0.0.1:1"], "cannot reach the Ray cluster at 127.0.0.1:1"),
        "bad threads": ([CORNELL, "--threads", "0"], "--threads must be >= 1"),
        "same name twice": ([CORNELL, CORNELL], "both write cornell-box.exr"),
        "bad rate": ([CORNELL, "--rate", "2"], "rate must be in (0, 1]")}

@@ -58,8 +58,8 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         spec = spec_from_args(args)
         if args.ray is not None:
-            from ..cluster import check_address
-            check_address(args.ray)
+            from ..cluster import check_address, check_reachable
+            check_reachable(check_address(args.ray))
         import gmcpt  # noqa: F401
         from .build import build
         summary = build(args.out, spec, workers=args.workers, threads=args.threads, ray=args.ray, quiet=args.quiet)
