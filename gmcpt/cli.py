@@ -5,6 +5,7 @@
     python -m gmcpt dataset ...   (procedural training data, see gmcpt.dataset.cli)
     python -m gmcpt train ...     (GAN training, see gmcpt.gan.cli)
     python -m gmcpt eval [--quick] (docs/results.md and plots, see gmcpt.evaluation.cli)
+    python -m gmcpt batch SCENE... --out DIR [--ray local] (many scenes or frames, see gmcpt.batch)
 
 Bad input ends with one ``error: ...`` line on stderr and exit status 2; no
 output file is written or replaced. Ctrl-C ends it with ``error: interrupted``
@@ -17,6 +18,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import Callable
 
 from . import interrupts
 from .errors import GmcptError
@@ -31,11 +33,8 @@ class _Parser(argparse.ArgumentParser):
         raise GmcptError(message)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="render_and_complete.py",
-                     description="Path trace a random subset of pixels of a Mitsuba 3 scene and complete the image.")
-    parser.add_argument("scene", help="Mitsuba 3 scene XML (any integrator; it is wrapped by masked_path)")
-    parser.add_argument("--out", required=True, help="output EXR; OUT.png and OUT.json are written beside it")
+def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """The options of one render (all but the scene, ``--out`` and ``--reference``), shared with ``batch``."""
     parser.add_argument("--rate", type=float, help="fraction of pixels to path trace, in (0, 1] (default: scene's, else 0.3)")
     parser.add_argument("--spp", type=int, help="samples per traced pixel (default: the scene's sampler)")
     parser.add_argument("--seed", type=int, help="seed of mask and samplers (default: scene's, else 0)")
@@ -48,13 +47,21 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default: the scene's, else gan-cpu)")
     parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="override the film resolution")
     parser.add_argument("--feature-spp", type=int, help="primary samples per pixel of the feature pass (default 4)")
-    parser.add_argument("--reference", help="reference EXR: adds MSE/PSNR/SSIM (tonemapped sRGB) and relMSE to the JSON")
     parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
                         help="set a scene parameter ($NAME in the XML); repeatable")
     parser.add_argument("--allow-nonfinite", action="store_true",
                         help="drop NaN/Inf radiance samples with a warning instead of failing")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
     return parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="render_and_complete.py",
+                     description="Path trace a random subset of pixels of a Mitsuba 3 scene and complete the image.")
+    parser.add_argument("scene", help="Mitsuba 3 scene XML (any integrator; it is wrapped by masked_path)")
+    parser.add_argument("--out", required=True, help="output EXR; OUT.png and OUT.json are written beside it")
+    parser.add_argument("--reference", help="reference EXR: adds MSE/PSNR/SSIM (tonemapped sRGB) and relMSE to the JSON")
+    return add_render_options(parser)
 
 
 def _validate(args) -> None:
@@ -123,8 +130,8 @@ def _outputs(out: str):
     return sidecar_paths(out)
 
 
-def run(args, say=lambda message: None) -> dict:
-    """Render, complete and write; returns the JSON record."""
+def run(args, say=lambda message: None, extra: dict | None = None) -> dict:
+    """Render, complete and write; returns the JSON record (``extra`` entries added to it)."""
     from .completion import check_size, complete
     from .limits import check_resolution
     from .metrics import all_metrics
@@ -180,42 +187,27 @@ def run(args, say=lambda message: None) -> dict:
         say("computing metrics against the reference")
         record["reference"] = str(Path(args.reference).resolve())
         record["metrics"] = all_metrics(result.image, reference)
+    record.update(extra or {})
     timings["total_s"] = time.perf_counter() - started
     written = write_outputs(args.out, frame, result.image, record)
     say("wrote " + ", ".join(str(p) for p in written))
     return record
 
 
-SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli", "eval": "gmcpt.evaluation.cli"}
+SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli", "eval": "gmcpt.evaluation.cli",
+               "batch": "gmcpt.batch"}
 
 
-def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else list(argv)
-    start = time.perf_counter()
-    quiet = False
-
-    def say(message: str) -> None:
-        if not quiet:
-            print(f"[gmcpt {time.perf_counter() - start:6.1f}s] {message}", file=sys.stderr, flush=True)
-
+def exit_status(body: Callable[[], int], start_up: Callable[[], None] | None = None) -> int:
+    """Run a command: ``start_up`` (parsing, the heavy imports), then ``body`` with signals handled
+    (:mod:`gmcpt.interrupts`). Bad input or the environment become one ``error:`` line and status 2,
+    Ctrl-C 130, SIGTERM 143, a crash one line and 1."""
     handlers = {}
     try:
-        if argv and argv[0] in SUBCOMMANDS:
-            import importlib
-            handlers = interrupts.install()
-            return importlib.import_module(SUBCOMMANDS[argv[0]]).main(argv[1:])
-        args = build_parser().parse_args(argv)
-        quiet = args.quiet
-        import gmcpt  # noqa: F401  (LLVM, variant, plugin registration)
-        import mitsuba as mi
-        import OpenEXR  # noqa: F401  (native modules are imported before signals raise: see gmcpt.interrupts)
-        mi.set_log_level(mi.LogLevel.Error)
+        if start_up is not None:
+            start_up()
         handlers = interrupts.install()  # from here a signal raises, and no temporary file is left behind
-        record = run(args, say)
-        if "metrics" in record:
-            m = record["metrics"]
-            say(f"PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  MSE {m['mse']:.3e}  relMSE {m['relmse']:.3e}  FLIP {m['flip']:.4f}")
-        return 0
+        return body()
     except GmcptError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -237,6 +229,46 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_INTERNAL
     finally:
         interrupts.restore(handlers)
+
+
+def stamped_say(label: str, quiet: bool = False) -> Callable[[str], None]:
+    """A ``say`` that prints ``[label   1.2s] message`` on stderr (seconds since now); silent if ``quiet``."""
+    start = time.perf_counter()
+
+    def say(message: str) -> None:
+        if not quiet:
+            print(f"[{label} {time.perf_counter() - start:6.1f}s] {message}", file=sys.stderr, flush=True)
+    return say
+
+
+def start_mitsuba() -> None:
+    """Import gmcpt (LLVM, variant, plugin registration) and quieten Mitsuba's log."""
+    import gmcpt  # noqa: F401
+    import mitsuba as mi
+    import OpenEXR  # noqa: F401  (native modules are imported before signals raise: see gmcpt.interrupts)
+    mi.set_log_level(mi.LogLevel.Error)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in SUBCOMMANDS:
+        import importlib
+        return exit_status(lambda: importlib.import_module(SUBCOMMANDS[argv[0]]).main(argv[1:]))
+    parsed = {}
+
+    def start_up() -> None:
+        parsed["args"] = build_parser().parse_args(argv)
+        start_mitsuba()
+
+    def body() -> int:
+        args = parsed["args"]
+        say = stamped_say("gmcpt", args.quiet)
+        record = run(args, say)
+        if "metrics" in record:
+            m = record["metrics"]
+            say(f"PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  MSE {m['mse']:.3e}  relMSE {m['relmse']:.3e}  FLIP {m['flip']:.4f}")
+        return 0
+    return exit_status(body, start_up)
 
 
 if __name__ == "__main__":

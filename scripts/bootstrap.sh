@@ -32,5 +32,5 @@ if ! "$VENV/bin/python" -c "import torch, sys; sys.exit(torch.__version__.split(
 fi
 
 echo "bootstrap: installing gmcpt and its dependencies"
-$PIP install -e ".[dev]"
+$PIP install -e ".[dev,ray]"
 touch "$VENV/.bootstrapped"

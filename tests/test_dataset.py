@@ -171,3 +171,30 @@ def test_older_files_are_upgraded_to_the_features_of_a_fresh_build(mi, tmp_path,
             np.testing.assert_array_equal(upgraded[key], value, err_msg=key)
     assert any(not np.array_equal(stale[key], upgraded[key]) for key in FEATURE_KEYS if key in stale)
     assert json.loads((old / "manifest.json").read_text())["version"] == 3
+
+
+def test_dataset_on_ray_writes_the_bits_of_a_one_process_build(tmp_path):
+    """``--ray local`` renders each scene as a task: the arrays are those of the build in one process,
+    which never imports Ray."""
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+    from gmcpt.dataset import list_examples, load_example
+
+    pytest.importorskip("ray")
+    options = ["--train", "2", "--val", "0", "--res", "16", "--ref-spp", "8", "--spp", "4", "-q"]
+    code = ("import sys; from gmcpt.cli import main; status = main(sys.argv[1:]); "
+            "print('ray imported' if 'ray' in sys.modules else 'no ray'); sys.exit(status)")
+    runs = {}
+    for name, extra in (("one", ["--workers", "0"]), ("ray", ["--ray", "local"])):
+        runs[name] = subprocess.run([sys.executable, "-c", code, "dataset", "--out", str(tmp_path / name),
+                                     *options, *extra], capture_output=True, text=True, cwd=ROOT, timeout=600)
+        assert runs[name].returncode == 0, runs[name].stderr
+    assert "no ray" in runs["one"].stdout and runs["one"].stderr == ""
+    one, ray = list_examples(tmp_path / "one", "train"), list_examples(tmp_path / "ray", "train")
+    assert [p.name for p in one] == [p.name for p in ray] == ["0000000.npz", "0000001.npz"]
+    for a, b in zip(map(load_example, one), map(load_example, ray)):
+        assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a if k != "meta")
+        assert {k: v for k, v in a["meta"].items() if k != "seconds"} == \
+            {k: v for k, v in b["meta"].items() if k != "seconds"}

@@ -259,37 +259,62 @@ def _work(job) -> tuple[int, str, float]:
     return seed, split.name, time.perf_counter() - start
 
 
+def _ray_work(job_and_threads) -> tuple[int, str, float]:
+    """One scene as a Ray task; a retry after a lost worker finds a finished file and keeps it."""
+    job, threads = job_and_threads
+    _init_worker(threads)
+    root, seed, split, spec = job
+    if is_complete(example_path(root, split.name, seed), spec.version):
+        return seed, split.name, 0.0
+    return _work(job)
+
+
+def _results(jobs: list, workers: int, threads: int, ray: str | None, quiet: bool):
+    """(seed, split, seconds) of each job as it finishes: here, in a process pool or as Ray tasks."""
+    if ray is not None:
+        from ..cluster import connected, default_gpus, run_tasks
+        with connected(ray, quiet=quiet) as resources:  # Mitsuba renders on the CPU or the GPU the task holds
+            yield from run_tasks(_ray_work, [(job, threads or 1) for job in jobs], cpus=threads or 1,
+                                 gpus=default_gpus(resources))
+    elif workers == 0:
+        _init_worker(threads)
+        yield from map(_work, jobs)
+    else:
+        import multiprocessing
+        pool = multiprocessing.get_context("spawn").Pool(workers, _init_worker, (threads,))
+        try:
+            yield from pool.imap_unordered(_work, jobs)
+        finally:
+            pool.terminate()
+
+
 def build(root: str | Path, spec: DatasetSpec, workers: int = 1, threads: int = 0,
-          say=lambda message: print(message, file=sys.stderr, flush=True)) -> dict:
+          say=lambda message: print(message, file=sys.stderr, flush=True), ray: str | None = None,
+          quiet: bool = False) -> dict:
     """Render every missing example of ``spec`` under ``root``; returns counts and seconds.
 
     ``workers`` processes (spawned) render one scene each at a time; 0 renders
     in this process. ``threads`` caps Dr.Jit's threads per worker (0: all).
+    ``ray`` (an address, :mod:`gmcpt.cluster`) renders each scene as a Ray task
+    instead, on ``threads`` CPUs (default 1); the files are the same bits.
+    Progress goes to ``say`` as lines, or a bar on a terminal; ``quiet``: none.
     """
+    from ..progress import Progress
+
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     _update_manifest(root / "manifest.json", spec)
     jobs = [(str(root), seed, split, spec) for split in spec.splits for seed in split.seeds()
             if not is_complete(example_path(root, split.name, seed), spec.version)]
     total = sum(split.count for split in spec.splits)
-    say(f"dataset {root}: {total - len(jobs)}/{total} done, {len(jobs)} to render with {workers} worker(s)")
+    where = f"as Ray tasks ({ray})" if ray is not None else f"with {workers} worker(s)"
+    if not quiet:
+        say(f"dataset {root}: {total - len(jobs)}/{total} done, {len(jobs)} to render {where}")
     start, seconds = time.perf_counter(), 0.0
-    if workers == 0:
-        _init_worker(threads)
-        results = map(_work, jobs)
-    else:
-        import multiprocessing
-        pool = multiprocessing.get_context("spawn").Pool(workers, _init_worker, (threads,))
-        results = pool.imap_unordered(_work, jobs)
-    try:
-        for done, (seed, split, sec) in enumerate(results, 1):
+    with Progress(len(jobs), "dataset", unit="scene", say=say, quiet=quiet) as bar:
+        for seed, split, sec in _results(jobs, workers, threads, ray, quiet):
             seconds += sec
-            elapsed = time.perf_counter() - start
-            eta = elapsed / done * (len(jobs) - done)
-            say(f"[{done}/{len(jobs)}] {split} seed {seed}: {sec:.1f}s (elapsed {elapsed / 60:.1f} min, eta {eta / 60:.1f} min)")
-    finally:
-        if workers:
-            pool.terminate()
+            bar.update(note=f"{split} seed {seed} {sec:.1f}s")
     return {"rendered": len(jobs), "total": total, "render_seconds": seconds,
             "wall_seconds": time.perf_counter() - start}
 

@@ -28,7 +28,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--rate", type=float, nargs=2, default=(0.15, 0.5), metavar=("LOW", "HIGH"),
                         help="range of the per-scene sampling rate")
     parser.add_argument("--workers", type=int, default=1, help="render processes (0: in this process)")
-    parser.add_argument("--threads", type=int, default=0, help="Dr.Jit threads per worker (0: all cores)")
+    parser.add_argument("--threads", type=int, default=0,
+                        help="Dr.Jit threads per worker (0: all cores; with --ray: CPUs per task, default 1)")
+    parser.add_argument("--ray", metavar="ADDRESS",
+                        help="render each scene as a Ray task: local (start a cluster here), auto, HOST:PORT")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
     return parser
 
 
@@ -52,9 +56,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         spec = spec_from_args(args)
+        if args.ray is not None:
+            from ..cluster import check_address, check_reachable
+            check_reachable(check_address(args.ray))
         import gmcpt  # noqa: F401
         from .build import build
-        summary = build(args.out, spec, workers=args.workers, threads=args.threads)
+        summary = build(args.out, spec, workers=args.workers, threads=args.threads, ray=args.ray, quiet=args.quiet)
         print(json.dumps(summary))
         return 0
     except (GmcptError, ValueError) as error:

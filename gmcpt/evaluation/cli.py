@@ -42,6 +42,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--procedural", type=int, help="held-out procedural scenes (default: the configuration's)")
     parser.add_argument("--readme", default=str(ROOT / "README.md"), help="README whose results section to rewrite")
     parser.add_argument("--no-readme", dest="readme", action="store_const", const=None)
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
     return parser
 
 
@@ -73,29 +74,36 @@ def _write_text(path: Path, text: str) -> None:
         Path(temporary).write_text(text)
 
 
-def evaluate(config, scenes, out: Path, say) -> dict:
-    """Measure everything, write the plots, return the run's record (rows, settings, versions)."""
+def evaluate(config, scenes, out: Path, say, quiet: bool = False) -> dict:
+    """Measure everything, write the plots, return the run's record (rows, settings, versions).
+
+    Progress: a bar over the scenes on a terminal (``say``'s lines above it), else ``say``'s lines.
+    """
+    from ..progress import Progress
     from . import measure, plots
 
     start = time.perf_counter()
     record = {"config": asdict(config), "second_reference_seed": SECOND_REFERENCE_SEED, "references": [],
               "quality": [], "placement": [], "equal_time": [], "stage_timings": [], "grids": {}}
-    for index, eval_scene in enumerate(scenes, 1):
-        say(f"[{index}/{len(scenes)}] {eval_scene.name}: references")
-        loaded, noise = measure.load(eval_scene, config, say)
-        record["references"].append(noise)
-        say(f"[{index}/{len(scenes)}] {eval_scene.name}: quality at rates {', '.join(map(str, config.rates))}")
-        record["quality"] += measure.quality(loaded, config, say)
-        say(f"[{index}/{len(scenes)}] {eval_scene.name}: sample placement at equal samples")
-        record["placement"] += measure.placement(loaded, config, say)
-        say(f"[{index}/{len(scenes)}] {eval_scene.name}: equal-time settings")
-        record["equal_time"] += measure.equal_time(loaded, config, say)
-        grid = f"grid-{eval_scene.name}.png"
-        plots.image_grid(loaded.images, out / grid, f"{eval_scene.name}, rate {config.grid_rate:g} x {config.spp} spp")
-        record["grids"][eval_scene.name] = grid
-    timing_scene = next((s for s in scenes if s.name == config.timing_scene), scenes[0])
-    say(f"stage timings on {timing_scene.name} at {', '.join(map(str, config.timing_resolutions))} px")
-    record["stage_timings"] = measure.stage_timings(timing_scene, config, say)
+    with Progress(len(scenes), "eval", unit="scene", say=say, quiet=quiet) as bar:
+        say = bar.write
+        for index, eval_scene in enumerate(scenes, 1):
+            say(f"[{index}/{len(scenes)}] {eval_scene.name}: references")
+            loaded, noise = measure.load(eval_scene, config, say)
+            record["references"].append(noise)
+            say(f"[{index}/{len(scenes)}] {eval_scene.name}: quality at rates {', '.join(map(str, config.rates))}")
+            record["quality"] += measure.quality(loaded, config, say)
+            say(f"[{index}/{len(scenes)}] {eval_scene.name}: sample placement at equal samples")
+            record["placement"] += measure.placement(loaded, config, say)
+            say(f"[{index}/{len(scenes)}] {eval_scene.name}: equal-time settings")
+            record["equal_time"] += measure.equal_time(loaded, config, say)
+            grid = f"grid-{eval_scene.name}.png"
+            plots.image_grid(loaded.images, out / grid, f"{eval_scene.name}, rate {config.grid_rate:g} x {config.spp} spp")
+            record["grids"][eval_scene.name] = grid
+            bar.update(note=eval_scene.name)
+        timing_scene = next((s for s in scenes if s.name == config.timing_scene), scenes[0])
+        say(f"stage timings on {timing_scene.name} at {', '.join(map(str, config.timing_resolutions))} px")
+        record["stage_timings"] = measure.stage_timings(timing_scene, config, say)
     plots.psnr_vs_time(record["equal_time"], out / "psnr_vs_time.png")
     plots.psnr_vs_rate(record["quality"], list(config.variants), out / "psnr_vs_rate.png")
     record["seconds"] = time.perf_counter() - start
@@ -103,13 +111,11 @@ def evaluate(config, scenes, out: Path, say) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    start = time.perf_counter()
-
-    def say(message: str) -> None:
-        print(f"[eval {time.perf_counter() - start:6.1f}s] {message}", file=sys.stderr, flush=True)
+    from ..cli import stamped_say
 
     try:
         args = build_parser().parse_args(argv)
+        say = stamped_say("eval", args.quiet)
         config = CONFIGS["quick" if args.quick else "full"]
         if args.procedural is not None:
             if args.procedural < 0:
@@ -140,7 +146,7 @@ def main(argv: list[str] | None = None) -> int:
         import mitsuba as mi
         mi.set_log_level(mi.LogLevel.Error)
         commit = _commit()  # before the run rewrites docs/
-        record = evaluate(config, scenes, out, say)
+        record = evaluate(config, scenes, out, say, quiet=args.quiet)
         record.update(command="python -m gmcpt eval" + (" --quick" if args.quick else ""),
                       date=datetime.date.today().isoformat(), commit=commit, versions=_versions(),
                       machine=f"{platform.machine()}, {os.cpu_count()} CPU cores, {platform.system()}, no GPU used")

@@ -4,6 +4,8 @@
 
 Rerunning with the same ``--out`` resumes from its checkpoint; ``--export``
 writes ``gmcpt/gan/weights/NAME.pt`` and its metadata JSON when training ends.
+``torchrun --nproc_per_node N -m gmcpt train ...`` trains on N processes
+(:mod:`gmcpt.gan.distributed`); rank 0 logs, checkpoints and exports.
 """
 from __future__ import annotations
 
@@ -24,6 +26,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=JSON",
                         help="override a config value, e.g. train.steps=100 (repeatable)")
     parser.add_argument("--export", metavar="NAME", help="write the trained generator to gmcpt/gan/weights/NAME.pt")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
     return parser
 
 
@@ -72,14 +75,22 @@ def main(argv: list[str] | None = None) -> int:
         if not (Path(config.train.dataset) / "train").is_dir():
             raise GmcptError(f"no dataset at {config.train.dataset}; build it with `python -m gmcpt dataset "
                              f"--out {config.train.dataset}`")
-        start = time.perf_counter()
-        say = lambda message: print(f"[train {time.perf_counter() - start:7.1f}s] {message}",  # noqa: E731
-                                    file=sys.stderr, flush=True)
+        from .distributed import from_environment, stop
         try:
-            trainer = Trainer(config, out, say)
+            ranks = from_environment()
+        except ValueError as error:
+            raise GmcptError(str(error)) from None
+        from ..cli import stamped_say
+        say = stamped_say("train", args.quiet)
+        try:
+            trainer = Trainer(config, out, say, ranks=ranks, quiet=args.quiet)
             summary = trainer.run()
         except ValueError as error:  # incomplete dataset, a checkpoint from another config
             raise GmcptError(str(error)) from None
+        finally:
+            stop(ranks)
+        if not ranks.main:
+            return 0
         if args.export:
             record = export(trainer, args.export, "python -m gmcpt train " + " ".join(argv))
             summary["exported"] = {"file": record["file"], "sha256": record["sha256"], "bytes": record["bytes"]}

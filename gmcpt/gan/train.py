@@ -16,6 +16,9 @@ and seed give the same schedule. ``OUT/checkpoint.pt`` is written every
 ``checkpoint_every`` steps (models, optimisers, RNG states, history) and a
 run restarted on the same ``OUT`` resumes from it. ``OUT/curves.png`` plots
 the L1, L2 and Wasserstein distances (paper Fig. 4) and the validation PSNR.
+
+Under ``torchrun`` the ranks train data-parallel (:mod:`gmcpt.gan.distributed`):
+``batch`` crops per rank and step, rank 0 validates, logs and checkpoints.
 """
 from __future__ import annotations
 
@@ -32,6 +35,8 @@ import torch
 from ..domain import WorkingDomain
 from .losses import (FixedFeatureExtractor, LossWeights, critic_loss, gradient_penalty, hybrid_loss, l2_loss,
                      wasserstein_distance)
+from . import distributed
+from .distributed import Ranks
 from .model import Critic, CriticConfig, Generator, GeneratorConfig, parameter_count
 from .retired import drop_retired
 
@@ -177,21 +182,29 @@ def plot_curves(history: list[dict], path: Path, title: str = "") -> None:
 
 
 class Trainer:
-    """Holds models, optimisers, data and history; :meth:`run` trains to ``steps``."""
+    """Holds models, optimisers, data and history; :meth:`run` trains to ``steps``.
 
-    def __init__(self, config: FullConfig, out: str | Path, say=print):
+    ``ranks`` (:func:`gmcpt.gan.distributed.from_environment`, its process group
+    started) makes this one rank of a data-parallel run; ``quiet`` hides the progress bar.
+    """
+
+    def __init__(self, config: FullConfig, out: str | Path, say=print, ranks: Ranks = Ranks(), quiet: bool = False):
         from ..dataset import list_examples, load_example
         from .data import PatchSampler
 
-        self.config, self.out, self.say = config, Path(out), say
+        self.config, self.out, self.ranks, self.quiet = config, Path(out), ranks, quiet
+        self.say = say if ranks.main else (lambda message: None)
         cfg = config.train
         if cfg.threads:
             torch.set_num_threads(cfg.threads)
         torch.manual_seed(cfg.seed)
-        self.device = torch.device(cfg.device)
+        self.device = torch.device(distributed.start(ranks, cfg.device))
         self.domain = WorkingDomain()
         self.generator = Generator(config.generator).to(self.device)
         self.critic = Critic(config.generator.feature_channels, config.critic).to(self.device)
+        self.model = distributed.wrap(self.generator, ranks)  # the generator as the training step calls it
+        if ranks.distributed:  # same initial weights on every rank, then each rank's own random stream
+            torch.manual_seed(cfg.seed + 7919 * ranks.rank)
         self.extractor = FixedFeatureExtractor().to(self.device)
         self.opt_g = torch.optim.Adam(self.generator.parameters(), lr=cfg.lr_g, betas=(0.9, 0.99))
         self.opt_d = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_d, betas=(0.5, 0.9))
@@ -202,12 +215,13 @@ class Trainer:
                                  f"{cfg.max_train_scenes}; finish the dataset build first")
             train_paths = train_paths[:cfg.max_train_scenes]
         self.train_seeds = [int(p.stem) for p in train_paths]
-        self.sampler = PatchSampler(train_paths, self.domain, cfg.crop, cfg.rate_range)
-        self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")]
-        self.rng = np.random.default_rng([cfg.seed, 0x7EA1])
+        self.sampler = PatchSampler(distributed.shard(train_paths, ranks), self.domain, cfg.crop, cfg.rate_range)
+        self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")] if ranks.main else []
+        self.rng = np.random.default_rng(distributed.seed_sequence(cfg.seed, ranks))
         self.step, self.history, self.seconds = 0, [], 0.0
-        say(f"generator {parameter_count(self.generator) / 1e6:.3f} M parameters, critic "
-            f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes, {len(self.val)} val")
+        self.say(f"generator {parameter_count(self.generator) / 1e6:.3f} M parameters, critic "
+                 f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes, {len(self.val)} val"
+                 + (f"; {ranks.world} processes, {cfg.batch} crops each a step" if ranks.distributed else ""))
 
     # ---------------------------------------------------------------- checkpoints
     @property
@@ -215,11 +229,17 @@ class Trainer:
         return self.out / "checkpoint.pt"
 
     def save_checkpoint(self) -> None:
+        """Rank 0 writes the checkpoint; with several ranks every rank takes part (their random states)."""
+        rngs = distributed.gather((torch.get_rng_state(), self.rng.bit_generator.state), self.ranks)
+        if not self.ranks.main:
+            return
         state = {"step": self.step, "seconds": self.seconds, "config": json.dumps(self.config.to_dict()),
                  "generator": self.generator.state_dict(), "critic": self.critic.state_dict(),
                  "opt_g": self.opt_g.state_dict(), "opt_d": self.opt_d.state_dict(),
-                 "torch_rng": torch.get_rng_state(),
-                 "numpy_rng": json.dumps(self.rng.bit_generator.state), "history": json.dumps(self.history)}
+                 "torch_rng": rngs[0][0], "numpy_rng": json.dumps(rngs[0][1]), "history": json.dumps(self.history)}
+        if self.ranks.distributed:
+            state.update(world_size=self.ranks.world, rank_torch_rng=[r[0] for r in rngs],
+                         rank_numpy_rng=json.dumps([r[1] for r in rngs]))
         self.out.mkdir(parents=True, exist_ok=True)
         temporary = self.checkpoint_path.with_suffix(".tmp")
         torch.save(state, temporary)
@@ -232,12 +252,20 @@ class Trainer:
         stored = config_from_dict(json.loads(state["config"])).to_dict()  # keys added since: defaults
         if json.loads(json.dumps(stored)) != json.loads(json.dumps(self.config.to_dict())):
             raise ValueError(f"{self.checkpoint_path} was made with another config; use a new --out")
+        world = int(state.get("world_size", 1))
+        if world != self.ranks.world:
+            raise ValueError(f"{self.checkpoint_path} was made by {world} process(es), this run has "
+                             f"{self.ranks.world}; resume with torchrun --nproc_per_node {world} or use a new --out")
         self.generator.load_state_dict(state["generator"])
         self.critic.load_state_dict(state["critic"])
         self.opt_g.load_state_dict(state["opt_g"])
         self.opt_d.load_state_dict(state["opt_d"])
-        torch.set_rng_state(state["torch_rng"])
-        self.rng.bit_generator.state = json.loads(state["numpy_rng"])
+        if self.ranks.distributed:
+            torch.set_rng_state(state["rank_torch_rng"][self.ranks.rank].cpu())
+            self.rng.bit_generator.state = json.loads(state["rank_numpy_rng"])[self.ranks.rank]
+        else:
+            torch.set_rng_state(state["torch_rng"].cpu())
+            self.rng.bit_generator.state = json.loads(state["numpy_rng"])
         self.step, self.seconds = int(state["step"]), float(state["seconds"])
         self.history = json.loads(state["history"])
         self.say(f"resumed from {self.checkpoint_path} at step {self.step}")
@@ -256,7 +284,7 @@ class Trainer:
         radiance, features, target = (
             t.to(self.device) for t in self.sampler.batch(self.rng, cfg.batch, self.config.generator.use_variance,
                                                           self.config.generator.use_coverage))
-        fake = self.generator(radiance, features)
+        fake = self.model(radiance, features)
         record = {}
         adversarial = self.step >= cfg.critic_start
         if adversarial and self.step % cfg.critic_every == 0:
@@ -265,6 +293,7 @@ class Trainer:
             loss_d = critic_loss(real_score, fake_score) + weights.gp_lambda * penalty
             self.opt_d.zero_grad(set_to_none=True)
             loss_d.backward()
+            distributed.average_gradients(self.critic, self.ranks)
             self.opt_d.step()
             record.update(wdist=float(wasserstein_distance(real_score, fake_score).detach()), gp=float(penalty.detach()))
         self.critic.requires_grad_(False)
@@ -278,34 +307,48 @@ class Trainer:
         return record
 
     def run(self) -> dict:
+        from ..progress import Progress
+
         cfg = self.config.train
         self.load_checkpoint()
         if not any("interp_psnr" in h for h in self.history) and self.val:
             self.history.append({"step": self.step, "interp_psnr": interp_baseline(self.val)})
-        while self.step < cfg.steps:
-            start = time.perf_counter()
-            record = self.train_step()
-            self.step += 1
-            self.seconds += time.perf_counter() - start
-            self.history.append({"step": self.step, **{k: round(v, 6) for k, v in record.items()}})
-            last = self.step == cfg.steps
-            if self.val and (self.step % cfg.eval_every == 0 or last):
-                self.history.append({"step": self.step, **validate(self.generator, self.val, self.domain)})
-                recent = [h for h in self.history[-cfg.eval_every - 1:] if "l1" in h]
-                critic = [h["wdist"] for h in recent if "wdist" in h]  # none before critic_start
-                self.say(f"step {self.step}/{cfg.steps} ({self.seconds / 60:.1f} min): "
-                         f"l1 {np.mean([h['l1'] for h in recent]):.4f} "
-                         + (f"wdist {np.mean(critic):.3f} " if critic else "wdist - (critic not started) ")
-                         + f"val PSNR {self.history[-1]['val_psnr']:.2f} dB")
-            if self.step % cfg.checkpoint_every == 0 or last:
-                self.save_checkpoint()
-                plot_curves(self.history, self.out / "curves.png", f"{self.out.name}")
-        (self.out / "history.json").write_text(json.dumps(self.history))
+        with Progress(cfg.steps, "train", unit="step", say=self.say, quiet=self.quiet or not self.ranks.main,
+                      initial=self.step, log_every=0) as bar:  # log lines: the validation steps below
+            while self.step < cfg.steps:
+                start = time.perf_counter()
+                record = self.train_step()
+                self.step += 1
+                self.seconds += time.perf_counter() - start
+                self.history.append({"step": self.step, **{k: round(v, 6) for k, v in record.items()}})
+                bar.update(note=f"l1 {record['l1']:.4f}")
+                last = self.step == cfg.steps
+                if self.val and (self.step % cfg.eval_every == 0 or last):
+                    self.history.append({"step": self.step, **validate(self.generator, self.val, self.domain)})
+                    recent = [h for h in self.history[-cfg.eval_every - 1:] if "l1" in h]
+                    critic = [h["wdist"] for h in recent if "wdist" in h]  # none before critic_start
+                    bar.write(f"step {self.step}/{cfg.steps} ({self.seconds / 60:.1f} min): "
+                              f"l1 {np.mean([h['l1'] for h in recent]):.4f} "
+                              + (f"wdist {np.mean(critic):.3f} " if critic else "wdist - (critic not started) ")
+                              + f"val PSNR {self.history[-1]['val_psnr']:.2f} dB")
+                if self.step % cfg.checkpoint_every == 0 or last:
+                    self.save_checkpoint()
+                    if self.ranks.main:
+                        plot_curves(self.history, self.out / "curves.png", f"{self.out.name}")
+        if self.ranks.distributed:  # the ranks must agree bit for bit: report what each holds
+            self.rank_digests = distributed.gather(
+                distributed.weights_digest(self.generator.state_dict(), self.critic.state_dict()), self.ranks)
+        if self.ranks.main:
+            self.out.mkdir(parents=True, exist_ok=True)
+            (self.out / "history.json").write_text(json.dumps(self.history))
         return self.summary()
 
     def summary(self) -> dict:
         val = [h for h in self.history if "val_psnr" in h]
         base = [h["interp_psnr"] for h in self.history if "interp_psnr" in h]
-        return {"steps": self.step, "train_seconds": round(self.seconds, 1),
-                "val_psnr": val[-1]["val_psnr"] if val else None, "val_interp_psnr": base[-1] if base else None,
-                "train_scenes": len(self.train_seeds), "val_scenes": len(self.val)}
+        summary = {"steps": self.step, "train_seconds": round(self.seconds, 1),
+                   "val_psnr": val[-1]["val_psnr"] if val else None, "val_interp_psnr": base[-1] if base else None,
+                   "train_scenes": len(self.train_seeds), "val_scenes": len(self.val)}
+        if self.ranks.distributed:
+            summary.update(processes=self.ranks.world, rank_weights_sha256=getattr(self, "rank_digests", None))
+        return summary

@@ -1,0 +1,279 @@
+"""``python -m gmcpt batch``: render and complete many scenes or frames, here or on a Ray cluster.
+
+    python -m gmcpt batch scenes/*/scene.xml --out out/batch --rate 0.3
+    python -m gmcpt batch anim.xml --frames 0:240 --out out/anim --ray local
+    python -m gmcpt batch scene.xml --sweep seed=0,1,2,3 --out out/seeds --ray HEAD:6379
+
+Each frame is one single render (:func:`gmcpt.cli.run`, the same options)
+written as ``DIR/NAME.exr``, ``.png`` and ``.json``; NAME is the scene's
+folder (its file name unless it is ``scene.xml``) with the frame's swept
+parameters appended (``anim_frame-0012``). ``DIR/batch-summary.json``
+collects every frame's timings. A frame whose three files exist and whose
+record carries the same request (scene file, options) is skipped, so a
+stopped batch resumes; frames are written atomically by
+:func:`gmcpt.outputs.write_outputs`.
+
+A frame's completed pixels depend, in the last bit, on the number of torch
+threads (PAWNNM sums per-thread partial results), so every frame runs on
+``--threads`` torch threads wherever it runs: with ``--ray`` the files are
+bit for bit those of the run in one process.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import itertools
+import json
+import os
+import re
+import sys
+import time
+from pathlib import Path
+
+from .cli import _Parser, _validate, add_render_options, exit_status, run, stamped_say, start_mitsuba
+from .errors import GmcptError
+
+SUMMARY = "batch-summary.json"
+#: Test hook: the first task that creates this file (a path) kills its own process, once per batch.
+CRASH_ONCE = "GMCPT_TEST_CRASH_ONCE"
+
+
+def _render_dests() -> list[str]:
+    return [action.dest for action in add_render_options(argparse.ArgumentParser())._actions
+            if action.dest not in ("help", "quiet")]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="python -m gmcpt batch", description=__doc__.splitlines()[0])
+    parser.add_argument("scenes", nargs="+", metavar="SCENE", help="Mitsuba 3 scene XML files")
+    parser.add_argument("--out", required=True, help="output folder (created): NAME.exr/.png/.json per frame")
+    add_render_options(parser)
+    parser.add_argument("--sweep", action="append", default=[], metavar="NAME=V1,V2,...",
+                        help="one frame per value of scene parameter NAME; several sweeps multiply")
+    parser.add_argument("--frames", metavar="START:STOP", help="shorthand for --sweep frame=START,...,STOP-1")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="CPU threads of one frame: torch's everywhere, Dr.Jit's and the Ray task's CPUs on Ray")
+    parser.add_argument("--ray", metavar="ADDRESS",
+                        help="run frames as Ray tasks: local (start a cluster here), auto, HOST:PORT, ray://HOST:PORT")
+    parser.add_argument("--gpus", type=float, help="GPUs per Ray task (default: 1 where the cluster has GPUs)")
+    parser.add_argument("--retries", type=int, default=3, help="runs of a Ray task again when its worker dies")
+    return parser
+
+
+def scene_name(path: str | os.PathLike) -> str:
+    """``scenes/cornell-box/scene.xml`` -> ``cornell-box``; ``shots/a.xml`` -> ``a``."""
+    path = Path(path)
+    return path.parent.resolve().name if path.stem == "scene" else path.stem
+
+
+def sweep_points(sweeps: list[str], frames: str | None = None) -> list[tuple[tuple[str, str], ...]]:
+    """Every combination of the swept parameters' values, in order; ``[()]`` without sweeps."""
+    axes = []
+    if frames is not None:
+        match = re.fullmatch(r"(-?\d+):(-?\d+)", frames)
+        if not match or int(match[1]) >= int(match[2]):
+            raise GmcptError(f"--frames expects START:STOP with START < STOP, got {frames!r}")
+        axes.append([("frame", str(i)) for i in range(int(match[1]), int(match[2]))])
+    for sweep in sweeps:
+        name, _, values = sweep.partition("=")
+        if not re.fullmatch(r"[A-Za-z_]\w*", name) or not values or "" in values.split(","):
+            raise GmcptError(f"--sweep expects NAME=V1,V2,..., got {sweep!r}")
+        axes.append([(name, value) for value in values.split(",")])
+    names = [axis[0][0] for axis in axes]
+    if len(set(names)) < len(names):
+        raise GmcptError(f"a parameter is swept twice: {', '.join(names)}")
+    return list(itertools.product(*axes))
+
+
+def frame_name(scene: str, point: tuple[tuple[str, str], ...]) -> str:
+    """Output name of one frame: ``scene_frame-0003_seed-1`` (digits padded to 4, odd characters as ``_``)."""
+    parts = [scene] + [f"{name}-{value.zfill(4) if value.isdigit() else value}" for name, value in point]
+    return "_".join(re.sub(r"[^A-Za-z0-9.+-]", "_", part) for part in parts)
+
+
+def request_key(scene: Path, options: dict) -> str:
+    """sha256 of what fixes a frame's pixels: the scene file's bytes and the render options."""
+    digest = hashlib.sha256(scene.read_bytes())
+    digest.update(json.dumps(options, sort_keys=True).encode())
+    return digest.hexdigest()
+
+
+def plan(args) -> list[dict]:
+    """One job (a dict; it travels to Ray workers) per scene and sweep point, in order."""
+    options = {dest: getattr(args, dest) for dest in _render_dests()}
+    jobs, seen = [], {}
+    for scene in args.scenes:
+        path = Path(scene)
+        if not path.is_file():
+            raise GmcptError(f"scene file not found: {path}")
+        for point in sweep_points(args.sweep, args.frames):
+            name = frame_name(scene_name(path), point)
+            if name in seen or name == Path(SUMMARY).stem:
+                raise GmcptError(f"{scene} and {seen.get(name, 'the summary')} both write {name}.exr; "
+                                 f"give the scene files distinct names")
+            seen[name] = scene
+            frame_options = {**options, "defines": options["defines"] + [f"{k}={v}" for k, v in point]}
+            jobs.append({"name": name, "scene": str(path.resolve()), "out": str(Path(args.out).resolve() / f"{name}.exr"),
+                         "options": frame_options, "key": request_key(path, frame_options), "threads": args.threads,
+                         "render_threads": args.threads if args.ray else 0})
+    return jobs
+
+
+def job_args(job: dict) -> argparse.Namespace:
+    """The single render's arguments of ``job`` (what :func:`gmcpt.cli.run` takes)."""
+    return argparse.Namespace(scene=job["scene"], out=job["out"], reference=None, quiet=True, **job["options"])
+
+
+def finished_record(job: dict) -> dict | None:
+    """The JSON record of ``job``'s frame if its three files are there and match the request, else None.
+
+    The EXR's header must hold the record's parameters: a set mixed from two runs does not pass.
+    """
+    import OpenEXR
+
+    from .outputs import sidecar_paths
+
+    exr, png, record_path = sidecar_paths(job["out"])
+    try:
+        record = json.loads(record_path.read_text())
+        if record.get("batch", {}).get("key") != job["key"] or png.stat().st_size == 0:
+            return None
+        with OpenEXR.File(str(exr), header_only=True) as file:
+            stored = file.header().get("gmcpt")
+    except Exception:  # missing, unreadable or foreign files: render again
+        return None
+    return record if stored == json.dumps(record.get("parameters", {})) else None
+
+
+def _row(job: dict, record: dict, status: str, seconds: float) -> dict:
+    return {"name": job["name"], "scene": job["scene"], "output": job["out"], "status": status,
+            "seconds": round(seconds, 3), "timings": record.get("timings", {}), "host": os.uname().nodename,
+            "pid": os.getpid()}
+
+
+def _crash_once() -> None:
+    marker = os.environ.get(CRASH_ONCE)
+    if marker:
+        try:
+            os.close(os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except FileExistsError:
+            return
+        os._exit(70)
+
+
+def render_job(job: dict) -> dict:
+    """Render, complete and write one frame unless it is already there; returns its summary row.
+
+    Runs in the driver or as a Ray task: ``job["threads"]`` torch threads (and, on Ray,
+    ``job["render_threads"]`` Dr.Jit threads) whichever it is.
+    """
+    start = time.perf_counter()
+    start_mitsuba()
+    import torch
+
+    torch.set_num_threads(job["threads"])
+    if job["render_threads"]:
+        import drjit as dr
+        dr.set_thread_count(job["render_threads"])
+    record = finished_record(job)  # a retried task whose first run got as far as writing
+    if record is not None:
+        return _row(job, record, "found", time.perf_counter() - start)
+    _crash_once()
+    record = run(job_args(job), extra={"batch": {"key": job["key"], "name": job["name"]}})
+    return _row(job, record, "rendered", time.perf_counter() - start)
+
+
+def _prepare_out(out: Path) -> bool:
+    """Create the output folder if needed; True if this call created it."""
+    if out.exists():
+        if not out.is_dir():
+            raise GmcptError(f"--out {out} is not a folder")
+        return False
+    if not out.parent.is_dir():
+        raise GmcptError(f"output directory {out.parent} does not exist")
+    try:
+        out.mkdir()
+    except OSError as error:
+        raise GmcptError(f"cannot create {out}: {error.strerror}") from None
+    return True
+
+
+def _validate_batch(args) -> list[dict]:
+    from .cluster import check_address, check_reachable
+
+    if args.threads < 1:
+        raise GmcptError(f"--threads must be >= 1, got {args.threads}")
+    if args.retries < 0 or (args.gpus is not None and args.gpus < 0):
+        raise GmcptError("--retries and --gpus must be >= 0")
+    jobs = plan(args)
+    if args.ray is not None:
+        check_reachable(check_address(args.ray))
+    created = _prepare_out(Path(args.out))
+    try:
+        for job in jobs:
+            _validate(job_args(job))
+    except GmcptError:
+        if created:
+            Path(args.out).rmdir()
+        raise
+    return jobs
+
+
+def _results(args, todo: list[dict]):
+    if args.ray is None:
+        yield from map(render_job, todo)
+        return
+    from .cluster import connected, default_gpus, run_tasks
+
+    with connected(args.ray, quiet=args.quiet) as resources:
+        gpus = default_gpus(resources) if args.gpus is None else args.gpus
+        yield from run_tasks(render_job, todo, cpus=args.threads, gpus=gpus, max_retries=args.retries)
+
+
+def batch(args, say=lambda message: None) -> dict:
+    """Run the batch ``args`` describes; returns the summary (also written to ``DIR/batch-summary.json``)."""
+    from .exr import atomic_output
+    from .progress import Progress
+
+    started = time.perf_counter()
+    jobs = _validate_batch(args)
+    rows = {}
+    for job in jobs:
+        record = finished_record(job)
+        if record is not None:
+            rows[job["name"]] = _row(job, record, "skipped", 0.0)
+    todo = [job for job in jobs if job["name"] not in rows]
+    say(f"{len(jobs)} frames, {len(rows)} already complete, {len(todo)} to render "
+        + (f"on Ray ({args.ray})" if args.ray else "in this process"))
+    with Progress(len(todo), "batch", unit="frame", say=say, quiet=args.quiet) as bar:
+        for row in _results(args, todo):
+            rows[row["name"]] = row
+            bar.update(note=f"{row['name']} {row['seconds']:.1f}s")
+    ordered = [rows[job["name"]] for job in jobs]
+    summary = {"command": "python -m gmcpt batch " + " ".join(getattr(args, "argv", [])), "ray": args.ray,
+               "threads": args.threads, "frames": len(jobs),
+               "rendered": sum(row["status"] != "skipped" for row in ordered),
+               "skipped": sum(row["status"] == "skipped" for row in ordered),
+               "wall_s": round(time.perf_counter() - started, 3),
+               "frame_seconds": round(sum(row["seconds"] for row in ordered if row["status"] != "skipped"), 3),
+               "items": ordered}
+    with atomic_output(Path(args.out) / SUMMARY) as temporary:
+        Path(temporary).write_text(json.dumps(summary, indent=1) + "\n")
+    return summary
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``python -m gmcpt batch``; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+
+    def body() -> int:
+        args = build_parser().parse_args(argv)
+        args.argv = argv
+        summary = batch(args, stamped_say("batch", args.quiet))
+        print(json.dumps({key: value for key, value in summary.items() if key != "items"}))
+        return 0
+    return exit_status(body)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
