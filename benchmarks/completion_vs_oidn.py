@@ -7,7 +7,8 @@ full frame with ``round(rate * spp)`` spp (OIDN's input: path tracing at the
 same samples). Each measurement then runs in a fresh process that reads the
 frame from disk: the completion (``--method``, tiled as ``--tile`` says) with
 its stages' seconds, and OIDN (albedo and normal guides). Peak memory is the
-child's maximum resident set less what it held before the measured call.
+child's maximum resident set (the frame's buffers included), and in brackets what
+the measured call added to what the process held before it.
 The table prints completion / OIDN time ratios side by side.
 
     python benchmarks/completion_vs_oidn.py [--sizes 256x256 1024x1024 1920x1080 3840x2160]
@@ -74,12 +75,13 @@ def measure(path: str, what: str, method: str, tile: int | None, repeats: int) -
         stages.append(timings)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     middle = seconds.index(statistics.median_low(seconds))
-    return {"seconds": seconds[middle], "stages": stages[middle], "peak_gb": (peak - before) / 2 ** 20}
+    return {"seconds": seconds[middle], "stages": stages[middle], "peak_gb": peak / 2 ** 20,
+            "added_gb": (peak - before) / 2 ** 20}
 
 
 def child(path: Path, what: str, args) -> dict:
     command = [sys.executable, __file__, "--child", str(path), what, "--method", args.method,
-               "--repeats", str(args.repeats)] + (["--tile", str(args.tile)] if args.tile else [])
+               "--repeats", str(args.repeats), "--tile", str(args.tile)]
     output = subprocess.run(command, check=True, capture_output=True, text=True).stdout
     return json.loads(output.strip().splitlines()[-1])
 
@@ -91,11 +93,13 @@ def main() -> int:
     parser.add_argument("--rate", type=float, default=0.3)
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--method", default="gan_pawnnm")
-    parser.add_argument("--tile", type=int, default=512, help="completion tile side (0: whole frame)")
+    parser.add_argument("--tile", type=int, help="completion tile side (0: the whole frame; default: the product's)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--child", nargs=2, metavar=("FRAME", "WHAT"), help=argparse.SUPPRESS)
     args = parser.parse_args()
-    args.tile = args.tile or None
+    from gmcpt.completion.tiles import DEFAULT_TILE
+
+    args.tile = DEFAULT_TILE if args.tile is None else args.tile
     if args.child:
         print(json.dumps(measure(args.child[0], args.child[1], args.method, args.tile, args.repeats)))
         return 0
@@ -115,13 +119,14 @@ def main() -> int:
     print(f"\n{args.method} (tile {args.tile or 'none'}) vs OIDN, {args.rate} x {args.spp} spp, "
           f"median of {args.repeats}; seconds")
     stage_names = sorted({name for _, completion, _ in rows for name in completion["stages"]} - {"completion_s"})
-    header = f"{'size':>10}{'completion':>12}{'OIDN':>8}{'ratio':>7}{'peak GB':>9}{'OIDN GB':>9}  stages"
+    header = f"{'size':>10}{'completion':>12}{'OIDN':>8}{'ratio':>7}{'peak GB (added)':>17}{'OIDN GB':>9}  stages"
     print(header)
     print("-" * len(header))
     for size, completion, oidn in rows:
         stages = " ".join(f"{name[:-2]} {completion['stages'].get(name, 0.0):.2f}" for name in stage_names)
         print(f"{size:>10}{completion['seconds']:>12.2f}{oidn['seconds']:>8.2f}"
-              f"{completion['seconds'] / oidn['seconds']:>7.1f}{completion['peak_gb']:>9.2f}{oidn['peak_gb']:>9.2f}  {stages}")
+              f"{completion['seconds'] / oidn['seconds']:>7.1f}"
+              f"{completion['peak_gb']:>9.2f} ({completion['added_gb']:.2f}){oidn['peak_gb']:>9.2f}  {stages}")
     first, second = rows[0][1]["seconds"], rows[1][1]["seconds"] if len(rows) > 1 else None
     if second:
         print(f"growth {args.sizes[0]} -> {args.sizes[1]}: x{second / first:.1f}")

@@ -96,7 +96,7 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
         assert row["samples_per_pixel"] == pytest.approx(expected)
     markdown = results_markdown(record)
     assert "Sample placement at equal samples" in markdown and "two_pass - path+oidn dB" in markdown
-    assert "At equal samples against path tracing + OIDN" in readme_section(record)
+    assert "with each sample placement against path tracing + OIDN" in readme_section(record)
     for heading in ("Table 1", "Table 2", "Fig. 10", "Fig. 12", "Table 3", "Crossover", "Table 4"):
         assert heading in markdown
     assert "pawnnm - nnm" in markdown

@@ -58,13 +58,15 @@ def placement_section(run: dict) -> list[str]:
 
 
 def readme_placement(run: dict) -> list[str]:
-    """The placement table's mean rows, for the README."""
+    """The placement table's mean PSNR rows, for the README."""
     if not run.get("placement"):
         return []
-    lines = placement_table(run).splitlines()
-    return [f"At equal samples against path tracing + OIDN ({run['config']['placement_variant']}, "
-            "PSNR dB / FLIP, mean over the scenes):", "", *lines[:2],
-            *[line for line in lines[2:] if "**mean of" in line], ""]
+    c = run["config"]
+    variants = [v for v in ["path+oidn", *c.get("placements", ())] if any(r["variant"] == v for r in run["placement"])]
+    rows = [[f"{rate:.0%}", *(f"{report._mean(run['placement'], 'psnr', variant=v, rate=rate):.2f}" for v in variants)]
+            for rate in c["rates"]]
+    return [f"At equal samples, `{c['placement_variant']}` with each sample placement against path tracing + OIDN "
+            "(mean PSNR dB; per scene, with FLIP, in results.md):", "", report._table(["rate", *variants], rows), ""]
 
 
 def results_markdown(run: dict) -> str:
@@ -178,13 +180,8 @@ def readme_section(run: dict) -> str:
         *readme_placement(run),
         "![PSNR against wall time: path tracing, path tracing + OIDN, and the completion methods](docs/psnr_vs_time.png)",
         "",
-        "Where the completion methods (the best of " + ", ".join(f"`{v}`" for v in run["config"]["budget_variants"])
-        + " at each budget) overtake path tracing + Intel Open Image Denoise, or fall behind it:",
-        "",
-        report.crossover_table(run["equal_time"]),
-        "",
-        "All tables (the paper's Tables 1-2, Figs. 10 and 12, equal time, stage timings) and plots: "
-        "[docs/results.md](docs/results.md).",
+        "All tables (the paper's Tables 1-2, Figs. 10 and 12, equal time and where completion overtakes "
+        "path tracing + OIDN, stage timings) and plots: [docs/results.md](docs/results.md).",
         "",
         README_END,
     ])
