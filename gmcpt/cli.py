@@ -5,6 +5,7 @@
     python -m gmcpt dataset ...   (procedural training data, see gmcpt.dataset.cli)
     python -m gmcpt train ...     (GAN training, see gmcpt.gan.cli)
     python -m gmcpt eval [--quick] (docs/results.md and plots, see gmcpt.evaluation.cli)
+    python -m gmcpt regress DIR   (scene regression tests against goldens, see gmcpt.regress.cli)
 
 Bad input ends with one ``error: ...`` line on stderr and exit status 2; no
 output file is written or replaced.
@@ -16,6 +17,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import Callable
 
 from .errors import GmcptError
 
@@ -156,7 +158,31 @@ def run(args, say=lambda message: None) -> dict:
     return record
 
 
-SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli", "eval": "gmcpt.evaluation.cli"}
+SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli", "eval": "gmcpt.evaluation.cli",
+               "regress": "gmcpt.regress.cli"}
+
+
+def guarded(body: Callable[[], int]) -> int:
+    """Run ``body`` and return its exit status; every error becomes one ``error: ...`` line on stderr.
+
+    Bad input (:class:`GmcptError`) exits :data:`EXIT_BAD_INPUT`, an internal error :data:`EXIT_INTERNAL`
+    (``GMCPT_DEBUG=1`` re-raises it, with its traceback), an interrupt 130.
+    """
+    try:
+        return body()
+    except GmcptError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except Exception as error:  # an internal error is still one line, unless debugging
+        if os.environ.get("GMCPT_DEBUG"):
+            raise
+        message = " ".join(str(error).split()) or type(error).__name__
+        print(f"error: internal error ({type(error).__name__}): {message} (set GMCPT_DEBUG=1 for a traceback)",
+              file=sys.stderr)
+        return EXIT_INTERNAL
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -171,7 +197,8 @@ def main(argv: list[str] | None = None) -> int:
         if not quiet:
             print(f"[gmcpt {time.perf_counter() - start:6.1f}s] {message}", file=sys.stderr, flush=True)
 
-    try:
+    def body() -> int:
+        nonlocal quiet
         args = build_parser().parse_args(argv)
         quiet = args.quiet
         import gmcpt  # noqa: F401  (LLVM, variant, plugin registration)
@@ -182,19 +209,8 @@ def main(argv: list[str] | None = None) -> int:
             m = record["metrics"]
             say(f"PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  MSE {m['mse']:.3e}  relMSE {m['relmse']:.3e}  FLIP {m['flip']:.4f}")
         return 0
-    except GmcptError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("error: interrupted", file=sys.stderr)
-        return 130
-    except Exception as error:  # an internal error is still one line, unless debugging
-        if os.environ.get("GMCPT_DEBUG"):
-            raise
-        message = " ".join(str(error).split()) or type(error).__name__
-        print(f"error: internal error ({type(error).__name__}): {message} (set GMCPT_DEBUG=1 for a traceback)",
-              file=sys.stderr)
-        return EXIT_INTERNAL
+
+    return guarded(body)
 
 
 if __name__ == "__main__":
