@@ -4,7 +4,10 @@
     python -m gmcpt regress DIR --update [--golden-spp N] [--rate R] [--spp S] [--seeds N] [--res W H]
 
 Exit status: 0 when every scene passes, 1 when any regressed, 2 on bad input
-(one ``error: ...`` line on stderr, nothing written).
+(one ``error: ...`` line on stderr, nothing written). A check's time covers
+loading the scene, rendering and completing it; the first render of a new or
+changed scene also compiles its kernels (Dr.Jit caches them on disk; about
+1.5 s for the Cornell box).
 """
 from __future__ import annotations
 
@@ -13,6 +16,7 @@ import sys
 
 from ..cli import _Parser, guarded
 from ..errors import GmcptError
+from .manifest import Settings
 
 EXIT_PASS, EXIT_REGRESSED = 0, 1
 
@@ -27,11 +31,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--update", action="store_true",
                         help="render the goldens and set each scene's thresholds from the check's spread")
     group = parser.add_argument_group("with --update (defaults: the manifest's, else as shown)")
-    group.add_argument("--golden-spp", type=int, help="samples per pixel of the goldens (1024)")
-    group.add_argument("--rate", type=float, help="fraction of pixels the check traces (0.5)")
-    group.add_argument("--spp", type=int, help="samples per traced pixel of the check (16)")
-    group.add_argument("--method", help="completion method of the check (gan_pawnnm)")
-    group.add_argument("--seeds", type=int, help="seeds the thresholds are calibrated on (12)")
+    default = Settings()
+    group.add_argument("--golden-spp", type=int, help=f"samples per pixel of the goldens ({default.golden_spp})")
+    group.add_argument("--rate", type=float, help=f"fraction of pixels the check traces ({default.rate})")
+    group.add_argument("--spp", type=int, help=f"samples per traced pixel of the check ({default.spp})")
+    group.add_argument("--method", help=f"completion method of the check ({default.method})")
+    group.add_argument("--seeds", type=int, help=f"seeds the thresholds are calibrated on ({default.seeds})")
     group.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="render every scene at W x H")
     return parser
 
