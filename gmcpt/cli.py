@@ -6,6 +6,7 @@
     python -m gmcpt train ...     (GAN training, see gmcpt.gan.cli)
     python -m gmcpt eval [--quick] (docs/results.md and plots, see gmcpt.evaluation.cli)
     python -m gmcpt batch SCENE... --out DIR [--ray local] (many scenes or frames, see gmcpt.batch)
+    python -m gmcpt regress DIR   (scene regression tests against goldens, see gmcpt.regress.cli)
 
 Bad input ends with one ``error: ...`` line on stderr and exit status 2; no
 output file is written or replaced. Ctrl-C ends it with ``error: interrupted``
@@ -195,7 +196,7 @@ def run(args, say=lambda message: None, extra: dict | None = None) -> dict:
 
 
 SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli", "eval": "gmcpt.evaluation.cli",
-               "batch": "gmcpt.batch"}
+               "batch": "gmcpt.batch", "regress": "gmcpt.regress.cli"}
 
 
 def exit_status(body: Callable[[], int], start_up: Callable[[], None] | None = None) -> int:

@@ -52,3 +52,16 @@ def test_flip_grows_with_the_error(image):
     large = metrics.flip(image * 1.5, image)
     assert 0 < small < large <= 1
     assert set(metrics.all_metrics(image * 1.05, image)) == {"mse", "psnr", "ssim", "relmse", "flip"}
+
+
+def test_block_psnr_averages_noise_out_and_keeps_a_shift():
+    from gmcpt.metrics import block_psnr, psnr
+
+    rng = np.random.default_rng(0)
+    image = np.full((64, 48, 3), 0.3, np.float32)
+    noisy = (image + rng.normal(0, 0.05, image.shape)).astype(np.float32)
+    shifted = image * 1.1
+    assert block_psnr(image, image) == float("inf")
+    assert block_psnr(noisy, image) > psnr(noisy, image) + 15  # 8x8 blocks: noise variance / 64
+    assert block_psnr(shifted, image) == pytest.approx(psnr(shifted, image), abs=1e-6)  # a uniform change stays
+    assert np.isfinite(block_psnr(noisy[:5, :6], image[:5, :6]))  # smaller than one block

@@ -54,29 +54,37 @@ def cached_reference(key: str, load: Callable[[], object], spp: int, seed: int, 
 
     The scene's own integrator (unwrapped from ``masked_path``) runs full frame
     in passes of ``pass_spp`` samples with seeds ``seed, seed + 1, ...``; the
-    passes are averaged in float64. Written atomically.
+    passes are averaged in float64 (:func:`render_full`). Written atomically.
+    """
+    path = cache_dir() / (key + ".exr")
+    if path.is_file():
+        return read_rgb_exr(path)
+    reference = render_full(load(), spp, seed, pass_spp, progress, label or key)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(path) as temporary:
+        write_exr(temporary, {c: reference[..., i] for i, c in enumerate("RGB")},
+                  {"spp": max(1, spp // pass_spp) * min(pass_spp, spp), "scene": label or key})
+    return reference
+
+
+def render_full(scene, spp: int, seed: int, pass_spp: int = 256, progress: Callable[[str], None] | None = None,
+                label: str = "") -> np.ndarray:
+    """(H, W, 3) float32: the scene's own integrator (unwrapped from ``masked_path``), full frame.
+
+    ``spp`` samples in passes of ``pass_spp`` with seeds ``seed, seed + 1, ...``, averaged in float64.
     """
     import drjit as dr
     import mitsuba as mi
 
-    path = cache_dir() / (key + ".exr")
-    if path.is_file():
-        return read_rgb_exr(path)
-    scene = load()
     integrator = scene.integrator()
     integrator = getattr(integrator, "integrator", integrator)  # unwrap masked_path
     passes = max(1, spp // pass_spp)
     total = None
     for index in range(passes):
         if progress:
-            progress(f"reference {label or key}: pass {index + 1}/{passes}")
+            progress(f"reference {label}: pass {index + 1}/{passes}")
         image = mi.render(scene, integrator=integrator, spp=min(pass_spp, spp), seed=seed + index)
         dr.eval(image)
         array = np.asarray(image, dtype=np.float64)[..., :3]
         total = array if total is None else total + array
-    reference = (total / passes).astype(np.float32)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_output(path) as temporary:
-        write_exr(temporary, {c: reference[..., i] for i, c in enumerate("RGB")},
-                  {"spp": passes * min(pass_spp, spp), "scene": label or key})
-    return reference
+    return (total / passes).astype(np.float32)

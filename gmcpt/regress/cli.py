@@ -1,0 +1,102 @@
+"""``python -m gmcpt regress DIR``: check a suite of scenes against its goldens.
+
+    python -m gmcpt regress DIR [--scene NAME ...] [--seed N] [--report OUT.html]
+    python -m gmcpt regress DIR --update [--golden-spp N] [--rate R] [--spp S] [--seeds N] [--res W H]
+
+Exit status: 0 when every scene passes, 1 when any regressed, 2 on bad input
+(one ``error: ...`` line on stderr, nothing written). A check's time covers
+loading the scene, rendering and completing it; the first render of a new or
+changed scene also compiles its kernels (Dr.Jit caches them on disk; about
+1.5 s for the Cornell box).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..cli import _Parser, exit_status
+from ..errors import GmcptError
+from .manifest import Settings
+
+EXIT_PASS, EXIT_REGRESSED = 0, 1
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="gmcpt regress",
+                     description="Check scenes against golden images with cheap masked renders + completion.")
+    parser.add_argument("folder", metavar="DIR", help="suite folder: scenes NAME.xml or NAME/scene.xml, goldens in DIR/golden")
+    parser.add_argument("--scene", action="append", default=[], metavar="NAME", help="only this scene; repeatable")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the check's mask and samplers (default 0)")
+    parser.add_argument("--report", metavar="OUT.html", help="write an HTML report (images embedded)")
+    parser.add_argument("--update", action="store_true",
+                        help="render the goldens and set each scene's thresholds from the check's spread")
+    group = parser.add_argument_group("with --update (defaults: the manifest's, else as shown)")
+    default = Settings()
+    group.add_argument("--golden-spp", type=int, help=f"samples per pixel of the goldens ({default.golden_spp})")
+    group.add_argument("--rate", type=float, help=f"fraction of pixels the check traces ({default.rate})")
+    group.add_argument("--spp", type=int, help=f"samples per traced pixel of the check ({default.spp})")
+    group.add_argument("--method", help=f"completion method of the check ({default.method})")
+    group.add_argument("--seeds", type=int, help=f"seeds the thresholds are calibrated on ({default.seeds})")
+    group.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="render every scene at W x H")
+    return parser
+
+
+def _check_arguments(args) -> None:
+    from ..completion import get_method
+    from ..files import check_writable
+    from ..masks import check_rate
+
+    settings_flags = ("golden_spp", "rate", "spp", "method", "seeds", "res")
+    if not args.update:
+        given = [f"--{flag.replace('_', '-')}" for flag in settings_flags if getattr(args, flag) is not None]
+        if given:
+            raise GmcptError(f"{', '.join(given)}: only with --update (a check uses the manifest's settings)")
+    if args.rate is not None:
+        check_rate(args.rate)
+    if args.method is not None:
+        get_method(args.method)
+    if args.res is not None and min(args.res) < 1:
+        raise GmcptError(f"--res must be positive, got {args.res[0]} {args.res[1]}")
+    if args.report:
+        if args.update:
+            raise GmcptError("--report goes with a check, not with --update")
+        if not args.report.lower().endswith((".html", ".htm")):
+            raise GmcptError(f"--report must name an .html file, got {args.report}")
+        check_writable(args.report)
+
+
+def run(args, out=print) -> int:
+    """Run the parsed command; returns the exit status. Raises GmcptError on bad input."""
+    from .manifest import load_suite, with_settings
+    from .report import scene_line, summary, write_html
+    from .run import check_suite, update_suite
+
+    _check_arguments(args)
+    suite = load_suite(args.folder)
+    if args.update:
+        settings = with_settings(suite, golden_spp=args.golden_spp, rate=args.rate, spp=args.spp, method=args.method,
+                                 seeds=args.seeds, resolution=tuple(args.res) if args.res else None)
+        goldens = update_suite(suite, settings, args.scene, say=out)
+        out(f"wrote {len(goldens)} golden(s) and {suite.manifest_path}")
+        return EXIT_PASS
+    width = max([len(name) for name in suite.names()] + [8])
+    results = check_suite(suite, args.scene, args.seed, on_result=lambda result: out(scene_line(result, width)))
+    if args.report:
+        write_html(args.report, results, title=f"gmcpt regress {args.folder}")
+    out(summary(results, args.report))
+    return EXIT_REGRESSED if any(not r.passed and not r.skipped for r in results) else EXIT_PASS
+
+
+def main(argv: list[str] | None = None) -> int:
+    def body() -> int:
+        args = build_parser().parse_args(sys.argv[1:] if argv is None else list(argv))
+        import gmcpt  # noqa: F401  (LLVM, variant, plugin registration)
+        import mitsuba as mi
+        mi.set_log_level(mi.LogLevel.Error)
+        return run(args, out=lambda line: print(line, flush=True))
+
+    return exit_status(body)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
