@@ -163,12 +163,8 @@ def error_density(radiance: np.ndarray, variance: np.ndarray, mask: np.ndarray, 
     domain = WorkingDomain()
     pixels = np.flatnonzero(mask)
     third = np.full(3, 1.0 / 3.0, np.float32)  # a channel mean as a product: a mean over the last axis is slower
-    traced_albedo = albedo.reshape(-1, 3)[pixels]
-    if coverage is None:
-        factor = domain.factor(traced_albedo[None])[0] @ third
-    else:  # the channel mean of WorkingDomain.factor
-        covered = np.clip(coverage.ravel()[pixels], 0.0, 1.0)
-        factor = traced_albedo @ third + covered * domain.albedo_eps + (1.0 - covered)
+    traced_coverage = None if coverage is None else coverage.ravel()[pixels][None]
+    factor = domain.factor(albedo.reshape(-1, 3)[pixels][None], traced_coverage)[0] @ third
     demodulated = (radiance.reshape(-1, 3)[pixels] @ third) / factor
     working = domain.scale * np.log1p(demodulated)
     # the delta method's variance of the working value: (scale / (factor + radiance))^2 * variance
