@@ -156,6 +156,45 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
             "coverage": coverage}
 
 
+def _camera_key(sensor: mi.Sensor) -> tuple:
+    """The sensor's scalar settings that :func:`_primary_rays` bakes into a kernel as constants."""
+    film = sensor.film()
+    return (tuple(film.crop_size()), tuple(film.crop_offset()), sensor.shutter_open(), sensor.shutter_open_time(),
+            sensor.needs_aperture_sample())
+
+
+def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: mi.UInt32,
+                lane: mi.UInt32, seed: mi.UInt32, spp: int, camera: tuple, sums: list) -> list:
+    """Path trace lane ``k * spp + s`` (``lane`` counts them) as sample ``s`` of pixel ``pixels[k]`` and add
+    (R, G, B, squared norm, finite count) of the finite samples to ``sums`` (five zero arrays, one value a pixel).
+
+    Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
+    pixel count; ``camera`` (:func:`_camera_key`) only keys the recording.
+    """
+    sampler = sensor.sampler().clone()
+    sampler.set_sample_count(spp)
+    sampler.set_samples_per_wavefront(spp)
+    sampler.seed(seed, dr.width(lane))
+    lane_pixel = lane // spp
+    ray, weight = _primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp)
+    radiance, _, _ = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
+    radiance = weight * radiance
+    finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
+    radiance = dr.select(finite, radiance, 0.0)
+    # Accumulate per pixel inside the path tracing kernel (as the film does,
+    # with as many channels: RGB, squared norm, count of finite samples).
+    values = [radiance[0], radiance[1], radiance[2], dr.squared_norm(radiance), dr.select(finite, 1.0, 0.0)]
+    for target, value in zip(sums, values):
+        dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
+    return sums
+
+
+#: :func:`_pixel_sums` recorded once per scene, integrator, spp and camera, then replayed: tracing the path
+#: integrator's kernel in Python costs about 10 ms a pass (a tenth of that replayed), as much as 2 % of a
+#: cheap 16-spp frame. A few recordings are kept (e.g. the passes of the evaluation's scenes).
+_frozen_pixel_sums = dr.freeze(_pixel_sums, limit=8)
+
+
 def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
                  pixels: np.ndarray, spp: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Path trace ``spp`` samples for each flat pixel index in ``pixels``.
@@ -164,23 +203,11 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     shapes (n, 3), (n,) and (n,); the sum of squares is summed over the three
     channels (all that the channel-averaged variance needs).
     """
-    _, width = _sensor_film_size(sensor)
-    lanes = pixels.size * spp
-    sampler = _seeded_sampler(sensor, spp, seed, lanes)
-    pixel = dr.gather(mi.UInt32, mi.UInt32(pixels.astype(np.uint32)), dr.arange(mi.UInt32, lanes) // spp)
-    ray, weight = _primary_rays(sensor, sampler, pixel, width, spp)
-    radiance, _, _ = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
-    radiance = weight * radiance
-    finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
-    radiance = dr.select(finite, radiance, 0.0)
-    # Accumulate per pixel inside the path tracing kernel (as the film does,
-    # with as many channels: RGB, squared norm, count of finite samples).
-    lane_pixel = dr.arange(mi.UInt32, lanes) // spp
-    values = [radiance[0], radiance[1], radiance[2], dr.squared_norm(radiance), dr.select(finite, 1.0, 0.0)]
-    sums = [dr.zeros(mi.Float, pixels.size) for _ in values]
-    for target, value in zip(sums, values):
-        dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
-    dr.eval(sums)
+    # opaque zeros and seed: literals that change between calls would make the frozen function record again
+    sums = [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]
+    sums = _frozen_pixel_sums(scene, sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
+                              dr.arange(mi.UInt32, pixels.size * spp), dr.opaque(mi.UInt32, seed), spp,
+                              _camera_key(sensor), sums)
     red, green, blue, squares, count = (np.asarray(column) for column in sums)
     return np.stack([red, green, blue], axis=1), squares, count
 
