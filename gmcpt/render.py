@@ -42,6 +42,9 @@ SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` dr
 SCATTER_MODE = dr.ReduceMode.Local
 # the features need UVs (textured albedo) and the shading frame, no surface derivatives
 FEATURE_RAY_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFrame
+#: the frozen kernels (dr.freeze) keep the recordings of the last few scenes, resolutions and spp; a new
+#: one of those records again, as expected (e.g. once per scene of a dataset build): no warning about it
+FREEZE_OPTIONS = {"limit": 8, "warn_after": 1 << 30}
 
 
 @dataclass(frozen=True)
@@ -97,7 +100,7 @@ def _primary_rays(sensor: mi.Sensor, sampler: mi.Sampler, pixel: mi.UInt32, widt
     return ray, weight
 
 
-def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int, lanes: int) -> mi.Sampler:
+def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int | mi.UInt32, lanes: int) -> mi.Sampler:
     sampler = sensor.sampler().clone()
     sampler.set_sample_count(spp)
     sampler.set_samples_per_wavefront(spp)
@@ -105,22 +108,13 @@ def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int, lanes: int) -> mi.Sa
     return sampler
 
 
-def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAULT_FEATURE_SPP, seed: int = 0) -> dict:
-    """Albedo, shading normal, depth and visibility for every pixel.
-
-    Returns a dict of float32 arrays: ``albedo`` and ``normal`` (H, W, 3),
-    ``depth``, ``visibility`` and ``coverage`` (H, W).
-
-    ``albedo`` is the diffuse reflectance of BSDFs that have a diffuse lobe,
-    clipped to [0, 1], and 0 for the others: Mitsuba's default
-    ``eval_diffuse_reflectance`` (the BSDF times pi at normal incidence) gives
-    a rough metal an "albedo" of 5 to 70 where its highlight faces the camera.
-    ``coverage`` is the fraction of the pixel's rays whose albedo is at least
-    :data:`~gmcpt.domain.ALBEDO_MIN` (the rays that demodulation divides).
-    """
-    height, width = _sensor_film_size(sensor)
+def _feature_means(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, feature_spp: int, camera: tuple) -> list:
+    """Per-pixel means of albedo (3), normal (3), hit distance, visibility, hit fraction and coverage over
+    ``feature_spp`` primary rays (see :func:`render_features`); ``camera`` (:func:`_camera_key`) keys the
+    recording of :data:`_frozen_feature_means`."""
+    width, height = camera[0]
     lanes = height * width * feature_spp
-    sampler = _seeded_sampler(sensor, feature_spp, (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT, lanes)
+    sampler = _seeded_sampler(sensor, feature_spp, seed, lanes)
     pixel = dr.arange(mi.UInt32, lanes) // feature_spp
     ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
     si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
@@ -143,7 +137,29 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
         for target, value in zip(means, values):
             dr.scatter_reduce(dr.ReduceOp.Add, target, value / feature_spp, pixel, mode=SCATTER_MODE)
         values = means
-    dr.eval(values)  # one kernel for all buffers
+    return values
+
+
+#: :func:`_feature_means` recorded once per scene, resolution and feature spp, then replayed (as the radiance pass)
+_frozen_feature_means = dr.freeze(_feature_means, **FREEZE_OPTIONS)
+
+
+def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAULT_FEATURE_SPP, seed: int = 0) -> dict:
+    """Albedo, shading normal, depth and visibility for every pixel.
+
+    Returns a dict of float32 arrays: ``albedo`` and ``normal`` (H, W, 3),
+    ``depth``, ``visibility`` and ``coverage`` (H, W).
+
+    ``albedo`` is the diffuse reflectance of BSDFs that have a diffuse lobe,
+    clipped to [0, 1], and 0 for the others: Mitsuba's default
+    ``eval_diffuse_reflectance`` (the BSDF times pi at normal incidence) gives
+    a rough metal an "albedo" of 5 to 70 where its highlight faces the camera.
+    ``coverage`` is the fraction of the pixel's rays whose albedo is at least
+    :data:`~gmcpt.domain.ALBEDO_MIN` (the rays that demodulation divides).
+    """
+    height, width = _sensor_film_size(sensor)
+    values = _frozen_feature_means(scene, sensor, dr.opaque(mi.UInt32, (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT),
+                                   feature_spp, _camera_key(sensor))
     columns = [np.asarray(value, dtype=np.float32).reshape(height, width) for value in values]
     albedo, normal = np.stack(columns[0:3], axis=-1), np.stack(columns[3:6], axis=-1)
     distance, visible, hit_fraction, coverage = columns[6:]
@@ -171,10 +187,7 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
     pixel count; ``camera`` (:func:`_camera_key`) only keys the recording.
     """
-    sampler = sensor.sampler().clone()
-    sampler.set_sample_count(spp)
-    sampler.set_samples_per_wavefront(spp)
-    sampler.seed(seed, dr.width(lane))
+    sampler = _seeded_sampler(sensor, spp, seed, dr.width(lane))
     lane_pixel = lane // spp
     ray, weight = _primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp)
     radiance, _, _ = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
@@ -191,8 +204,8 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
 
 #: :func:`_pixel_sums` recorded once per scene, integrator, spp and camera, then replayed: tracing the path
 #: integrator's kernel in Python costs about 10 ms a pass (a tenth of that replayed), as much as 2 % of a
-#: cheap 16-spp frame. A few recordings are kept (e.g. the passes of the evaluation's scenes).
-_frozen_pixel_sums = dr.freeze(_pixel_sums, limit=8)
+#: cheap 16-spp frame. A recording costs about what one plain trace does.
+_frozen_pixel_sums = dr.freeze(_pixel_sums, **FREEZE_OPTIONS)
 
 
 def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
@@ -238,13 +251,15 @@ def _trace_mean(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
 
 
 def _first_mask(settings: RenderSettings, features: dict, height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
-    """The mask of the (first) radiance pass, and the feature density (None for the patterns without one)."""
+    """The mask of the (first) radiance pass, and the feature density (None for the patterns without one, and at rate 1)."""
+    count = sample_count(settings.rate, height * width)
+    if count == height * width:  # at rate 1 there is nothing to place (and no density to compute)
+        return np.ones((height, width), bool), None
     if settings.pattern not in FEATURE_PATTERNS:
         return make_mask(height, width, settings.rate, settings.pattern, settings.seed), None
     density = feature_density(features["albedo"], features["normal"], features["depth"], features["visibility"],
                               features["coverage"])
-    count = sample_count(settings.rate, height * width)
-    if settings.pattern == "adaptive" or count == height * width:  # at rate 1 there is nothing to place
+    if settings.pattern == "adaptive":
         return make_mask(height, width, settings.rate, "adaptive", settings.seed, density), density
     first = max(1, int(round(count * FIRST_PASS_SHARE)))
     return sample_by_density(density, first, mask_rng(settings.seed)), density
