@@ -39,13 +39,10 @@ class LowRankParams:
         Weight shrink factor per iteration, ``w <- c w`` (paper: 0.9).
     eps : float
         Regulariser in ``xi_i = w / (sigma_i + eps)``.
-    rendered_weight, filled_weight : float
-        Reliability of rendered / pre-completed pixels in the block-matching
-        distance (only their ratio matters).
     feature_weight : float
         Weight of the guide feature channels in the matching distance
         (0 = off; ignored when no guide is given).  The distance is the
-        reliability-weighted mean squared colour difference per pixel and
+        mean squared colour difference per pixel and
         channel plus ``feature_weight`` times the mean squared guide
         difference per pixel and feature, so with guide channels on the
         image's 0..255 scale, 1 weighs a feature like a colour channel.
@@ -101,8 +98,6 @@ class LowRankParams:
     w0: float = 1e4
     c: float = 0.9
     eps: float = 1e-8
-    rendered_weight: float = 1.0
-    filled_weight: float = 0.5
     feature_weight: float = 0.3
     rematch_every: int = 4
     threshold: str = "weighted"
@@ -124,12 +119,10 @@ class LowRankParams:
                 raise ValueError(f"{name} must be an integer >= {low}, got {v!r}")
         if self.step > max(1, self.patch_size - 1):
             raise ValueError(f"step must be < patch_size so patches overlap, got {self.step}")
-        for name in ("w0", "eps", "rendered_weight", "filled_weight", "feature_weight", "noise_power", "wiener"):
+        for name in ("w0", "eps", "feature_weight", "noise_power", "wiener"):
             v = getattr(self, name)
             if not np.isfinite(v) or v < 0:
                 raise ValueError(f"{name} must be finite and >= 0, got {v!r}")
-        if self.rendered_weight <= 0 or self.filled_weight <= 0:
-            raise ValueError("rendered_weight and filled_weight must be > 0")
         if not 0 < self.c <= 1:
             raise ValueError(f"c must be in (0, 1], got {self.c!r}")
         if self.threshold not in ("weighted", "constant"):

@@ -2,8 +2,8 @@
 
 A patch is named by the flat index ``y * (W - p + 1) + x`` of its top-left
 pixel among all ``(H - p + 1) * (W - p + 1)`` patch positions, so G groups of
-K patches are an int64 tensor of shape ``(G, K)``.  Images are ``(H, W, C)``
-tensors; a patch vector is its pixels in row-major order, channels last
+K patches are an int64 tensor of shape ``(G, K)``.  Images are flat
+``(H*W, C)`` tensors; a patch vector is its pixels in row-major order, channels last
 (``d = p * p * C`` entries).
 """
 from __future__ import annotations
@@ -37,22 +37,11 @@ def reference_positions(size: int, patch_size: int, step: int) -> torch.Tensor:
     return torch.tensor(pos, dtype=torch.int64)
 
 
-def patch_view(image: torch.Tensor, patch_size: int) -> torch.Tensor:
-    """All overlapping patches of an ``(H, W, C)`` image as a strided view,
-    ``(H - p + 1, W - p + 1, p, p, C)`` (no copy)."""
-    h, w, c = image.shape
-    p = patch_size
-    s = image.stride()
-    return image.as_strided((h - p + 1, w - p + 1, p, p, c), (s[0], s[1], s[0], s[1], s[2]))
-
-
-def gather_groups(image: torch.Tensor, groups: torch.Tensor, patch_size: int) -> torch.Tensor:
-    """Group matrices ``(G, K, d)`` of an ``(H, W, C)`` image for ``(G, K)``
-    patch indices; row k of group g is patch k (the transpose of the paper's
-    d x K matrix), ``d = p * p * C``."""
-    wp = image.shape[1] - patch_size + 1
-    view = patch_view(image, patch_size)
-    return view[groups // wp, groups % wp].reshape(*groups.shape, -1)
+def gather_groups(image: torch.Tensor, pix: torch.Tensor) -> torch.Tensor:
+    """Group matrices ``(G, K, d)`` of a flat ``(H*W, C)`` image at the ``(G, K, p*p)`` pixel indices of
+    :func:`pixel_indices`; row k of group g is patch k (the transpose of the paper's d x K matrix),
+    ``d = p * p * C``."""
+    return image.index_select(0, pix.reshape(-1)).reshape(*pix.shape[:2], -1)
 
 
 def pixel_indices(groups: torch.Tensor, width: int, patch_size: int) -> torch.Tensor:

@@ -14,6 +14,7 @@ of per-entry variance ``sigma^2`` puts ``d * sigma^2`` of energy on every
 component. The estimate is
 
     Y_hat = V diag(lambda / (lambda + s * d * sigma^2)) V^T Y + mean
+          = P P^T (P P^T + s * d * sigma^2 I)^-1 Y + mean
 
 with ``sigma^2`` the group's mean per-entry variance (0 at untraced pixels)
 and ``s`` the noise scale (:attr:`~gmcpt.lowrank.LowRankParams.wiener`). The
@@ -32,7 +33,6 @@ from __future__ import annotations
 
 import torch
 
-from .linalg import stable_eigh
 
 
 def group_wiener(pilot: torch.Tensor, observed: torch.Tensor, noise: torch.Tensor,
@@ -44,7 +44,7 @@ def group_wiener(pilot: torch.Tensor, observed: torch.Tensor, noise: torch.Tenso
     pilot, observed : torch.Tensor
         ``(G, K, d)`` group matrices (row k = patch k) of the pilot estimate and of the observations.
     noise : torch.Tensor
-        ``(G, K, d)`` variance of each observed entry (0 where the entry is the pilot's).
+        ``(G, K, P)`` variance of each observed pixel (0 where the entry is the pilot's), ``P = d / channels``.
     noise_scale : float
         Multiplies the noise energy in the Wiener factors (> 0; larger smooths more).
 
@@ -56,12 +56,29 @@ def group_wiener(pilot: torch.Tensor, observed: torch.Tensor, noise: torch.Tenso
     tiny = torch.finfo(pilot.dtype).tiny
     pilot_mean, observed_mean = pilot.mean(1, keepdim=True), observed.mean(1, keepdim=True)
     centred_pilot = pilot - pilot_mean
-    lam, vectors = stable_eigh(centred_pilot @ centred_pilot.mT)       # (G, K), (G, K, K)
-    lam = lam.clamp_min(0.0)
+    gram = centred_pilot @ centred_pilot.mT                                  # (G, K, K)
     noise_energy = noise_scale * pilot.shape[-1] * noise.mean((1, 2))[:, None]
-    factor = lam / (lam + noise_energy).clamp_min(tiny)
-    mean_noise = noise.mean(1, keepdim=True) / pilot.shape[1]            # (G, 1, d)
+    channels = pilot.shape[-1] // noise.shape[-1]
+    mean_noise = (noise.mean(1, keepdim=True) / pilot.shape[1]).repeat_interleave(channels, -1)   # (G, 1, d)
     difference = observed_mean - pilot_mean
     tau2 = ((difference ** 2).mean(-1, keepdim=True) - mean_noise.mean(-1, keepdim=True)).clamp_min(0.0)
     mean = pilot_mean + torch.where(mean_noise > 0, tau2 / (tau2 + mean_noise).clamp_min(tiny), 1.0) * difference
-    return ((vectors * factor[:, None, :]) @ vectors.mT) @ (observed - observed_mean) + mean
+    return _wiener_matrix(gram, noise_energy) @ (observed - observed_mean) + mean
+
+
+def _wiener_matrix(gram: torch.Tensor, noise_energy: torch.Tensor) -> torch.Tensor:
+    """``gram (gram + c I)^-1`` for batches of symmetric positive semi-definite ``gram`` and ``c`` (G, 1).
+
+    That is ``V diag(lam / (lam + c)) V^T``; from a Cholesky factorisation it costs a fifth of the
+    eigendecomposition of 16 x 16 matrices. A ridge of 1e-5 of the mean eigenvalue keeps the system
+    definite where the noise is 0; the few systems float32 Cholesky still rejects are factored again in
+    float64.
+    """
+    ridge = noise_energy + 1e-5 * gram.diagonal(dim1=-2, dim2=-1).mean(-1, keepdim=True) \
+        + torch.finfo(gram.dtype).tiny
+    system = gram + ridge[..., None] * torch.eye(gram.shape[-1], dtype=gram.dtype, device=gram.device)
+    factor, info = torch.linalg.cholesky_ex(system)
+    failed = info > 0
+    if failed.any():
+        factor[failed] = torch.linalg.cholesky(system[failed].double()).to(gram.dtype)
+    return torch.cholesky_solve(gram, factor).mT    # (system^-1 gram)^T = gram system^-1, both symmetric
