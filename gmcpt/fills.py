@@ -64,11 +64,48 @@ def push_pull(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return alpha * values + (1.0 - alpha) * up
 
 
-def _shift(array: np.ndarray, dy: int, dx: int, pad: int) -> np.ndarray:
-    """View of a padded array shifted by (dy, dx), cropped to the original size."""
-    height = array.shape[0] - 2 * pad
-    width = array.shape[1] - 2 * pad
-    return array[pad + dy: pad + dy + height, pad + dx: pad + dx + width]
+#: Pixels of the band of rows the fill works on at a time: a band's planes stay in the CPU's cache across
+#: the offsets of the window (rate 0.3: 256x256 0.036 s, 1024x1024 0.55 s; whole planes 0.09 and 1.2 s;
+#: bands of 2^14 pixels 0.055 and 0.60 s, 2^16 0.039 and 0.63 s).
+BAND_PIXELS = 1 << 15
+
+
+def _window(radius: int) -> list[tuple[int, int]]:
+    """The offsets of a disc of ``radius`` pixels."""
+    return [(dy, dx) for dy in range(-radius, radius + 1) for dx in range(-radius, radius + 1)
+            if dy * dy + dx * dx <= radius * radius]
+
+
+def _weighted_sums(values: np.ndarray, mask: np.ndarray, planes: np.ndarray, depth: np.ndarray,
+                   depth_scale: np.ndarray, radius: int, sigma_space: float, rows: slice):
+    """(numerator (C, n, W), denominator (n, W)) of the fill's weighted mean for the ``n`` output rows
+    ``rows``; the inputs are channel-first planes padded by ``radius`` on every side (features and depth
+    by their edge values, values and mask by 0), ``depth_scale`` unpadded."""
+    pad = radius
+    height, width = rows.stop - rows.start, depth.shape[1] - 2 * pad
+    here = (slice(rows.start + pad, rows.stop + pad), slice(pad, pad + width))
+    centre, centre_depth, scale = planes[(slice(None),) + here], depth[here], depth_scale[rows]
+    numerator = np.zeros((values.shape[0], height, width), np.float32)
+    denominator = np.zeros((height, width), np.float32)
+    distance = np.empty((height, width), np.float32)
+    feature_terms = np.empty(centre.shape, np.float32)
+    value_terms = np.empty(numerator.shape, np.float32)
+    for dy, dx in _window(radius):
+        there = (slice(rows.start + pad + dy, rows.stop + pad + dy), slice(pad + dx, pad + dx + width))
+        np.subtract(planes[(slice(None),) + there], centre, out=feature_terms)
+        np.square(feature_terms, out=feature_terms)
+        np.subtract(depth[there], centre_depth, out=distance)
+        np.multiply(distance, scale, out=distance)
+        np.square(distance, out=distance)
+        distance += feature_terms.sum(0)
+        distance += np.float32((dy * dy + dx * dx) / (2 * sigma_space ** 2))
+        np.negative(distance, out=distance)
+        np.exp(distance, out=distance)
+        distance *= mask[there]
+        denominator += distance
+        np.multiply(values[(slice(None),) + there], distance, out=value_terms)
+        numerator += value_terms
+    return numerator, denominator
 
 
 def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
@@ -100,26 +137,21 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     scaled = np.concatenate([features[..., 0:6], features[..., 7:8]], axis=-1).astype(np.float32) * scale
     depth = features[..., 6].astype(np.float32)
     depth_scale = np.float32(math.sqrt(0.5) / params.sigma_depth) / np.maximum(depth, np.float32(1e-3))
-    padded_values = np.pad((values * mask[..., None]).astype(np.float32), ((pad, pad), (pad, pad), (0, 0)))
+    planes = np.pad(np.moveaxis(scaled, -1, 0), ((0, 0), (pad, pad), (pad, pad)), mode="edge")
+    padded_values = np.pad(np.moveaxis(values * mask[..., None], -1, 0).astype(np.float32),
+                           ((0, 0), (pad, pad), (pad, pad)))
     padded_mask = np.pad(mask.astype(np.float32), pad)
-    padded_scaled = np.pad(scaled, ((pad, pad), (pad, pad), (0, 0)), mode="edge")
     padded_depth = np.pad(depth, pad, mode="edge")
-    numerator = np.zeros(values.shape, np.float32)
-    denominator = np.zeros(mask.shape, np.float32)
-    for dy in range(-radius, radius + 1):
-        for dx in range(-radius, radius + 1):
-            if dy * dy + dx * dx > radius * radius:
-                continue
-            difference = _shift(padded_scaled, dy, dx, pad) - scaled
-            distance = np.einsum("ijk,ijk->ij", difference, difference)
-            distance += ((_shift(padded_depth, dy, dx, pad) - depth) * depth_scale) ** 2
-            distance += np.float32((dy * dy + dx * dx) / (2 * sigma_space ** 2))
-            weight = _shift(padded_mask, dy, dx, pad) * np.exp(-distance)
-            numerator += weight[..., None] * _shift(padded_values, dy, dx, pad)
-            denominator += weight
+    numerator = np.empty((values.shape[-1],) + mask.shape, np.float32)
+    denominator = np.empty(mask.shape, np.float32)
+    band = max(1, BAND_PIXELS // mask.shape[1])
+    for first in range(0, mask.shape[0], band):
+        rows = slice(first, min(first + band, mask.shape[0]))
+        numerator[:, rows], denominator[rows] = _weighted_sums(padded_values, padded_mask, planes, padded_depth,
+                                                               depth_scale, radius, sigma_space, rows)
     fallback = push_pull(values * mask[..., None], mask.astype(np.float32))
     confident = denominator > params.min_weight
-    guided = numerator / np.maximum(denominator, 1e-12)[..., None]
+    guided = np.moveaxis(numerator, 0, -1) / np.maximum(denominator, 1e-12)[..., None]
     filled = np.where(confident[..., None], guided, fallback)
     if not keep_samples:
         return np.where(mask[..., None] & ~confident[..., None], values, filled).astype(np.float32)
