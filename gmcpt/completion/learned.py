@@ -26,7 +26,7 @@ import numpy as np
 
 from ..domain import WorkingDomain
 from ..frame import SparseFrame
-from ..lowrank import DEFAULT as LOW_RANK_DEFAULT
+from ..lowrank.params import DEFAULT as LOW_RANK_DEFAULT
 from ..lowrank.noise import blend_samples, working_variance
 from . import Completion, register_method
 

@@ -16,7 +16,7 @@ import numpy as np
 from ..domain import WorkingDomain
 from ..fills import guided_fill, push_pull
 from ..frame import SparseFrame
-from ..lowrank import DEFAULT, NNM_PRESET, LowRankParams, complete_low_rank
+from ..lowrank.params import DEFAULT, NNM_PRESET, LowRankParams
 from ..lowrank.noise import working_variance
 from . import Completion, register_method
 
@@ -45,6 +45,8 @@ def refine_low_rank(frame: SparseFrame, pre_completed_working: np.ndarray,
     Returns the HDR image and the sub-stage timings (``block_matching_s``,
     ``svd_s``, ``aggregation_s``).
     """
+    from ..lowrank.pawnnm import complete_low_rank  # torch: imported by the first completion that needs it
+
     params = params or DEFAULT
     observed, factor = domain.encode(frame)
     variance = working_variance(frame, domain, observed, factor)

@@ -6,7 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-import torch
 
 __all__ = ["LowRankParams", "PAPER_PRESET", "DEFAULT", "NNM_PRESET"]
 
@@ -137,10 +136,13 @@ class LowRankParams:
                                            or self.tile_size < 1):
             raise ValueError(f"tile_size must be a positive integer or None, "
                              f"got {self.tile_size!r}")
-        try:
-            torch.device(self.device)
-        except (RuntimeError, TypeError) as err:
-            raise ValueError(f"device {self.device!r} is not a torch device") from err
+        if self.device != "cpu":  # the presets (made when gmcpt is imported) need no torch
+            import torch
+
+            try:
+                torch.device(self.device)
+            except (RuntimeError, TypeError) as err:
+                raise ValueError(f"device {self.device!r} is not a torch device") from err
 
 
 #: The paper's literal settings (w0, c, k; Algorithm 1 re-forms the groups every
