@@ -115,25 +115,32 @@ def block_match(signal: torch.Tensor, ys: torch.Tensor, xs: torch.Tensor, *, pat
     n = 2 * r + 1
     y0, y1 = int(ys[0]), int(ys[-1]) + p
     x0, x1 = int(xs[0]), int(xs[-1]) + p
+    hh, ww = y1 - y0, x1 - x0
     ry, rx = (ys - y0).tolist(), (xs - x0).tolist()
-    padded = F.pad(signal[None], (r, r, r, r))[0]
-    ref = padded[:, y0 + r:y1 + r, x0 + r:x1 + r]                 # (M, hh, ww)
-    ww = x1 - x0
-    # |z|^2 of every candidate patch, indexed by its top-left pixel in padded coordinates
-    energy = F.avg_pool2d(padded.square().sum(0)[None, None], p, stride=1)[0, 0] * (p * p)
+    # the window the references and their candidates lie in, padded where it leaves the frame:
+    # window[:, i, j] is the signal at (y0 - r + i, x0 - r + j)
+    top, left, bottom, right = max(0, r - y0), max(0, r - x0), max(0, y1 + r - h), max(0, x1 + r - w)
+    window = F.pad(signal[None, :, y0 - r + top:y1 + r - bottom, x0 - r + left:x1 + r - right],
+                   (left, right, top, bottom))[0]
+    ref = window[:, r:r + hh, r:r + ww]                             # (M, hh, ww)
+    # |z|^2 of every candidate patch, indexed by its top-left pixel in window coordinates
+    energy = F.avg_pool2d(window.square().sum(0)[None, None], p, stride=1)[0, 0] * (p * p)
     offsets = torch.arange(-r, r + 1, device=signal.device)
-    columns = (xs[None, :] + offsets[:, None] + r).reshape(1, -1).expand(len(ys), -1)   # (ny, n * nx)
+    local_ys = ys - y0 + r
+    columns = (xs[None, :] - x0 + offsets[:, None] + r).reshape(1, -1).expand(len(ys), -1)   # (ny, n * nx)
 
     dist = []
+    # one buffer for every row of offsets: a fresh tensor of this size a row costs five times the arithmetic
+    # (the allocator maps and faults in new pages each time)
+    cross = torch.empty((hh, n, ww), dtype=signal.dtype, device=signal.device)
     for dy in range(-r, r + 1):
-        candidates = padded[:, y0 + r + dy:y1 + r + dy, x0:x1 + 2 * r].unfold(2, ww, 1)  # (M, hh, n(dx), ww)
-        cross = None
-        for a, b in zip(ref, candidates):
-            product = a[:, None, :] * b
-            cross = product if cross is None else cross.add_(product)
-        cross = _box_sums(_box_sums(cross, ry, p).permute(2, 0, 1), rx, p).permute(1, 2, 0)   # (ny, n, nx)
-        candidate_energy = torch.gather(energy[ys + dy + r], 1, columns).reshape(len(ys), n, len(xs))
-        dist.append(candidate_energy.sub_(cross.mul_(2)))
+        candidates = window[:, r + dy:r + dy + hh].unfold(2, ww, 1)   # (M, hh, n(dx), ww)
+        torch.mul(ref[0, :, None, :], candidates[0], out=cross)
+        for a, b in zip(ref[1:], candidates[1:]):
+            cross.addcmul_(a[:, None, :], b)
+        sums = _box_sums(_box_sums(cross, ry, p).permute(2, 0, 1), rx, p).permute(1, 2, 0)   # (ny, n, nx)
+        candidate_energy = torch.gather(energy[local_ys + dy], 1, columns).reshape(len(ys), n, len(xs))
+        dist.append(candidate_energy.sub_(sums.mul_(2)))
     dist = torch.stack(dist, 1).permute(0, 3, 1, 2)                # (ny, nx, n(dy), n(dx))
 
     cy = ys[:, None] + offsets                                     # (ny, n)
