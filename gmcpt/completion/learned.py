@@ -44,9 +44,13 @@ GAN_THREADS = 1
 #: does best (validation, the 0.90 M-parameter gan-cpu of 2026-11-23: w0 10000 31.34 dB, 5000 31.46,
 #: 2500 31.50, 1000 31.42; on the 5 evaluation scenes 33.91/34.39/34.78, 33.96/34.45/34.88,
 #: 33.96/34.47/34.93, 33.89/34.43/34.92).
-#: The Wiener pass's noise scale is half ``pawnnm``'s: with the 5-component matching signal, 5 evaluation
-#: scenes, two_pass masks (2026-11-25), noise scale 2: 34.72/35.48/35.81 dB, 1: 34.77/35.56/35.94.
-GAN_PAWNNM_PARAMS = replace(LOW_RANK_DEFAULT, iterations=1, w0=2500.0, wiener=1.0)
+#: Then (2026-11-25, the 5 evaluation scenes, two_pass masks, 5-component matching signal): the Wiener
+#: pass's noise scale is half ``pawnnm``'s (2: 34.72/35.48/35.81 dB, 1: 34.77/35.56/35.94, with the
+#: generator of 2026-11-23); with the slim generator, groups of 12 patches instead of 16 and ``w0``
+#: scaled with them (a squared singular value grows with K) score the same (16: 34.59/35.40/35.77,
+#: 12 and w0 1875: 34.58/35.40/35.78; 12 and 2500: 34.57/35.38/35.75) in two thirds of the low-rank
+#: stage's time; 8 and 1250: 34.53/35.33/35.73.
+GAN_PAWNNM_PARAMS = replace(LOW_RANK_DEFAULT, iterations=1, w0=1875.0, group_size=12, wiener=1.0)
 
 
 def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
