@@ -12,7 +12,7 @@ the measured call added to what the process held before it.
 The table prints completion / OIDN time ratios side by side.
 
     python benchmarks/completion_vs_oidn.py [--sizes 256x256 1024x1024 1920x1080 3840x2160]
-                                            [--method gan_pawnnm] [--tile 512] [--repeats 3]
+                                            [--method gan_pawnnm] [--tile 512] [--repeats 3] [--weights NAME]
 """
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def render_inputs(scene_path: Path, width: int, height: int, rate: float, spp: i
     return path
 
 
-def measure(path: str, what: str, method: str, tile: int | None, repeats: int) -> dict:
+def measure(path: str, what: str, method: str, tile: int | None, repeats: int, weights: str | None) -> dict:
     """In this (fresh) process: the median seconds of ``what`` (completion or oidn), its stages and peak memory."""
     import resource
     import statistics
@@ -61,10 +61,12 @@ def measure(path: str, what: str, method: str, tile: int | None, repeats: int) -
         from gmcpt.denoise import denoise_oidn
         run = lambda: (denoise_oidn(data["full"], frame.albedo, frame.normal), {})  # noqa: E731
     else:
-        from gmcpt.completion import complete
+        from gmcpt.completion import complete, get_method
+
+        options = {"weights": weights} if weights and get_method(method).takes("weights") else {}
 
         def run():
-            result = complete(frame, method, tile=tile)
+            result = complete(frame, method, tile=tile, **options)
             return result.image, result.timings
     before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     seconds, stages = [], []
@@ -81,7 +83,7 @@ def measure(path: str, what: str, method: str, tile: int | None, repeats: int) -
 
 def child(path: Path, what: str, args) -> dict:
     command = [sys.executable, __file__, "--child", str(path), what, "--method", args.method,
-               "--repeats", str(args.repeats), "--tile", str(args.tile)]
+               "--repeats", str(args.repeats), "--tile", str(args.tile)] + (["--weights", args.weights] if args.weights else [])
     output = subprocess.run(command, check=True, capture_output=True, text=True).stdout
     return json.loads(output.strip().splitlines()[-1])
 
@@ -95,13 +97,14 @@ def main() -> int:
     parser.add_argument("--method", default="gan_pawnnm")
     parser.add_argument("--tile", type=int, help="completion tile side (0: the whole frame; default: the product's)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--weights", help="generator weights of the GAN methods (default: the shipped default)")
     parser.add_argument("--child", nargs=2, metavar=("FRAME", "WHAT"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     from gmcpt.completion.tiles import DEFAULT_TILE
 
     args.tile = DEFAULT_TILE if args.tile is None else args.tile
     if args.child:
-        print(json.dumps(measure(args.child[0], args.child[1], args.method, args.tile, args.repeats)))
+        print(json.dumps(measure(args.child[0], args.child[1], args.method, args.tile, args.repeats, args.weights)))
         return 0
 
     rows = []
