@@ -5,7 +5,8 @@ import torch
 
 from gan_helpers import SMALL, generator_inputs
 from gmcpt.gan import losses
-from gmcpt.gan.model import Critic, CriticConfig, Generator, GeneratorConfig, ModulatedResBlock
+from gmcpt.gan.model import (Critic, CriticConfig, Generator, GeneratorConfig, ModulatedResBlock,
+                             space_to_depth_conv)
 
 
 def test_generator_starts_from_the_smoothed_feature_guided_fill_and_is_small():
@@ -23,6 +24,19 @@ def test_generator_starts_from_the_smoothed_feature_guided_fill_and_is_small():
         np.testing.assert_allclose(out[i].detach().permute(1, 2, 0).numpy(), expected, atol=1e-6)
     traced = features[:, :1].expand_as(radiance) > 0
     assert (out[traced] != radiance[traced]).float().mean() > 0.1   # traced pixels with like neighbours are averaged too
+
+
+def test_space_to_depth_conv_equals_the_convolution_of_the_unshuffled_input():
+    torch.manual_seed(0)
+    conv = torch.nn.Conv2d(4 * 5, 6, 3, padding=1)
+    x = torch.rand(2, 5, 12, 16, requires_grad=True)
+    expected = conv(torch.nn.functional.pixel_unshuffle(x, 2))
+    got = space_to_depth_conv(conv, x)
+    torch.testing.assert_close(got, expected, rtol=1e-5, atol=1e-5)
+    # and its gradients reach the same weights
+    weight_grad = torch.autograd.grad(expected.square().sum(), conv.weight)[0]
+    torch.testing.assert_close(torch.autograd.grad(got.square().sum(), conv.weight)[0], weight_grad,
+                               rtol=1e-4, atol=1e-4)
 
 
 def test_feature_modulation_is_scale_plus_one_and_shift():
