@@ -27,24 +27,6 @@ def test_rate_one_equals_stock_path(mi, cornell, path_tracer):
     assert {"features_s", "render_s"} <= timings.keys()
 
 
-def test_replayed_trace_equals_a_fresh_trace_for_any_pixel_count_and_seed(mi, cornell, path_tracer):
-    """trace_pixels replays a recorded kernel: other pixel counts and seeds must still be traced as asked."""
-    import drjit as dr
-    from gmcpt.render import _camera_key, _pixel_sums, trace_pixels
-
-    sensor = cornell.sensors()[0]
-    rng = np.random.default_rng(0)
-    for count, seed in ((300, 1), (700, 1), (700, 9), (1920, 4)):
-        pixels = np.sort(rng.choice(48 * 40, count, replace=False))
-        total, squares, finite = trace_pixels(cornell, sensor, path_tracer, pixels, 4, seed)
-        fresh = _pixel_sums(cornell, sensor, path_tracer, mi.UInt32(pixels.astype(np.uint32)),
-                            dr.arange(mi.UInt32, count * 4), mi.UInt32(seed), 4, _camera_key(sensor),
-                            [dr.zeros(mi.Float, count) for _ in range(5)])
-        assert total.shape == (count, 3) and np.all(finite == 4)
-        np.testing.assert_array_equal(total, np.stack([np.asarray(column) for column in fresh[:3]], axis=1))
-        np.testing.assert_array_equal(squares, np.asarray(fresh[3]))
-
-
 def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
     from gmcpt.render import RenderSettings, render_sparse_frame
 
