@@ -149,10 +149,12 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
         rows = slice(first, min(first + band, mask.shape[0]))
         numerator[:, rows], denominator[rows] = _weighted_sums(padded_values, padded_mask, planes, padded_depth,
                                                                depth_scale, radius, sigma_space, rows)
-    fallback = push_pull(values * mask[..., None], mask.astype(np.float32))
     confident = denominator > params.min_weight
     guided = np.moveaxis(numerator, 0, -1) / np.maximum(denominator, 1e-12)[..., None]
-    filled = np.where(confident[..., None], guided, fallback)
+    filled = guided
+    if not confident.all():  # the pyramid fill only where no traced neighbour is similar enough
+        fallback = push_pull(values * mask[..., None], mask.astype(np.float32))
+        filled = np.where(confident[..., None], guided, fallback)
     if not keep_samples:
         return np.where(mask[..., None] & ~confident[..., None], values, filled).astype(np.float32)
     return np.where(mask[..., None], values, filled).astype(np.float32)
