@@ -1,4 +1,4 @@
-"""Batched symmetric eigendecomposition that survives float32 LAPACK failures."""
+"""Batched symmetric eigendecomposition and Cholesky factorisation that survive float32 LAPACK failures."""
 from __future__ import annotations
 
 import torch
@@ -23,3 +23,16 @@ def stable_eigh(gram: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         lam64, vec64 = torch.linalg.eigh(gram[bad].double())
         lam[bad], vec[bad] = lam64.to(lam.dtype), vec64.to(vec.dtype)
     return lam, vec
+
+
+def stable_cholesky(system: torch.Tensor) -> torch.Tensor:
+    """Batched lower Cholesky factors, redone in float64 for the systems float32 LAPACK rejects.
+
+    The systems are symmetric positive definite in exact arithmetic (a Gram matrix plus a positive
+    ridge), but float32 rounding can leave one that float32 Cholesky reports as indefinite.
+    """
+    factor, info = torch.linalg.cholesky_ex(system)
+    failed = info > 0
+    if failed.any():
+        factor[failed] = torch.linalg.cholesky(system[failed].double()).to(system.dtype)
+    return factor

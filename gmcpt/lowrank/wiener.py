@@ -33,6 +33,8 @@ from __future__ import annotations
 
 import torch
 
+from .linalg import stable_cholesky
+
 
 
 def group_wiener(pilot: torch.Tensor, observed: torch.Tensor, noise: torch.Tensor,
@@ -71,14 +73,10 @@ def _wiener_matrix(gram: torch.Tensor, noise_energy: torch.Tensor) -> torch.Tens
 
     That is ``V diag(lam / (lam + c)) V^T``; from a Cholesky factorisation it costs a fifth of the
     eigendecomposition of 16 x 16 matrices. A ridge of 1e-5 of the mean eigenvalue keeps the system
-    definite where the noise is 0; the few systems float32 Cholesky still rejects are factored again in
-    float64.
+    definite where the noise is 0 (:func:`~gmcpt.lowrank.linalg.stable_cholesky` factors the few that
+    float32 still rejects in float64).
     """
     ridge = noise_energy + 1e-5 * gram.diagonal(dim1=-2, dim2=-1).mean(-1, keepdim=True) \
         + torch.finfo(gram.dtype).tiny
     system = gram + ridge[..., None] * torch.eye(gram.shape[-1], dtype=gram.dtype, device=gram.device)
-    factor, info = torch.linalg.cholesky_ex(system)
-    failed = info > 0
-    if failed.any():
-        factor[failed] = torch.linalg.cholesky(system[failed].double()).to(gram.dtype)
-    return torch.cholesky_solve(gram, factor).mT    # (system^-1 gram)^T = gram system^-1, both symmetric
+    return torch.cholesky_solve(gram, stable_cholesky(system)).mT    # (system^-1 gram)^T = gram system^-1, both symmetric
