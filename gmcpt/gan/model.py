@@ -143,7 +143,7 @@ class ConditionNet(nn.Module):
                                  nn.Conv2d(width, width, 3, padding=1), nn.LeakyReLU(0.2))
 
     def forward(self, features: torch.Tensor) -> list[torch.Tensor]:
-        first, act, second, _ = self.net
+        first, act, second, _ = self.net  # a Sequential still, so the weights keep their names
         level0 = act(second(act(space_to_depth_conv(first, features))))
         level1 = F.avg_pool2d(level0, 2)
         return [level0, level1, F.avg_pool2d(level1, 2)]
