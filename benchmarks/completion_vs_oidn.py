@@ -26,13 +26,13 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-FRAME_FIELDS = ("radiance", "mask", "variance", "albedo", "normal", "depth", "visibility", "coverage")
 
 
 def render_inputs(scene_path: Path, width: int, height: int, rate: float, spp: int, folder: Path) -> Path:
     """Render the sparse frame and the equal-samples full frame; save both to ``folder/WxH.npz``."""
     import numpy as np
 
+    from gmcpt.frame import PIXEL_BUFFERS
     from gmcpt.render import RenderSettings, render_sparse_frame
     from gmcpt.scene import load_scene, masked_integrator
 
@@ -42,7 +42,7 @@ def render_inputs(scene_path: Path, width: int, height: int, rate: float, spp: i
     full, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(rate=1.0, spp=max(1, round(rate * spp)),
                                                                              seed=2))
     path = folder / f"{width}x{height}.npz"
-    np.savez(path, full=full.radiance, spp=sparse.spp, **{name: getattr(sparse, name) for name in FRAME_FIELDS})
+    np.savez(path, full=full.radiance, spp=sparse.spp, **{name: getattr(sparse, name) for name in PIXEL_BUFFERS})
     return path
 
 
@@ -53,10 +53,10 @@ def measure(path: str, what: str, method: str, tile: int | None, repeats: int, w
 
     import numpy as np
 
-    from gmcpt.frame import SparseFrame
+    from gmcpt.frame import PIXEL_BUFFERS, SparseFrame
 
     data = np.load(path)
-    frame = SparseFrame(spp=int(data["spp"]), **{name: data[name] for name in FRAME_FIELDS})
+    frame = SparseFrame(spp=int(data["spp"]), **{name: data[name] for name in PIXEL_BUFFERS})
     if what == "oidn":
         from gmcpt.denoise import denoise_oidn
         run = lambda: (denoise_oidn(data["full"], frame.albedo, frame.normal), {})  # noqa: E731

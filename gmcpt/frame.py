@@ -15,6 +15,10 @@ from .errors import GmcptError
 #: 4 samples cost 0.03-0.06 s on a 256x256 frame (benchmarks/render_cost.py: +0.01-0.04 of a full 16-spp render).
 DEFAULT_FEATURE_SPP = 4
 
+#: The per-pixel buffers of a :class:`SparseFrame` and their channels (None: an (H, W) plane).
+PIXEL_BUFFERS = {"radiance": 3, "mask": None, "variance": None, "albedo": 3, "normal": 3, "depth": None,
+                 "visibility": None, "coverage": None}
+
 
 @dataclass(frozen=True)
 class SparseFrame:
@@ -51,14 +55,10 @@ class SparseFrame:
 
     def __post_init__(self):
         h, w = self.mask.shape
-        expected = {"radiance": 3, "variance": None, "albedo": 3, "normal": 3,
-                    "depth": None, "visibility": None}
-        if self.coverage is not None:
-            expected["coverage"] = None
-        for name, channels in expected.items():
+        for name, channels in PIXEL_BUFFERS.items():
             shape = (h, w) if channels is None else (h, w, channels)
             array = getattr(self, name)
-            if array.shape != shape:
+            if array is not None and array.shape != shape:
                 raise GmcptError(f"SparseFrame.{name} has shape {array.shape}, expected {shape}")
         if self.mask.dtype != bool:
             raise GmcptError("SparseFrame.mask must be a boolean array")

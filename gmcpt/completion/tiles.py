@@ -13,7 +13,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..frame import SparseFrame
+from ..frame import PIXEL_BUFFERS, SparseFrame
 
 #: Default overlap between neighbouring tiles, in pixels: a few patches of the matching stage.
 DEFAULT_OVERLAP = 32
@@ -63,10 +63,7 @@ def _ramp(spans: list[tuple[int, int]], index: int, length: int) -> np.ndarray:
 
 def crop_frame(frame: SparseFrame, rows: slice, columns: slice) -> SparseFrame:
     """The part of ``frame`` in ``rows`` x ``columns`` (views of its buffers)."""
-    buffers = {name: getattr(frame, name)[rows, columns]
-               for name in ("radiance", "mask", "variance", "albedo", "normal", "depth", "visibility")}
-    if frame.coverage is not None:
-        buffers["coverage"] = frame.coverage[rows, columns]
+    buffers = {name: getattr(frame, name)[rows, columns] for name in PIXEL_BUFFERS if getattr(frame, name) is not None}
     return dataclasses.replace(frame, **buffers)
 
 
