@@ -132,3 +132,24 @@ def test_hybrid_loss_uses_the_paper_weights():
     expected = (0.005 * terms["tex"] + 0.0095 * terms["per"] + 0.95 * terms["sharp"] + 0.095 * terms["ssim"]
                 + weights.l1 * terms["l1"])
     assert float(total) == pytest.approx(expected, rel=1e-5) and terms["tex"] == -2.0
+
+
+def test_tall_frames_run_in_bands_that_match_the_whole_frame_whatever_the_threads():
+    from gmcpt.gan.infer import BAND_HALO, bands, generate
+    from gmcpt.gan.weights import load_generator
+
+    assert bands(256, 8) == [(0, 256)]
+    layout = bands(1088, 8)
+    assert len(layout) == 2 and layout[0][0] == 0 and layout[-1][1] == 1088
+    assert all(a[1] == b[0] and a[1] % 8 == 0 for a, b in zip(layout, layout[1:]))
+
+    generator, _ = load_generator(None)
+    radiance, features = generator_inputs(batch=1, size=1024, config=generator.config)
+    radiance, features = radiance[..., :32].contiguous(), features[..., :32].contiguous()   # 1024 x 32: two bands
+    with torch.inference_mode():
+        whole = generator(radiance, features)
+    one, two = generate(generator, radiance, features, 1), generate(generator, radiance, features, 2)
+    assert torch.equal(one, two)                       # the bands, not the threads, decide the output
+    assert BAND_HALO % generator.multiple == 0
+    difference = (two - whole).abs()
+    assert float(difference.max()) < 1e-3 and float(whole.std()) > 1e-2

@@ -10,11 +10,9 @@ pre-completion to the low-rank refinement
 Both take ``weights=`` (a shipped name such as ``gan-cpu`` or a ``.pt`` path;
 default :data:`gmcpt.gan.weights.DEFAULT_WEIGHTS`).
 
-The generator runs on :data:`GAN_THREADS` torch threads (``$GMCPT_TORCH_THREADS``
-overrides), restored afterwards. One thread is the default because on a
-shared 2-core machine torch's thread barrier made 2 threads ~10x slower
-(measured: 256x256, 1 thread 0.13 s; 2 threads 0.6-1.8 s while another
-process used the other core; ``benchmarks/gan_inference.py``).
+The generator runs band by band (:func:`gmcpt.gan.infer.generate`) on as many
+threads as torch is set to use (``$GMCPT_TORCH_THREADS`` overrides), each band
+with torch on one thread (:mod:`gmcpt.workers` says why).
 """
 from __future__ import annotations
 
@@ -29,8 +27,6 @@ from ..frame import SparseFrame
 from ..lowrank.params import DEFAULT as LOW_RANK_DEFAULT
 from ..lowrank.noise import blend_samples, working_variance
 from . import Completion, register_method
-
-GAN_THREADS = 1
 
 #: The low-rank stage after the GAN pre-completion runs 1 iteration, not the 11 that ``pawnnm`` runs
 #: after its classical fill: each iteration pulls the estimate towards the patch groups' low-rank fixed
@@ -70,12 +66,8 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     start = time.perf_counter()
     generator, _ = load_generator(weights)
     loaded = time.perf_counter()
-    previous = torch.get_num_threads()
-    torch.set_num_threads(int(os.environ.get("GMCPT_TORCH_THREADS", GAN_THREADS)))
-    try:
-        working, factor = precomplete(generator, frame, domain, target_exposure(frame))
-    finally:
-        torch.set_num_threads(previous)
+    threads = int(os.environ.get("GMCPT_TORCH_THREADS", torch.get_num_threads()))
+    working, factor = precomplete(generator, frame, domain, target_exposure(frame), threads)
     observed = domain.forward(frame.radiance, factor)  # in the generator's working domain (exposure folded in)
     working = blend_samples(working, observed, frame.mask, working_variance(frame, domain, observed, factor))
     timings = {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}

@@ -47,11 +47,11 @@ sums in arbitrary order, so repeated runs differ by float rounding.
 from __future__ import annotations
 
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import torch
 
+from ..workers import map_single_threaded
 from .linalg import stable_eigh
 from .matching import block_match, matching_signal
 from .noise import local_noise_scale
@@ -199,42 +199,26 @@ class _Workers:
     """Run a function over a fixed split of the tiles, one share per worker.
 
     On CPU with ``torch.get_num_threads() > 1`` and several tiles, tiles are
-    dealt round-robin to that many Python threads, each running torch
-    single-threaded: coarse tasks instead of OpenMP/MKL parallel regions per
-    small op, which cost more than they gain on the small batched matrices
-    here and stall badly when the machine is busy.  Shares are fixed and
-    partial results are reduced in share order, so the output does not depend
-    on scheduling.  The caller's thread setting is restored by :meth:`close`.
+    dealt round-robin to that many threads (:func:`gmcpt.workers.map_single_threaded`),
+    each running torch single-threaded: coarse tasks instead of OpenMP/MKL parallel
+    regions per small op, which cost more than they gain on the small batched
+    matrices here and stall badly when the machine is busy.  Partial results are
+    reduced in share order, so the output does not depend on scheduling.
     """
 
     def __init__(self, device: torch.device):
-        self.threads = torch.get_num_threads()
-        self.n = self.threads if device.type == "cpu" else 1
+        self.n = torch.get_num_threads() if device.type == "cpu" else 1
         self.shares = [()] * self.n
-        self.pool = None
 
     def deal(self, n_tiles: int):
         """Split tiles ``0..n_tiles-1`` round-robin over the workers."""
         self.n = min(self.n, n_tiles)
         self.shares = [tuple(range(j, n_tiles, self.n)) for j in range(self.n)]
-        if self.n > 1:
-            self.pool = ThreadPoolExecutor(self.n)
 
     def __call__(self, fn):
-        if self.pool is None:
+        if self.n == 1:
             return [fn(self.shares[0])]
-
-        def task(share):
-            torch.set_num_threads(1)
-            return fn(share)
-
-        torch.set_num_threads(1)
-        return list(self.pool.map(task, self.shares))
-
-    def close(self):
-        if self.pool is not None:
-            self.pool.shutdown()
-            torch.set_num_threads(self.threads)
+        return map_single_threaded(fn, self.shares, self.n)
 
 
 #: Groups thresholded or filtered at a time: their group matrices (about 2 MB) stay small enough for the
@@ -365,38 +349,35 @@ def complete_low_rank(pre_completed, observed, mask, *, variance=None, guide=Non
         """The aggregated patch estimates as an image; pixels no group covers keep the current value."""
         return torch.where((den > 0)[:, None], num / den.clamp_min(1.0)[:, None], x)
 
-    try:
-        for it in range(params.iterations):
-            if it % params.rematch_every == 0:
-                groups, den = regroup()
+    for it in range(params.iterations):
+        if it % params.rematch_every == 0:
+            groups, den = regroup()
 
-            t0 = time.perf_counter()
-            res = run(estimate)
-            num = sum(r[0] for r in res)
-            wall = time.perf_counter() - t0
-            busy = sum(r[1] + r[2] for r in res) or 1.0
-            timing["svd_s"] += wall * sum(r[1] for r in res) / busy
-            timing["aggregation_s"] += wall * sum(r[2] for r in res) / busy
+        t0 = time.perf_counter()
+        res = run(estimate)
+        num = sum(r[0] for r in res)
+        wall = time.perf_counter() - t0
+        busy = sum(r[1] + r[2] for r in res) or 1.0
+        timing["svd_s"] += wall * sum(r[1] for r in res) / busy
+        timing["aggregation_s"] += wall * sum(r[2] for r in res) / busy
 
-            t0 = time.perf_counter()
-            x_hat = average(num)
-            x_new = _data_term(x_hat, m, phi, var, params, last=it == params.iterations - 1)
-            if params.momentum and it < params.iterations - 1:
-                x_new = torch.where(phi[:, None], x_new, x_new + params.momentum * (x_new - x))
-            x = x_new
-            wt *= params.c
-            timing["aggregation_s"] += time.perf_counter() - t0
+        t0 = time.perf_counter()
+        x_hat = average(num)
+        x_new = _data_term(x_hat, m, phi, var, params, last=it == params.iterations - 1)
+        if params.momentum and it < params.iterations - 1:
+            x_new = torch.where(phi[:, None], x_new, x_new + params.momentum * (x_new - x))
+        x = x_new
+        wt *= params.c
+        timing["aggregation_s"] += time.perf_counter() - t0
 
-        if params.wiener > 0 and variance is not None:
-            if groups is None:   # no iterations: group the pre-completion
-                groups, den = regroup()
-            t0 = time.perf_counter()
-            noisy = torch.where(phi[:, None], m, x)
-            noise = torch.as_tensor(rendered_variance.reshape(-1), **f32)
-            x = average(sum(run(wiener)))
-            timing["wiener_s"] = time.perf_counter() - t0
-    finally:
-        run.close()
+    if params.wiener > 0 and variance is not None:
+        if groups is None:   # no iterations: group the pre-completion
+            groups, den = regroup()
+        t0 = time.perf_counter()
+        noisy = torch.where(phi[:, None], m, x)
+        noise = torch.as_tensor(rendered_variance.reshape(-1), **f32)
+        x = average(sum(run(wiener)))
+        timing["wiener_s"] = time.perf_counter() - t0
 
     out = x.reshape(h, w, ch).cpu().numpy().astype(np.float32)
     timing["total_s"] = time.perf_counter() - t_start
