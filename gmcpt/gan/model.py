@@ -126,11 +126,17 @@ class ModulatedResBlock(nn.Module):
         nn.init.zeros_(self.modulation.bias)
 
     def forward(self, x: torch.Tensor, condition: torch.Tensor) -> torch.Tensor:
-        scale1, shift1, scale2, shift2 = self.modulation(condition).chunk(4, dim=1)
-        h = self.conv1(F.leaky_relu(x, 0.2))
-        h = h * (scale1 + 1) + shift1
-        h = self.conv2(F.leaky_relu(h, 0.2))
-        return x + h * (scale2 + 1) + shift2
+        scale1, shift1, scale2, shift2 = self._modulation(condition).chunk(4, dim=1)
+        h = torch.addcmul(shift1, self.conv1(F.leaky_relu(x, 0.2)), scale1)
+        return x + torch.addcmul(shift2, self.conv2(F.leaky_relu(h, 0.2)), scale2)
+
+    def _modulation(self, condition: torch.Tensor) -> torch.Tensor:
+        """The four maps, the scales with their +1: one product with the bias as the weight of a channel of
+        ones (a 1x1 convolution with a bias first copies the bias into every pixel of its output, slowly)."""
+        bias = self.modulation.bias.view(4, -1) + torch.tensor([[1.0], [0.0], [1.0], [0.0]], dtype=condition.dtype)
+        weight = torch.cat([self.modulation.weight, bias.view(-1, 1, 1, 1)], 1)
+        ones = torch.ones_like(condition[:, :1])
+        return F.conv2d(torch.cat([condition, ones], 1), weight)
 
 
 class ConditionNet(nn.Module):
@@ -196,8 +202,10 @@ class Generator(nn.Module):
         x0 = self._run(self.enc0, space_to_depth_conv(self.head, torch.cat([radiance, fill, features], 1)), cond[0])
         x1 = self._run(self.enc1, self.down1(F.leaky_relu(x0, 0.2)), cond[1])
         x2 = self._run(self.enc2, self.down2(F.leaky_relu(x1, 0.2)), cond[2])
-        y1 = self._run(self.dec1, x1 + self.up1(F.interpolate(x2, scale_factor=2, mode="bilinear")), cond[1])
-        y0 = self._run(self.dec0, x0 + self.up0(F.interpolate(y1, scale_factor=2, mode="bilinear")), cond[0])
+        # the 1x1 convolutions before the upsampling, on a quarter of the pixels: both are linear and bilinear
+        # weights sum to 1, so the order does not matter (to float rounding)
+        y1 = self._run(self.dec1, x1 + F.interpolate(self.up1(x2), scale_factor=2, mode="bilinear"), cond[1])
+        y0 = self._run(self.dec0, x0 + F.interpolate(self.up0(y1), scale_factor=2, mode="bilinear"), cond[0])
         return fill + F.pixel_shuffle(self.tail(F.leaky_relu(y0, 0.2)), 2)
 
 
