@@ -13,6 +13,7 @@ The threads live as long as the process: starting two threads for every call cos
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Iterable, TypeVar
@@ -26,6 +27,19 @@ def _pool(threads: int) -> ThreadPoolExecutor:
     return ThreadPoolExecutor(threads, thread_name_prefix="gmcpt-worker")
 
 
+@contextlib.contextmanager
+def torch_threads(threads: int):
+    """Run the block with torch on ``threads`` threads, restoring the caller's count afterwards."""
+    import torch
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(previous)
+
+
 def map_single_threaded(function: Callable[[Item], Result], items: Iterable[Item], threads: int) -> list[Result]:
     """``[function(item) for item in items]`` on ``threads`` threads, torch on one thread in each.
 
@@ -35,9 +49,7 @@ def map_single_threaded(function: Callable[[Item], Result], items: Iterable[Item
     import torch
 
     items = list(items)
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
+    with torch_threads(1):
         if threads <= 1 or len(items) <= 1:
             return [function(item) for item in items]
 
@@ -46,5 +58,3 @@ def map_single_threaded(function: Callable[[Item], Result], items: Iterable[Item
             return function(item)
 
         return list(_pool(min(threads, len(items))).map(task, items))
-    finally:
-        torch.set_num_threads(previous)

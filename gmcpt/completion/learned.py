@@ -68,7 +68,7 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     loaded = time.perf_counter()
     threads = int(os.environ.get("GMCPT_TORCH_THREADS", torch.get_num_threads()))
     working, factor = precomplete(generator, frame, domain, target_exposure(frame), threads)
-    observed = domain.forward(frame.radiance, factor)  # in the generator's working domain (exposure folded in)
+    observed = domain.forward_traced(frame.radiance, factor, frame.mask)  # the generator's domain, exposure folded in
     working = blend_samples(working, observed, frame.mask, working_variance(frame, domain, observed, factor))
     timings = {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}
     return working, factor, timings

@@ -45,7 +45,7 @@ def frame_inputs(frame: SparseFrame, domain: WorkingDomain, use_variance: bool, 
                  ) -> tuple[torch.Tensor, torch.Tensor, np.ndarray]:
     """(radiance (1, 3, H, W), features (1, F, H, W), factor (H, W, 3)) of a sparse frame."""
     factor = domain.frame_factor(frame)
-    working = np.where(frame.mask[..., None], domain.forward(frame.radiance, factor), 0.0) / SCALE
+    working = domain.forward_traced(frame.radiance, factor, frame.mask) / SCALE
     std = working_std(domain, frame.radiance, frame.variance, factor, frame.mask) if use_variance else None
     coverage = frame_coverage(frame) if use_coverage else None
     features = feature_stack(frame.mask, frame.albedo, frame.normal, frame.depth, frame.visibility, std, coverage)

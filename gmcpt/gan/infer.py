@@ -7,10 +7,10 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from ..domain import WorkingDomain
+from ..domain import WorkingDomain, channel_mean
 from ..frame import SparseFrame
 from .data import SCALE, frame_inputs
-from ..workers import map_single_threaded
+from ..workers import map_single_threaded, torch_threads
 from .model import Generator
 
 #: Brightness the product brings a frame to before the generator sees it: the 95th percentile of
@@ -42,7 +42,7 @@ def target_exposure(frame: SparseFrame, target: float = EXPOSURE_TARGET) -> floa
     """
     if not frame.mask.any():
         return 1.0
-    level = float(np.percentile(frame.radiance[frame.mask].mean(axis=-1), 95))
+    level = float(np.percentile(channel_mean(frame.radiance[frame.mask]), 95))
     return float(np.clip(target / max(level, 1e-6), 1e-2, 1e3))
 
 
@@ -74,12 +74,8 @@ def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tenso
     layout = bands(height, generator.multiple)
     if len(layout) > 1:
         return torch.cat(map_single_threaded(band_output, layout, threads), 2)
-    previous = torch.get_num_threads()  # one band: on torch's own threads (see BAND_ROWS)
-    torch.set_num_threads(threads)
-    try:
+    with torch_threads(threads):  # one band: on torch's own threads (see BAND_ROWS)
         return band_output(layout[0])
-    finally:
-        torch.set_num_threads(previous)
 
 
 def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import uniform_filter
 
+from ..domain import channel_mean
+
 
 def local_variance(values: np.ndarray, mask: np.ndarray, radius: int = 3) -> np.ndarray:
     """Channel-averaged variance of the rendered values in a window around each pixel.
@@ -46,7 +48,7 @@ def local_variance(values: np.ndarray, mask: np.ndarray, radius: int = 3) -> np.
     enough = count > 1.5
     n = np.maximum(count, 2.0)[..., None]
     variance = np.maximum(squares - total ** 2 / n, 0.0) / (n - 1)
-    return np.where(enough, variance.mean(-1), 0.0).astype(np.float32)
+    return np.where(enough, channel_mean(variance), 0.0).astype(np.float32)
 
 
 #: Weight of the neighbours in :func:`shrunk_variance`, which :func:`working_variance` applies in the
@@ -137,7 +139,8 @@ def blend_samples(estimate: np.ndarray, observed: np.ndarray, mask: np.ndarray, 
         raise ValueError("estimate, observed, mask and variance must share H and W")
     size = 2 * radius + 1
     weight = np.asarray(mask, np.float32)
-    residual = np.where(mask, np.mean((observed - estimate) ** 2, axis=-1) - variance, 0.0)
+    difference = observed - estimate
+    residual = np.where(mask, channel_mean(difference * difference) - variance, 0.0)
     tau2 = uniform_filter(residual.astype(np.float32), size, mode="reflect") \
         / np.maximum(uniform_filter(weight, size, mode="reflect"), 1e-6)
     tau2 = np.maximum(tau2, floor)
