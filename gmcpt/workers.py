@@ -4,9 +4,9 @@ Completion parallelises by splitting its work into fixed parts (tiles of referen
 bands of the generator's input) and running them on Python threads, each with torch
 single-threaded, instead of letting torch's OpenMP pool split every small operation: the
 OpenMP barrier stalls badly when another process holds a core (measured on 2 cores: the
-generator 0.13 s on one thread, 0.6-1.8 s on two while another process ran). The parts are
-fixed by the input, not by the thread count, and results come back in part order, so the
-output does not depend on scheduling.
+generator 0.13 s on one thread, 0.6-1.8 s on two while another process ran). Results come
+back in part order, so the output does not depend on scheduling, and the thread count moves it
+by float rounding at most.
 
 The threads live as long as the process: starting two threads for every call cost about
 10 ms a frame.
