@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .domain import WorkingDomain, pixel_coverage
+from .domain import WorkingDomain, channel_mean, pixel_coverage
 
 #: Share of every density that is spread evenly (the floor): no region is left without samples.
 FLOOR = 0.5
@@ -162,10 +162,9 @@ def error_density(radiance: np.ndarray, variance: np.ndarray, mask: np.ndarray, 
     """
     domain = WorkingDomain()
     pixels = np.flatnonzero(mask)
-    third = np.full(3, 1.0 / 3.0, np.float32)  # a channel mean as a product: a mean over the last axis is slower
     traced_coverage = None if coverage is None else coverage.ravel()[pixels][None]
-    factor = domain.factor(albedo.reshape(-1, 3)[pixels][None], traced_coverage)[0] @ third
-    demodulated = (radiance.reshape(-1, 3)[pixels] @ third) / factor
+    factor = channel_mean(domain.factor(albedo.reshape(-1, 3)[pixels][None], traced_coverage)[0])
+    demodulated = channel_mean(radiance.reshape(-1, 3)[pixels]) / factor
     working = domain.scale * np.log1p(demodulated)
     # the delta method's variance of the working value: (scale / (factor + radiance))^2 * variance
     noise = variance.ravel()[pixels] * (domain.scale / (factor * (1.0 + demodulated))) ** 2
