@@ -42,6 +42,32 @@ SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` dr
 SCATTER_MODE = dr.ReduceMode.Local
 # the features need UVs (textured albedo) and the shading frame, no surface derivatives
 FEATURE_RAY_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFrame
+#: the frozen kernels (dr.freeze) keep the recordings of the last few scenes, resolutions and spp; a new
+#: one of those records again, as expected (e.g. once per scene of a dataset build): no warning about it
+FREEZE_OPTIONS = {"limit": 8, "warn_after": 1 << 30}
+
+
+class FrozenKernel:
+    """``function(scene, ...)`` recorded by ``dr.freeze`` once per scene and settings, then replayed.
+
+    Dr.Jit cannot record a virtual call (a BSDF or emitter lookup) when objects of another scene that
+    is still alive share the call's registry (seen with the breakfast room loaded beside another scene):
+    the recording raises. Such a scene then runs the plain function, for as long as it lives, with the
+    same result. Call with a function that builds the arguments, so a failed recording leaves none dirty.
+    """
+
+    def __init__(self, function: Callable):
+        self.function = function
+        self.frozen = dr.freeze(function, **FREEZE_OPTIONS)
+        self.unfrozen_scenes: set[int] = set()  # id() of the scenes that failed to record (a reused id only costs speed)
+
+    def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple]):
+        if id(scene) not in self.unfrozen_scenes:
+            try:
+                return self.frozen(scene, *arguments())
+            except RuntimeError:
+                self.unfrozen_scenes.add(id(scene))
+        return self.function(scene, *arguments())
 
 
 @dataclass(frozen=True)
@@ -97,7 +123,7 @@ def _primary_rays(sensor: mi.Sensor, sampler: mi.Sampler, pixel: mi.UInt32, widt
     return ray, weight
 
 
-def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int, lanes: int) -> mi.Sampler:
+def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int | mi.UInt32, lanes: int) -> mi.Sampler:
     sampler = sensor.sampler().clone()
     sampler.set_sample_count(spp)
     sampler.set_samples_per_wavefront(spp)
@@ -105,22 +131,13 @@ def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int, lanes: int) -> mi.Sa
     return sampler
 
 
-def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAULT_FEATURE_SPP, seed: int = 0) -> dict:
-    """Albedo, shading normal, depth and visibility for every pixel.
-
-    Returns a dict of float32 arrays: ``albedo`` and ``normal`` (H, W, 3),
-    ``depth``, ``visibility`` and ``coverage`` (H, W).
-
-    ``albedo`` is the diffuse reflectance of BSDFs that have a diffuse lobe,
-    clipped to [0, 1], and 0 for the others: Mitsuba's default
-    ``eval_diffuse_reflectance`` (the BSDF times pi at normal incidence) gives
-    a rough metal an "albedo" of 5 to 70 where its highlight faces the camera.
-    ``coverage`` is the fraction of the pixel's rays whose albedo is at least
-    :data:`~gmcpt.domain.ALBEDO_MIN` (the rays that demodulation divides).
-    """
-    height, width = _sensor_film_size(sensor)
+def _feature_means(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, feature_spp: int, camera: tuple) -> list:
+    """Per-pixel means of albedo (3), normal (3), hit distance, visibility, hit fraction and coverage over
+    ``feature_spp`` primary rays (see :func:`render_features`); ``camera`` (:func:`_camera_key`) keys the
+    recording of :data:`_frozen_feature_means`."""
+    width, height = camera[0]
     lanes = height * width * feature_spp
-    sampler = _seeded_sampler(sensor, feature_spp, (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT, lanes)
+    sampler = _seeded_sampler(sensor, feature_spp, seed, lanes)
     pixel = dr.arange(mi.UInt32, lanes) // feature_spp
     ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
     si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
@@ -143,7 +160,30 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
         for target, value in zip(means, values):
             dr.scatter_reduce(dr.ReduceOp.Add, target, value / feature_spp, pixel, mode=SCATTER_MODE)
         values = means
-    dr.eval(values)  # one kernel for all buffers
+    return values
+
+
+#: :func:`_feature_means` recorded once per scene, resolution and feature spp, then replayed (as the radiance pass)
+_frozen_feature_means = FrozenKernel(_feature_means)
+
+
+def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAULT_FEATURE_SPP, seed: int = 0) -> dict:
+    """Albedo, shading normal, depth and visibility for every pixel.
+
+    Returns a dict of float32 arrays: ``albedo`` and ``normal`` (H, W, 3),
+    ``depth``, ``visibility`` and ``coverage`` (H, W).
+
+    ``albedo`` is the diffuse reflectance of BSDFs that have a diffuse lobe,
+    clipped to [0, 1], and 0 for the others: Mitsuba's default
+    ``eval_diffuse_reflectance`` (the BSDF times pi at normal incidence) gives
+    a rough metal an "albedo" of 5 to 70 where its highlight faces the camera.
+    ``coverage`` is the fraction of the pixel's rays whose albedo is at least
+    :data:`~gmcpt.domain.ALBEDO_MIN` (the rays that demodulation divides).
+    """
+    height, width = _sensor_film_size(sensor)
+    feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
+    values = _frozen_feature_means(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), feature_spp,
+                                                   _camera_key(sensor)))
     columns = [np.asarray(value, dtype=np.float32).reshape(height, width) for value in values]
     albedo, normal = np.stack(columns[0:3], axis=-1), np.stack(columns[3:6], axis=-1)
     distance, visible, hit_fraction, coverage = columns[6:]
@@ -156,6 +196,42 @@ def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAU
             "coverage": coverage}
 
 
+def _camera_key(sensor: mi.Sensor) -> tuple:
+    """The sensor's scalar settings that :func:`_primary_rays` bakes into a kernel as constants."""
+    film = sensor.film()
+    return (tuple(film.crop_size()), tuple(film.crop_offset()), sensor.shutter_open(), sensor.shutter_open_time(),
+            sensor.needs_aperture_sample())
+
+
+def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: mi.UInt32,
+                lane: mi.UInt32, seed: mi.UInt32, spp: int, camera: tuple, sums: list) -> list:
+    """Path trace lane ``k * spp + s`` (``lane`` counts them) as sample ``s`` of pixel ``pixels[k]`` and add
+    (R, G, B, squared norm, finite count) of the finite samples to ``sums`` (five zero arrays, one value a pixel).
+
+    Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
+    pixel count; ``camera`` (:func:`_camera_key`) only keys the recording.
+    """
+    sampler = _seeded_sampler(sensor, spp, seed, dr.width(lane))
+    lane_pixel = lane // spp
+    ray, weight = _primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp)
+    radiance, _, _ = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
+    radiance = weight * radiance
+    finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
+    radiance = dr.select(finite, radiance, 0.0)
+    # Accumulate per pixel inside the path tracing kernel (as the film does,
+    # with as many channels: RGB, squared norm, count of finite samples).
+    values = [radiance[0], radiance[1], radiance[2], dr.squared_norm(radiance), dr.select(finite, 1.0, 0.0)]
+    for target, value in zip(sums, values):
+        dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
+    return sums
+
+
+#: :func:`_pixel_sums` recorded once per scene, integrator, spp and camera, then replayed: tracing the path
+#: integrator's kernel in Python costs about 10 ms a pass (a tenth of that replayed), as much as 2 % of a
+#: cheap 16-spp frame. A recording costs about what one plain trace does.
+_frozen_pixel_sums = FrozenKernel(_pixel_sums)
+
+
 def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
                  pixels: np.ndarray, spp: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Path trace ``spp`` samples for each flat pixel index in ``pixels``.
@@ -164,23 +240,11 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     shapes (n, 3), (n,) and (n,); the sum of squares is summed over the three
     channels (all that the channel-averaged variance needs).
     """
-    _, width = _sensor_film_size(sensor)
-    lanes = pixels.size * spp
-    sampler = _seeded_sampler(sensor, spp, seed, lanes)
-    pixel = dr.gather(mi.UInt32, mi.UInt32(pixels.astype(np.uint32)), dr.arange(mi.UInt32, lanes) // spp)
-    ray, weight = _primary_rays(sensor, sampler, pixel, width, spp)
-    radiance, _, _ = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
-    radiance = weight * radiance
-    finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
-    radiance = dr.select(finite, radiance, 0.0)
-    # Accumulate per pixel inside the path tracing kernel (as the film does,
-    # with as many channels: RGB, squared norm, count of finite samples).
-    lane_pixel = dr.arange(mi.UInt32, lanes) // spp
-    values = [radiance[0], radiance[1], radiance[2], dr.squared_norm(radiance), dr.select(finite, 1.0, 0.0)]
-    sums = [dr.zeros(mi.Float, pixels.size) for _ in values]
-    for target, value in zip(sums, values):
-        dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
-    dr.eval(sums)
+    # opaque zeros and seed: literals that change between calls would make the frozen function record again
+    sums = _frozen_pixel_sums(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
+                                              dr.arange(mi.UInt32, pixels.size * spp), dr.opaque(mi.UInt32, seed),
+                                              spp, _camera_key(sensor),
+                                              [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
     red, green, blue, squares, count = (np.asarray(column) for column in sums)
     return np.stack([red, green, blue], axis=1), squares, count
 

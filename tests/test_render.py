@@ -27,6 +27,56 @@ def test_rate_one_equals_stock_path(mi, cornell, path_tracer):
     assert {"features_s", "render_s"} <= timings.keys()
 
 
+def _plain_pixel_sums(mi, scene, path_tracer, pixels, spp, seed):
+    """trace_pixels' sums from the plain (never frozen) function."""
+    import drjit as dr
+    from gmcpt.render import _camera_key, _pixel_sums
+
+    sensor = scene.sensors()[0]
+    sums = _pixel_sums(scene, sensor, path_tracer, mi.UInt32(pixels.astype(np.uint32)),
+                       dr.arange(mi.UInt32, pixels.size * spp), mi.UInt32(seed), spp, _camera_key(sensor),
+                       [dr.zeros(mi.Float, pixels.size) for _ in range(5)])
+    return np.stack([np.asarray(column) for column in sums[:3]], axis=1), np.asarray(sums[3])
+
+
+def test_replayed_trace_equals_a_fresh_trace_for_any_pixel_count_and_seed(mi, cornell, path_tracer):
+    """trace_pixels replays a recorded kernel: other pixel counts and seeds must still be traced as asked."""
+    from gmcpt.render import trace_pixels
+
+    sensor = cornell.sensors()[0]
+    rng = np.random.default_rng(0)
+    for count, seed in ((300, 1), (700, 1), (700, 9), (1920, 4)):
+        pixels = np.sort(rng.choice(48 * 40, count, replace=False))
+        total, squares, finite = trace_pixels(cornell, sensor, path_tracer, pixels, 4, seed)
+        plain_total, plain_squares = _plain_pixel_sums(mi, cornell, path_tracer, pixels, 4, seed)
+        assert total.shape == (count, 3) and np.all(finite == 4)
+        np.testing.assert_array_equal(total, plain_total)
+        np.testing.assert_array_equal(squares, plain_squares)
+
+
+def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, path_tracer, monkeypatch):
+    """A recording that Dr.Jit refuses (a virtual call it cannot follow) falls back to the plain
+    function for that scene: same sums, and no second try at recording it."""
+    from gmcpt import render
+
+    kernel = render.FrozenKernel(render._pixel_sums)
+    refusals = []
+
+    def refuse(*arguments):
+        refusals.append(1)
+        raise RuntimeError("no such object instance was found in the function's inputs")
+
+    kernel.frozen = refuse
+    monkeypatch.setattr(render, "_frozen_pixel_sums", kernel)
+    pixels = np.arange(0, 48 * 40, 3)
+    for _ in range(2):
+        total, squares, _ = render.trace_pixels(cornell, cornell.sensors()[0], path_tracer, pixels, 4, 2)
+        plain_total, plain_squares = _plain_pixel_sums(mi, cornell, path_tracer, pixels, 4, 2)
+        np.testing.assert_array_equal(total, plain_total)
+        np.testing.assert_array_equal(squares, plain_squares)
+    assert len(refusals) == 1 and kernel.unfrozen_scenes == {id(cornell)}
+
+
 def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
     from gmcpt.render import RenderSettings, render_sparse_frame
 
