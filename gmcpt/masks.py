@@ -170,15 +170,20 @@ def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,
     ``exclude`` (bool) pixels are never picked; ``count`` is clipped to the pixels left.
     """
     height, width = density.shape
-    weight = np.maximum(np.nan_to_num(density.astype(np.float32), nan=0.0, posinf=0.0), 0.0)
-    allowed = np.ones((height, width), bool) if exclude is None else ~exclude
-    count = int(min(count, allowed.sum()))
+    available = height * width - (0 if exclude is None else int(np.count_nonzero(exclude)))
+    count = int(min(count, available))
     mask = np.zeros(height * width, bool)
     if count <= 0:
         return mask.reshape(height, width)
-    thresholds = _thresholds(height, width, rng)
+    # keys = -(max(density, 0) + 1e-12) / thresholds, in one float32 buffer (NaN and inf count as 0)
+    keys = np.maximum(density, np.float32(0.0), dtype=np.float32)
+    if not np.isfinite(keys).all():
+        np.nan_to_num(keys, copy=False, nan=0.0, posinf=0.0)
+    keys += np.float32(1e-12)
+    keys /= _thresholds(height, width, rng)
+    np.negative(keys, out=keys)
+    if exclude is not None:
+        keys[exclude] = np.float32(1.0)  # after every allowed key, which are all negative
     # ties (zero density) are broken by the thresholds, so the count is always exact
-    keys = np.where(allowed, (weight + np.float32(1e-12)) / thresholds, np.float32(-1.0)).ravel()
-    chosen = np.argpartition(-keys, count - 1)[:count]
-    mask[chosen] = True
+    mask[np.argpartition(keys.ravel(), count - 1)[:count]] = True
     return mask.reshape(height, width)

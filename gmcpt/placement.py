@@ -41,16 +41,24 @@ def feature_edges(albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray,
     """(H, W) float32 edge strength in [0, 1]: the largest difference to a 4-neighbour of any channel of
     albedo, normal (halved), log depth and visibility (clipped to 1), widened by one pixel so both sides
     of an edge count."""
-    # contiguous planes: differences along a strided channel view are a third slower
-    planes = [*np.ascontiguousarray(np.moveaxis(albedo, -1, 0)),
-              *np.ascontiguousarray(np.moveaxis(0.5 * normal, -1, 0)),
-              np.log(np.maximum(depth, DEPTH_EPS)), visibility]
     height, width = depth.shape
+    log_depth = np.maximum(depth, DEPTH_EPS, dtype=np.float32)
+    np.log(log_depth, out=log_depth)
+    # (plane, scale): halving a difference is exact, so it equals the difference of halved normals
+    planes = [(albedo[..., 0], 1.0), (albedo[..., 1], 1.0), (albedo[..., 2], 1.0), (normal[..., 0], 0.5),
+              (normal[..., 1], 0.5), (normal[..., 2], 0.5), (log_depth, 1.0), (visibility, 1.0)]
     dx = np.zeros((height, width - 1), np.float32)
     dy = np.zeros((height - 1, width), np.float32)
-    for plane in planes:  # one channel at a time: a max over a short last axis is ten times slower
-        np.maximum(dx, np.abs(plane[:, 1:] - plane[:, :-1]), out=dx)
-        np.maximum(dy, np.abs(plane[1:] - plane[:-1]), out=dy)
+    # one scratch buffer a direction: each fresh full-frame temporary costs page faults in a render
+    step_x, step_y = np.empty_like(dx), np.empty_like(dy)
+    for plane, scale in planes:  # one channel at a time: a max over a short last axis is ten times slower
+        for largest, step, ahead, behind in ((dx, step_x, plane[:, 1:], plane[:, :-1]),
+                                             (dy, step_y, plane[1:], plane[:-1])):
+            np.subtract(ahead, behind, out=step)
+            np.abs(step, out=step)
+            if scale != 1.0:
+                step *= np.float32(scale)
+            np.maximum(largest, step, out=largest)
     edges = np.zeros((height + 2, width + 2), np.float32)  # padded: the widening below needs no bounds checks
     inner = edges[1:-1, 1:-1]
     np.maximum(inner[:, 1:], dx, out=inner[:, 1:])
@@ -58,8 +66,10 @@ def feature_edges(albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray,
     np.maximum(inner[1:], dy, out=inner[1:])
     np.maximum(inner[:-1], dy, out=inner[:-1])
     np.minimum(inner, 1.0, out=inner)
-    widened = np.maximum(np.maximum(edges[:, :-2], edges[:, 1:-1]), edges[:, 2:])
-    return np.maximum(np.maximum(widened[:-2], widened[1:-1]), widened[2:])
+    widened = np.maximum(edges[:, :-2], edges[:, 1:-1])
+    np.maximum(widened, edges[:, 2:], out=widened)
+    result = np.maximum(widened[:-2], widened[1:-1])
+    return np.maximum(result, widened[2:], out=result)
 
 
 def _normalise(weight: np.ndarray, floor: float) -> np.ndarray:
@@ -99,21 +109,38 @@ def feature_density(albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray, v
     # 1 + EDGE_GAIN * capped edges + SPECULAR_GAIN * (1 - coverage), in place: few full-frame temporaries
     weight = _capped_weight(feature_edges(albedo, normal, depth, visibility))
     weight += 1.0 + SPECULAR_GAIN
-    weight -= SPECULAR_GAIN * np.clip(coverage, 0.0, 1.0, dtype=np.float32)
+    uncovered = np.clip(coverage, 0.0, 1.0, dtype=np.float32)
+    uncovered *= np.float32(SPECULAR_GAIN)
+    weight -= uncovered
     return _normalise(weight, floor)
 
 
 def _window_sums(planes: np.ndarray, window: int) -> np.ndarray:
     """Sums of (..., H, W) ``planes`` over ``window`` x ``window`` neighbourhoods (odd), edges repeated."""
     radius = window // 2
-    padded = np.pad(planes, [(0, 0)] * (planes.ndim - 2) + [(radius, radius)] * 2, mode="edge")
-    rows = sum(padded[..., shift:shift + planes.shape[-2], :] for shift in range(window))
-    return sum(rows[..., shift:shift + planes.shape[-1]] for shift in range(window))
+    height, width = planes.shape[-2:]
+    # padded by repeating the edges (as np.pad's "edge" mode, at a fraction of its call overhead)
+    padded = np.empty(planes.shape[:-2] + (height + 2 * radius, width + 2 * radius), planes.dtype)
+    padded[..., radius:radius + height, radius:radius + width] = planes
+    padded[..., :radius, radius:radius + width] = planes[..., :1, :]
+    padded[..., radius + height:, radius:radius + width] = planes[..., -1:, :]
+    padded[..., :radius] = padded[..., radius:radius + 1]
+    padded[..., radius + width:] = padded[..., radius + width - 1:radius + width]
+    rows = padded[..., :height, :].copy()  # summed in place: one buffer a direction
+    for shift in range(1, window):
+        rows += padded[..., shift:shift + height, :]
+    total = rows[..., :width].copy()
+    for shift in range(1, window):
+        total += rows[..., shift:shift + width]
+    return total
 
 
 def _upsampled(bins: np.ndarray, size: int, height: int, width: int) -> np.ndarray:
     """Each bin's value on its ``size`` x ``size`` pixels, cropped to (height, width)."""
-    return np.repeat(np.repeat(bins, size, axis=0), size, axis=1)[:height, :width]
+    rows, columns = bins.shape
+    blocks = np.empty((rows, size, columns, size), bins.dtype)
+    blocks[...] = bins[:, None, :, None]
+    return blocks.reshape(rows * size, columns * size)[:height, :width]
 
 
 def _disagreement(pixels: np.ndarray, values: np.ndarray, noise: np.ndarray, mask: np.ndarray,
