@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Callable
 
 from . import interrupts
+from .device import DEVICE_ENV, completion_device
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP
 
@@ -154,6 +155,8 @@ def run(args, say=lambda message: None, extra: dict | None = None) -> dict:
     width, height = int(size[0]), int(size[1])
     check_resolution(width, height, integrator.feature_spp)
     check_size(integrator.completion, height, width)
+    if os.environ.get(DEVICE_ENV):  # a device asked for by name must exist before the render starts
+        completion_device()
     if reference is not None and reference.shape != (height, width, 3):
         raise GmcptError(f"reference {args.reference} is {reference.shape[1]}x{reference.shape[0]}, "
                          f"the render is {width}x{height}")
@@ -174,6 +177,8 @@ def run(args, say=lambda message: None, extra: dict | None = None) -> dict:
         "parameters": {"rate": settings.rate, "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
                        "feature_spp": settings.feature_spp, "method": integrator.completion,
                        "tile": integrator.tile, **_weights_record(integrator),
+                       # completion imports torch only for the methods that run on it
+                       "device": completion_device() if "torch" in sys.modules else "cpu",
                        "resolution": [width, height], "scene_parameters": parameters,
                        "integrator": " ".join(str(integrator.integrator).split())},
         "versions": library_versions(),

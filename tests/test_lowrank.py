@@ -198,7 +198,7 @@ def test_guide_features_and_single_channel(frame):
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
 def test_cuda_matches_cpu(frame):
     ref, obs, mask, var, pre = frame
-    a, _ = complete_low_rank(pre, obs, mask, variance=var, params=FAST)
+    a, _ = complete_low_rank(pre, obs, mask, variance=var, params=replace(FAST, device="cpu"))
     b, _ = complete_low_rank(pre, obs, mask, variance=var, params=replace(FAST, device="cuda"))
     assert np.abs(a - b).mean() < 0.05
 

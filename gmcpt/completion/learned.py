@@ -22,6 +22,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..device import completion_device
 from ..domain import WorkingDomain
 from ..frame import SparseFrame
 from ..lowrank.params import DEFAULT as LOW_RANK_DEFAULT
@@ -65,6 +66,7 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
 
     start = time.perf_counter()
     generator, _ = load_generator(weights)
+    generator.to(completion_device())  # in place: the cached generator stays on that device
     loaded = time.perf_counter()
     threads = int(os.environ.get("GMCPT_TORCH_THREADS", torch.get_num_threads()))
     working, factor = precomplete(generator, frame, domain, target_exposure(frame), threads)

@@ -61,7 +61,8 @@ def bands(height: int, multiple: int) -> list[tuple[int, int]]:
 
 def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tensor, threads: int = 1) -> torch.Tensor:
     """``generator(radiance, features)`` band by band (:data:`BAND_ROWS`), on ``threads`` threads: bands
-    dealt to threads that each run torch on one thread, or one band on ``threads`` torch threads."""
+    dealt to threads that each run torch on one thread, or one band on ``threads`` torch threads. On a
+    GPU (the inputs' device) the same bands run one after another."""
     height = radiance.shape[2]
 
     def band_output(band):
@@ -72,6 +73,8 @@ def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tenso
         return output[:, :, first - top:stop - top]
 
     layout = bands(height, generator.multiple)
+    if radiance.device.type != "cpu":
+        return torch.cat([band_output(band) for band in layout], 2)
     if len(layout) > 1:
         return torch.cat(map_single_threaded(band_output, layout, threads), 2)
     with torch_threads(threads):  # one band: on torch's own threads (see BAND_ROWS)
@@ -87,7 +90,7 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
     radiance at the frame's own exposure, and ``domain.forward(frame.radiance, factor)`` is
     the frame in the working domain the generator ran in. The frame is padded (reflect) to a
     multiple of the generator's :attr:`~gmcpt.gan.model.Generator.multiple` and cropped back. The
-    generator runs in bands (:func:`generate`) on ``threads`` threads.
+    generator runs in bands (:func:`generate`) on ``threads`` threads, on the generator's device.
     """
     if exposure != 1.0:
         frame = exposed(frame, exposure)
@@ -97,6 +100,8 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
     multiple = generator.multiple
     pad = (0, -width % multiple, 0, -height % multiple)
     mode = "reflect" if min(height, width) > multiple else "replicate"
-    output = generate(generator, F.pad(radiance, pad, mode=mode), F.pad(features, pad, mode=mode), threads)
-    working = output[0, :, :height, :width].permute(1, 2, 0).numpy() * SCALE
+    device = next(generator.parameters()).device
+    output = generate(generator, F.pad(radiance, pad, mode=mode).to(device), F.pad(features, pad, mode=mode).to(device),
+                      threads)
+    working = output[0, :, :height, :width].permute(1, 2, 0).cpu().numpy() * SCALE
     return np.maximum(working, 0.0).astype(np.float32), factor / np.float32(exposure)

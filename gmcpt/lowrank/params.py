@@ -86,7 +86,8 @@ class LowRankParams:
         (memory grows with the tile, not the frame); None makes one tile (on
         CPU it is still cut into row bands so every thread has work).
     device : str
-        Torch device, e.g. ``"cpu"`` or ``"cuda"``.
+        Torch device (``"cpu"``, ``"cuda"``), or ``"auto"``: :func:`gmcpt.device.completion_device`'s
+        choice (``$GMCPT_DEVICE``, else CUDA where torch sees a GPU, else the CPU).
     """
 
     patch_size: int = 7
@@ -107,7 +108,7 @@ class LowRankParams:
     wiener: float = 2.0
     momentum: float = 0.8
     tile_size: int | None = 128
-    device: str = "cpu"
+    device: str = "auto"
 
     def __post_init__(self):
         ints = dict(patch_size=1, step=1, search_radius=0, group_size=1, iterations=0,
@@ -136,7 +137,7 @@ class LowRankParams:
                                            or self.tile_size < 1):
             raise ValueError(f"tile_size must be a positive integer or None, "
                              f"got {self.tile_size!r}")
-        if self.device != "cpu":  # the presets (made when gmcpt is imported) need no torch
+        if self.device not in ("cpu", "auto"):  # the presets (made when gmcpt is imported) need no torch
             import torch
 
             try:

@@ -51,6 +51,7 @@ import time
 import numpy as np
 import torch
 
+from ..device import completion_device
 from ..workers import map_single_threaded, torch_threads
 from .linalg import stable_eigh
 from .matching import block_match, matching_signal
@@ -278,7 +279,7 @@ def complete_low_rank(pre_completed, observed, mask, *, variance=None, guide=Non
         pre_completed, observed, mask, variance, guide, params)
     h, w, ch = pre.shape
     p = params.patch_size
-    dev = torch.device(params.device)
+    dev = torch.device(completion_device(params.device))
     f32 = dict(dtype=torch.float32, device=dev)
 
     x = torch.as_tensor(pre.reshape(-1, ch), **f32)
