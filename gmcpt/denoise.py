@@ -1,7 +1,5 @@
-"""Intel Open Image Denoise (``pyoidn``, CPU, weights inside its wheel): the path tracing + OIDN baseline.
-
-``pyoidn`` is an optional dependency (``pip install -e '.[dev]'``).
-"""
+"""Intel Open Image Denoise (``pyoidn``, CPU, weights inside its wheel): the last stage of the ``*_oidn``
+methods (:mod:`gmcpt.completion.denoised`) and the path tracing + OIDN baseline."""
 from __future__ import annotations
 
 import numpy as np
@@ -14,7 +12,7 @@ def denoise_oidn(image: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> n
     try:
         import pyoidn
     except ImportError:
-        raise GmcptError("OIDN (the path tracing + OIDN baseline) needs pyoidn: pip install -e '.[dev]'") from None
+        raise GmcptError("Intel Open Image Denoise is missing: pip install pyoidn (a dependency of gmcpt)") from None
     contiguous = lambda array: np.ascontiguousarray(array, dtype=np.float32)  # noqa: E731
     return np.asarray(pyoidn.denoise(contiguous(image), contiguous(albedo), contiguous(normal), hdr=True),
                       dtype=np.float32)

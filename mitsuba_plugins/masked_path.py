@@ -13,7 +13,7 @@ from gmcpt.plugins import constructor
 from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
 from gmcpt.scene import scene_sensor
 
-DEFAULT_COMPLETION = "gan_pawnnm"
+DEFAULT_COMPLETION = "gan_oidn"
 
 
 class MaskedPathIntegrator(mi.SamplingIntegrator):
@@ -47,7 +47,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - Primary samples per pixel of the feature pass (albedo, normal, depth, visibility). (Default: 4)
      * - completion
        - |string|
-       - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``gan_pawnnm``, the full method)
+       - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``gan_oidn``: GAN fill, then Intel OIDN)
      * - weights
        - |string|
        - Generator weights of the GAN methods: a shipped name or a ``.pt`` path, checked at load time.

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Make the README picture: a sparse input beside its completion.
 
-    python scripts/readme_figure.py [--scene scenes/still-life/scene.xml] [--method gan_pawnnm]
+    python scripts/readme_figure.py [--scene scenes/still-life/scene.xml] [--method gan_oidn]
 
 Writes docs/images/<scene>-<method>.png: sparse input (30% of pixels, 16 spp)
 on the left, the completed image on the right.
@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default=str(ROOT / "scenes" / "still-life" / "scene.xml"))
-    parser.add_argument("--method", default="gan_pawnnm")
+    parser.add_argument("--method", default="gan_oidn")
     parser.add_argument("--rate", type=float, default=0.3)
     args = parser.parse_args()
 

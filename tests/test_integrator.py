@@ -21,7 +21,7 @@ def test_bundled_scene_renders_through_mi_render(mi, scene_file):
     frame, image = unpack(tensor)
     assert frame.mask.sum() == round(0.25 * 64 * 64)
     assert np.isfinite(image).all() and image.mean() > 0.01
-    assert integrator.completion == "gan_pawnnm"  # the default, the full method: fills the others and denoises the traced pixels
+    assert integrator.completion == "gan_oidn"  # the default: fills the others, OIDN denoises every pixel
     assert (image[~frame.mask].sum(axis=-1) > 0).mean() > 0.5
     assert not np.allclose(image[frame.mask], frame.radiance[frame.mask])
     # the denoised traced pixels keep their samples' brightness as displayed (clamped to [0, 1]); in

@@ -11,7 +11,8 @@ Methods shipped: ``none`` (the sparse image as is) and ``interp``
 (feature-guided interpolation) in :mod:`~gmcpt.completion.classical`;
 ``pawnnm``, ``nnm`` and ``liu`` (a fill, then patch-group matrix completion)
 in :mod:`~gmcpt.completion.matrix`; ``gan`` and ``gan_pawnnm`` in
-:mod:`~gmcpt.completion.learned`.
+:mod:`~gmcpt.completion.learned`; ``gan_oidn`` (the default) and ``gan_pawnnm_oidn`` (a fill, the
+traced samples, then Intel OIDN) in :mod:`~gmcpt.completion.denoised`.
 """
 from __future__ import annotations
 
@@ -110,3 +111,4 @@ def complete(frame: SparseFrame, method: str = "interp", tile: int | None = None
 from .check import check_frame, check_options, check_size, check_weights, sanitize  # noqa: E402,F401
 from . import classical, matrix  # noqa: E402,F401  (registers none, interp; pawnnm, nnm, liu)
 from . import learned  # noqa: E402,F401  (registers gan, gan_pawnnm)
+from . import denoised  # noqa: E402,F401  (registers gan_oidn, gan_pawnnm_oidn)

@@ -42,15 +42,15 @@ class EvalConfig:
     feature_spp: int = DEFAULT_FEATURE_SPP
     mask: str = DEFAULT_PATTERN
     placements: tuple[str, ...] = ("random", "stratified", "adaptive", "two_pass")
-    placement_variant: str = "gan_pawnnm"
-    variants: tuple[str, ...] = ("interp", "liu", "nnm", "pawnnm", "gan", "gan_pawnnm")
+    placement_variant: str = "gan_oidn"
+    variants: tuple[str, ...] = ("interp", "liu", "nnm", "pawnnm", "gan", "gan_pawnnm", "gan_oidn", "gan_pawnnm_oidn")
     patch_sizes: tuple[int, ...] = (5, 6, 7, 8)
     patch_rates: tuple[float, ...] = (0.3,)
     grid_rate: float = 0.3
     path_spp: tuple[int, ...] = (1, 2, 4, 8, 16, 32)
     budget_rates: tuple[float, ...] = (0.25, 0.5)
     budget_spp: tuple[int, ...] = (1, 4, 16)
-    budget_variants: tuple[str, ...] = ("pawnnm", "gan_pawnnm")
+    budget_variants: tuple[str, ...] = ("pawnnm", "gan_pawnnm", "gan_oidn")
     timing_resolutions: tuple[int, ...] = (128, 256)
     timing_scene: str = "still-life"
     repeats: int = 2
@@ -91,6 +91,8 @@ VARIANTS = {variant.label: variant for variant in (
     Variant("pawnnm", "pawnnm", "classical pre-completion + block matching + PAWNNM"),
     Variant("gan", "gan", "GAN pre-completion alone"),
     Variant("gan_pawnnm", "gan_pawnnm", "GAN pre-completion + block matching + PAWNNM (the paper's full method)"),
+    Variant("gan_oidn", "gan_oidn", "GAN fill, the traced samples put back, Intel OIDN over the frame (the default)"),
+    Variant("gan_pawnnm_oidn", "gan_pawnnm_oidn", "gan_pawnnm's fill, the traced samples put back, Intel OIDN"),
 )}
 
 

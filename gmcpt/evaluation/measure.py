@@ -177,6 +177,7 @@ def stage_timings(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
                    "pre_completion_s": timings.get("pre_completion_s", 0.0),
                    "block_matching_s": timings.get("block_matching_s", 0.0), "svd_s": timings.get("svd_s", 0.0),
                    "aggregation_s": timings.get("aggregation_s", 0.0), "wiener_s": timings.get("wiener_s", 0.0),
+                   "denoise_s": timings.get("denoise_s", 0.0),
                    "completion_s": timings["completion_s"]}
             row["total_s"] = sum(render_timings.values()) + row["completion_s"]
             rows.append(row)

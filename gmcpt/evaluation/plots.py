@@ -11,7 +11,8 @@ from .report import contender_name, contenders
 
 STYLE = {"path": ("tab:gray", "o"), "path+oidn": ("tab:blue", "s"), "pawnnm": ("tab:orange", "^"),
          "gan_pawnnm": ("tab:red", "v"), "interp": ("tab:olive", "x"), "liu": ("tab:purple", "d"),
-         "nnm": ("tab:brown", "<"), "gan": ("tab:pink", ">")}
+         "nnm": ("tab:brown", "<"), "gan": ("tab:pink", ">"), "gan_oidn": ("tab:green", "*"),
+         "gan_pawnnm_oidn": ("tab:cyan", "P")}
 
 
 def _figure(columns: int, panels: int, size=(4.2, 3.4)):

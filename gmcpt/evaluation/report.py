@@ -206,9 +206,9 @@ def crossover_table(rows: list[dict]) -> str:
 
 def stage_table(rows: list[dict]) -> str:
     keys = ["features_s", "render_s", "pre_completion_s", "block_matching_s", "svd_s", "aggregation_s",
-            "wiener_s", "completion_s", "total_s"]
-    header = ["resolution", "method", "features", "render", "pre-completion (GAN for gan_pawnnm)",
-              "block matching", "SVD", "aggregation", "Wiener pass", "completion (all)", "total"]
+            "wiener_s", "denoise_s", "completion_s", "total_s"]
+    header = ["resolution", "method", "features", "render", "pre-completion (the fill, or the GAN)",
+              "block matching", "SVD", "aggregation", "Wiener pass", "OIDN", "completion (all)", "total"]
     return _table(header, [[f"{r['resolution']}x{r['resolution']}", r["variant"],
                             *(f"{r.get(k, 0.0):.3f}" for k in keys)] for r in rows])
 

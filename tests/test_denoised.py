@@ -1,0 +1,50 @@
+"""gan_oidn and gan_pawnnm_oidn: a fill, the traced samples put back, then Intel OIDN."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from conftest import synthetic_frame
+from gmcpt.completion import Completion, complete, methods
+
+
+def _noisy_frame(rate=0.3, sigma=0.08, seed=1):
+    """The synthetic frame with Gaussian noise on its traced samples (and that noise as their variance)."""
+    frame, clean = synthetic_frame(96, 128, rate=rate)
+    noise = np.random.default_rng(seed).normal(0.0, sigma, frame.radiance.shape).astype(np.float32)
+    radiance = np.where(frame.mask[..., None], np.maximum(clean + noise, 0.0), 0.0).astype(np.float32)
+    variance = np.where(frame.mask, sigma ** 2, 0.0).astype(np.float32)
+    return dataclasses.replace(frame, radiance=radiance, variance=variance), clean
+
+
+def test_the_denoiser_sees_the_traced_samples_and_the_fill_elsewhere(monkeypatch):
+    from gmcpt.completion import denoised
+
+    frame, _ = _noisy_frame()
+    fill = np.full(frame.radiance.shape, 0.25, np.float32)
+    seen = {}
+
+    def identity(image, albedo, normal):
+        seen.update(image=image, albedo=albedo, normal=normal)
+        return image.astype(np.float32)
+
+    monkeypatch.setattr(denoised, "denoise_oidn", identity)
+    result = denoised.denoise_over_fill(frame, Completion(fill, {"pre_completion_s": 0.1}))
+    np.testing.assert_array_equal(result.image[frame.mask], frame.radiance[frame.mask])
+    assert np.all(result.image[~frame.mask] == 0.25)
+    assert seen["albedo"] is frame.albedo and seen["normal"] is frame.normal
+    assert result.timings["pre_completion_s"] == 0.1 and result.timings["denoise_s"] >= 0
+
+
+@pytest.mark.parametrize("method", ["gan_oidn", "gan_pawnnm_oidn"])
+def test_oidn_methods_denoise_the_traced_pixels_and_fill_the_rest(method):
+    assert method in methods()
+    frame, clean = _noisy_frame()
+    result = complete(frame, method)
+    assert result.image.shape == clean.shape and np.isfinite(result.image).all()
+    traced = frame.mask
+    noisy_error = np.mean((frame.radiance[traced] - clean[traced]) ** 2)
+    assert np.mean((result.image[traced] - clean[traced]) ** 2) < 0.5 * noisy_error
+    assert np.mean((result.image[~traced] - clean[~traced]) ** 2) < noisy_error
+    assert {"pre_completion_s", "denoise_s", "completion_s"} <= result.timings.keys()
+    assert np.array_equal(complete(frame, method).image, result.image)  # same frame, same output
