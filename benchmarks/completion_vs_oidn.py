@@ -12,7 +12,7 @@ the measured call added to what the process held before it.
 The table prints completion / OIDN time ratios side by side.
 
     python benchmarks/completion_vs_oidn.py [--sizes 256x256 1024x1024 1920x1080 3840x2160]
-                                            [--method gan_pawnnm] [--tile 512] [--repeats 3] [--weights NAME]
+                                            [--method gan_oidn] [--tile 512] [--repeats 3] [--weights NAME]
 """
 from __future__ import annotations
 
@@ -94,15 +94,17 @@ def main() -> int:
     parser.add_argument("--scene", default=str(ROOT / "scenes" / "still-life" / "scene.xml"))
     parser.add_argument("--rate", type=float, default=0.3)
     parser.add_argument("--spp", type=int, default=4)
-    parser.add_argument("--method", default="gan_pawnnm")
+    parser.add_argument("--method", help="completion method (default: the product's)")
     parser.add_argument("--tile", type=int, help="completion tile side (0: the whole frame; default: the product's)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--weights", help="generator weights of the GAN methods (default: the shipped default)")
     parser.add_argument("--child", nargs=2, metavar=("FRAME", "WHAT"), help=argparse.SUPPRESS)
     args = parser.parse_args()
+    from gmcpt.completion import DEFAULT_METHOD
     from gmcpt.completion.tiles import DEFAULT_TILE
 
     args.tile = DEFAULT_TILE if args.tile is None else args.tile
+    args.method = args.method or DEFAULT_METHOD
     if args.child:
         print(json.dumps(measure(args.child[0], args.child[1], args.method, args.tile, args.repeats, args.weights)))
         return 0

@@ -42,8 +42,8 @@ def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
     parser.add_argument("--seed", type=int, help="seed of mask and samplers (default: scene's, else 0)")
     parser.add_argument("--mask", help="sample placement: two_pass, adaptive, random, stratified, blue_noise "
                         "(default: the scene's, else two_pass)")
-    parser.add_argument("--method", help="completion method: gan_oidn, gan_pawnnm_oidn, gan_pawnnm, gan, pawnnm, nnm, liu, interp, none "
-                        "(default: the scene's, else gan_oidn)")
+    parser.add_argument("--method", help="completion method: gan_oidn, gan_pawnnm_oidn, gan_pawnnm, gan, pawnnm, "
+                        "nnm, liu, interp, none (default: the scene's, else gan_oidn)")
     parser.add_argument("--tile", type=int, help="complete frames larger than this in overlapping tiles of at most "
                         "this side (bounded memory); 0: the whole frame at once (default: the scene's, else 1024)")
     parser.add_argument("--weights", help="GAN weights for the gan methods: a shipped name or a .pt path "

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import mitsuba as mi
 
-from gmcpt.completion import check_options, complete
+from gmcpt.completion import DEFAULT_METHOD, check_options, complete
 from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
 from gmcpt.errors import GmcptError
 from gmcpt.exr import channel_names, pack
@@ -12,8 +12,6 @@ from gmcpt.masks import DEFAULT_PATTERN, check_pattern, check_rate
 from gmcpt.plugins import constructor
 from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
 from gmcpt.scene import scene_sensor
-
-DEFAULT_COMPLETION = "gan_oidn"
 
 
 class MaskedPathIntegrator(mi.SamplingIntegrator):
@@ -86,7 +84,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         self.mask_pattern = check_pattern(props.get("mask", DEFAULT_PATTERN))
         self.seed = check_seed(props.get("seed", 0))
         self.feature_spp = check_feature_spp(props.get("feature_spp", DEFAULT_FEATURE_SPP))
-        self.completion = props.get("completion", DEFAULT_COMPLETION)
+        self.completion = props.get("completion", DEFAULT_METHOD)
         self.weights = props.get("weights", "") or None
         self.tile = check_tile(props.get("tile", DEFAULT_TILE))
         check_options(self.completion, self.weights)  # fail at load time on an unknown name, a bad weights file

@@ -56,6 +56,8 @@ class Method:
 
 
 _REGISTRY: dict[str, Method] = {}
+#: the method of the CLI, the scene XML and the Python API when none is named
+DEFAULT_METHOD = "gan_oidn"
 
 
 def register_method(name: str, *, min_size: int = 1, summary: str = ""):
