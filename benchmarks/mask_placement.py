@@ -14,7 +14,7 @@ with a random mask at rate 0.3, the rank correlation over 8x8 tiles between the
 completion's squared error on untraced pixels and each candidate.
 
     python benchmarks/mask_placement.py [--rates 0.2 0.3 0.4] [--masks random adaptive two_pass]
-                                        [--methods gan_pawnnm] [--predictors] [--json out.json]
+                                        [--methods gan_oidn gan_pawnnm] [--predictors] [--json out.json]
 """
 from __future__ import annotations
 
@@ -95,7 +95,7 @@ def main() -> int:
     parser.add_argument("--scenes", nargs="+", help="names (default: the quality scenes and 2 procedural)")
     parser.add_argument("--rates", type=float, nargs="+", default=[0.2, 0.3, 0.4])
     parser.add_argument("--masks", nargs="+", default=["random", "stratified", "adaptive", "two_pass"])
-    parser.add_argument("--methods", nargs="+", default=["gan_pawnnm"])
+    parser.add_argument("--methods", nargs="+", help="completion methods (default: the product's)")
     parser.add_argument("--weights", help="generator weights of the gan methods (default: the shipped)")
     parser.add_argument("--spp", type=int, default=16)
     parser.add_argument("--res", type=int, default=256)
@@ -107,7 +107,7 @@ def main() -> int:
     import gmcpt  # noqa: F401
     import mitsuba as mi
 
-    from gmcpt.completion import complete
+    from gmcpt.completion import DEFAULT_METHOD, complete
     from gmcpt.denoise import denoise_oidn
     from gmcpt.evaluation.scenes import QUALITY_SCENES, procedural_scenes
     from gmcpt.evaluation.baselines import render_full
@@ -115,6 +115,7 @@ def main() -> int:
     from gmcpt.render import RenderSettings, render_sparse_frame
 
     mi.set_log_level(mi.LogLevel.Error)
+    args.methods = args.methods or [DEFAULT_METHOD]
     say = lambda message: print(message, file=sys.stderr, flush=True)  # noqa: E731
     scenes = [s for s in QUALITY_SCENES if s.available()] + procedural_scenes(2)
     if args.scenes:
