@@ -7,10 +7,10 @@ own denoising of the traced pixels is dropped on purpose: OIDN denoises Monte Ca
 better than it cleans up an image that is already smooth (OIDN over ``gan_pawnnm``'s own output
 gains nothing), and the fill gives it what it cannot have at an untraced pixel.
 
-Measured on the 5 evaluation scenes (256x256, 16 spp per traced pixel, two_pass masks; mean PSNR dB at
-rates 0.2/0.3/0.4): ``gan`` 33.44/34.10/34.49, ``gan_pawnnm`` 34.47/35.44/35.88, ``gan_oidn``
-34.81/35.88/36.53, ``gan_pawnnm_oidn`` 35.04/36.17/36.73; path tracing at the same samples + OIDN
-34.27/35.29/35.55 (docs/experiments.md). ``gan_oidn`` is the default: better than ``gan_pawnnm``
+Measured on the 5 evaluation scenes (256x256, 16 spp per traced pixel, two_pass masks with the floor
+0.3; mean PSNR dB at rates 0.2/0.3/0.4): ``gan`` 33.51/34.09/34.59, ``gan_pawnnm`` 34.65/35.53/35.95,
+``gan_oidn`` 34.98/35.96/36.65, ``gan_pawnnm_oidn`` 35.25/36.22/36.80; path tracing at the same samples
++ OIDN 34.27/35.29/35.55 (docs/experiments.md, docs/results.md). ``gan_oidn`` is the default: better than ``gan_pawnnm``
 and faster (no low-rank stage; OIDN's filter costs about what the generator does).
 """
 from __future__ import annotations
