@@ -121,13 +121,7 @@ def _window_sums(planes: np.ndarray, window: int) -> np.ndarray:
     """Sums of (..., H, W) ``planes`` over ``window`` x ``window`` neighbourhoods (odd), edges repeated."""
     radius = window // 2
     height, width = planes.shape[-2:]
-    # padded by repeating the edges (as np.pad's "edge" mode, at a fraction of its call overhead)
-    padded = np.empty(planes.shape[:-2] + (height + 2 * radius, width + 2 * radius), planes.dtype)
-    padded[..., radius:radius + height, radius:radius + width] = planes
-    padded[..., :radius, radius:radius + width] = planes[..., :1, :]
-    padded[..., radius + height:, radius:radius + width] = planes[..., -1:, :]
-    padded[..., :radius] = padded[..., radius:radius + 1]
-    padded[..., radius + width:] = padded[..., radius + width - 1:radius + width]
+    padded = np.pad(planes, [(0, 0)] * (planes.ndim - 2) + [(radius, radius)] * 2, mode="edge")
     rows = padded[..., :height, :].copy()  # summed in place: one buffer a direction
     for shift in range(1, window):
         rows += padded[..., shift:shift + height, :]
