@@ -19,6 +19,7 @@ towards a sampled emitter point per primary ray).
 from __future__ import annotations
 
 import hashlib
+import sys
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -42,34 +43,50 @@ SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` dr
 SCATTER_MODE = dr.ReduceMode.Local
 # the features need UVs (textured albedo) and the shading frame, no surface derivatives
 FEATURE_RAY_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFrame
-#: the frozen kernels (dr.freeze) keep the recordings of the last few scenes, resolutions and spp; a new
-#: one of those records again, as expected (e.g. once per scene of a dataset build): no warning about it
+#: the frozen kernels (dr.freeze) keep the recordings of the last few resolutions and spp of a scene; a new
+#: one records again, as expected: no warning about it
 FREEZE_OPTIONS = {"limit": 8, "warn_after": 1 << 30}
 
 
 class FrozenKernel:
     """``function(scene, ...)`` recorded by ``dr.freeze`` once per scene and settings, then replayed.
 
-    Dr.Jit cannot record a virtual call (a BSDF or emitter lookup) when objects of another scene that
-    is still alive share the call's registry (seen with the breakfast room loaded beside another scene):
-    the recording raises. Such a scene then runs the plain function, for as long as it lives, with the
-    same result. Call with a function that builds the arguments, so a failed recording leaves none dirty.
+    Each scene gets recordings of its own: replaying one scene's recording for another scene of the
+    same layout read the first scene's freed objects (a batch that loads the scene again for every
+    frame got garbage features now and then). :data:`_SCENES` holds each scene beside its recordings, so
+    no other scene can take its ``id`` while they live; both are let go at the first call after nobody
+    else holds the scene. Dr.Jit cannot record a virtual call when objects of another live scene share
+    the call's registry (seen with the breakfast room loaded beside another scene): the recording
+    raises, and that scene runs the plain function, with the same result. Call with a function that
+    builds the arguments, so a failed recording leaves none dirty.
     """
 
     def __init__(self, function: Callable):
         self.function = function
-        self.frozen = dr.freeze(function, **FREEZE_OPTIONS)
-        self.unfrozen_scenes: set[int] = set()  # id() of the scenes that failed to record (a reused id only costs speed)
 
     def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple]):
-        if id(scene) not in self.unfrozen_scenes:
+        _let_go_of_released_scenes()
+        recordings = _SCENES.setdefault(id(scene), (scene, {}))[1]
+        if self not in recordings:
+            recordings[self] = dr.freeze(self.function, **FREEZE_OPTIONS)
+        if recordings[self] is not None:
             try:
-                return self.frozen(scene, *arguments())
+                return recordings[self](scene, *arguments())
             except RuntimeError:
-                self.unfrozen_scenes.add(id(scene))
+                recordings[self] = None
         outputs = self.function(scene, *arguments())
         dr.eval(outputs)  # one kernel for all of them, as a replay gives (else one kernel a column read)
         return outputs
+
+
+#: id -> (scene, {kernel: its recordings, or None where Dr.Jit refused to record}) of the scenes traced so far
+_SCENES: dict[int, tuple[mi.Scene, dict]] = {}
+
+
+def _let_go_of_released_scenes() -> None:
+    """Drop the scenes that only :data:`_SCENES` holds (``sys.getrefcount``: its tuple and the argument)."""
+    for key in [key for key in _SCENES if sys.getrefcount(_SCENES[key][0]) <= 2]:
+        del _SCENES[key]
 
 
 @dataclass(frozen=True)

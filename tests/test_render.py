@@ -66,7 +66,7 @@ def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, 
         refusals.append(1)
         raise RuntimeError("no such object instance was found in the function's inputs")
 
-    kernel.frozen = refuse
+    render._SCENES.setdefault(id(cornell), (cornell, {}))[1][kernel] = refuse
     monkeypatch.setattr(render, "_frozen_pixel_sums", kernel)
     pixels = np.arange(0, 48 * 40, 3)
     for _ in range(2):
@@ -74,7 +74,38 @@ def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, 
         plain_total, plain_squares = _plain_pixel_sums(mi, cornell, path_tracer, pixels, 4, 2)
         np.testing.assert_array_equal(total, plain_total)
         np.testing.assert_array_equal(squares, plain_squares)
-    assert len(refusals) == 1 and kernel.unfrozen_scenes == {id(cornell)}
+    assert len(refusals) == 1 and render._SCENES[id(cornell)][1][kernel] is None
+
+
+def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
+    """A scene loaded again (a batch does it for every frame) gets its own recording: replaying another
+    scene's read that scene's freed objects. A scene nobody else holds is let go at the next call."""
+    import gc
+
+    from gmcpt import render
+    from gmcpt.scene import load_scene
+
+    kernel = render.FrozenKernel(render._pixel_sums)
+    pixels = np.arange(0, 24 * 20, 2)
+    first = load_scene(CORNELL, resolution=(24, 20))
+    path = first.integrator().integrator
+    arguments = lambda scene, seed: (lambda: (  # noqa: E731
+        scene.sensors()[0], path, mi.UInt32(pixels.astype(np.uint32)), render.dr.arange(mi.UInt32, pixels.size * 4),
+        render.dr.opaque(mi.UInt32, seed), 4, render._camera_key(scene.sensors()[0]),
+        [render.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
+    kernel(first, arguments(first, 1))
+    recording = render._SCENES[id(first)][1][kernel]
+    second = load_scene(CORNELL, resolution=(24, 20))
+    sums = kernel(second, arguments(second, 2))
+    assert render._SCENES[id(second)][1][kernel] is not recording
+    plain = render._pixel_sums(second, *arguments(second, 2)())
+    for column, expected in zip(sums, plain):
+        np.testing.assert_array_equal(np.asarray(column), np.asarray(expected))
+    first_id = id(first)
+    del first
+    gc.collect()
+    kernel(second, arguments(second, 3))
+    assert first_id not in render._SCENES and id(second) in render._SCENES
 
 
 def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
