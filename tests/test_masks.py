@@ -59,6 +59,16 @@ def test_density_sampling_skips_excluded_pixels_and_clips_the_count():
     assert sample_by_density(density, 10_000, mask_rng(1), exclude=exclude).sum() == 400
 
 
+@pytest.mark.parametrize("count", [1, 999, 1000, 1001, 4095, 4096])
+def test_density_sampling_is_exact_where_keys_tie(count):
+    # a flat density over a frame of four threshold tiles: every key appears four times, so the
+    # count-th smallest is tied with others at most counts
+    density = np.ones((256, 256), np.float32)
+    mask = sample_by_density(density, count, mask_rng(5))
+    assert mask.sum() == count
+    assert np.array_equal(mask, sample_by_density(density, count, mask_rng(5)))
+
+
 @pytest.mark.parametrize("pattern", FEATURE_PATTERNS)
 def test_feature_patterns_need_a_density(pattern):
     with pytest.raises(GmcptError, match="sampling density"):
