@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Make the README picture: a sparse input beside its completion.
 
-    python scripts/readme_figure.py [--scene scenes/still-life/scene.xml] [--method gan_oidn]
+    python scripts/readme_figure.py [--scene scenes/still-life/scene.xml] [--method NAME]
 
 Writes docs/images/<scene>-<method>.png: sparse input (30% of pixels, 16 spp)
 on the left, the completed image on the right.
@@ -17,16 +17,17 @@ ROOT = Path(__file__).resolve().parents[1]
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default=str(ROOT / "scenes" / "still-life" / "scene.xml"))
-    parser.add_argument("--method", default="gan_oidn")
+    parser.add_argument("--method", help="completion method (default: the product's)")
     parser.add_argument("--rate", type=float, default=0.3)
     args = parser.parse_args()
 
     import gmcpt  # noqa: F401
-    from gmcpt.completion import complete
+    from gmcpt.completion import DEFAULT_METHOD, complete
     from gmcpt.exr import write_png
     from gmcpt.render import render_sparse_frame
     from gmcpt.scene import load_scene, masked_integrator
 
+    args.method = args.method or DEFAULT_METHOD
     scene = load_scene(args.scene)
     integrator = masked_integrator(scene, rate=args.rate)
     frame, _ = render_sparse_frame(scene, integrator.integrator, settings=integrator.settings())
