@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Callable
 
 from . import interrupts
-from .device import DEVICE_ENV, completion_device
+from .device import DEVICE_ENV, PRECISION_ENV, completion_device, generator_precision
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP
 
@@ -106,14 +106,16 @@ def _validate(args) -> None:
 
 
 def _weights_record(integrator) -> dict:
-    """The GAN weights a method used (name and sha256), or nothing for the methods without a network."""
+    """The GAN weights a method used (name and sha256) and the generator's arithmetic, or nothing for the
+    methods without a network."""
     from .completion import get_method
     from .gan.weights import DEFAULT_WEIGHTS, load_generator
 
     if not get_method(integrator.completion).takes("weights"):
         return {}
     name = integrator.weights or DEFAULT_WEIGHTS
-    return {"weights": name, "weights_sha256": load_generator(name)[1].get("sha256")}
+    return {"weights": name, "weights_sha256": load_generator(name)[1].get("sha256"),
+            "generator_precision": generator_precision(completion_device())}
 
 
 def _reference(path: str):
@@ -158,6 +160,8 @@ def run(args, say=lambda message: None, extra: dict | None = None) -> dict:
     check_size(integrator.completion, height, width)
     if os.environ.get(DEVICE_ENV):  # a device asked for by name must exist before the render starts
         completion_device()
+    if os.environ.get(PRECISION_ENV):  # and a precision asked for must be one
+        generator_precision("cpu")
     if reference is not None and reference.shape != (height, width, 3):
         raise GmcptError(f"reference {args.reference} is {reference.shape[1]}x{reference.shape[0]}, "
                          f"the render is {width}x{height}")

@@ -55,6 +55,44 @@ def test_cli_refuses_an_unknown_device_before_rendering(tmp_path, monkeypatch):
     assert "features" not in result.stdout + result.stderr and not out.exists()
 
 
+def test_generator_precision_is_bfloat16_only_on_a_cpu_with_native_bfloat16(monkeypatch):
+    from gmcpt.device import generator_precision
+    from gmcpt.errors import BadValue
+
+    monkeypatch.delenv("GMCPT_GENERATOR_PRECISION", raising=False)
+    native = torch.cpu._is_avx512_bf16_supported() or torch.cpu._is_amx_tile_supported()
+    assert generator_precision("cpu") == ("bfloat16" if native else "float32")
+    assert generator_precision("cuda") == "float32"
+    assert generator_precision("cpu", "float32") == "float32"
+    monkeypatch.setenv("GMCPT_GENERATOR_PRECISION", "bfloat16")
+    assert generator_precision("cuda") == "bfloat16"
+    with pytest.raises(BadValue, match="generator precision 'half'"):
+        generator_precision("cpu", "half")
+
+
+def test_bfloat16_generator_stays_near_float32():
+    from gan_helpers import generator_inputs
+    from gmcpt.gan.infer import generate
+    from gmcpt.gan.weights import load_generator
+
+    generator, _ = load_generator()  # the shipped weights (a fresh network's last layer starts at zero)
+    radiance, features = generator_inputs(batch=1, size=64, config=generator.config)
+    exact = generate(generator, radiance, features)
+    rounded = generate(generator, radiance, features, precision="bfloat16")
+    assert rounded.dtype == torch.float32 and rounded.shape == exact.shape
+    difference = (rounded - exact).abs().max().item()
+    assert 0 < difference < 0.02 * exact.abs().max().item()  # it ran in bfloat16, and stayed close
+
+
+def test_cli_refuses_an_unknown_generator_precision_before_rendering(tmp_path, monkeypatch):
+    monkeypatch.setenv("GMCPT_GENERATOR_PRECISION", "half")
+    out = tmp_path / "out.exr"
+    result = run_cli(CORNELL, "--out", out, "--res", "32", "24", "--spp", "2")
+    assert result.returncode == 2
+    assert result.stderr.strip().count("\n") == 0 and "generator precision 'half'" in result.stderr
+    assert "features" not in result.stdout + result.stderr and not out.exists()
+
+
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
 def test_generator_on_cuda_matches_the_cpu(monkeypatch):
     from conftest import synthetic_frame

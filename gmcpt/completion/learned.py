@@ -12,7 +12,8 @@ default :data:`gmcpt.gan.weights.DEFAULT_WEIGHTS`).
 
 The generator runs band by band (:func:`gmcpt.gan.infer.generate`) on as many
 threads as torch is set to use (``$GMCPT_TORCH_THREADS`` overrides), each band
-with torch on one thread (:mod:`gmcpt.workers` says why).
+with torch on one thread (:mod:`gmcpt.workers` says why), in bfloat16 on a CPU that has it
+(:func:`gmcpt.device.generator_precision`).
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..device import completion_device
+from ..device import completion_device, generator_precision
 from ..domain import WorkingDomain
 from ..frame import SparseFrame
 from ..lowrank.params import DEFAULT as LOW_RANK_DEFAULT
@@ -66,10 +67,12 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
 
     start = time.perf_counter()
     generator, _ = load_generator(weights)
-    generator.to(completion_device())  # in place: the cached generator stays on that device
+    device = completion_device()
+    generator.to(device)  # in place: the cached generator stays on that device
     loaded = time.perf_counter()
     threads = int(os.environ.get("GMCPT_TORCH_THREADS", torch.get_num_threads()))
-    working, factor = precomplete(generator, frame, domain, target_exposure(frame), threads)
+    working, factor = precomplete(generator, frame, domain, target_exposure(frame), threads,
+                                  generator_precision(device))
     observed = domain.forward_traced(frame.radiance, factor, frame.mask)  # the generator's domain, exposure folded in
     working = blend_samples(working, observed, frame.mask, working_variance(frame, domain, observed, factor))
     timings = {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}

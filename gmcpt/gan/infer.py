@@ -59,17 +59,21 @@ def bands(height: int, multiple: int) -> list[tuple[int, int]]:
     return list(zip(cuts[:-1], cuts[1:]))
 
 
-def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tensor, threads: int = 1) -> torch.Tensor:
+def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tensor, threads: int = 1,
+             precision: str = "float32") -> torch.Tensor:
     """``generator(radiance, features)`` band by band (:data:`BAND_ROWS`), on ``threads`` threads: bands
     dealt to threads that each run torch on one thread, or one band on ``threads`` torch threads. On a
-    GPU (the inputs' device) the same bands run one after another."""
+    GPU (the inputs' device) the same bands run one after another. ``precision`` ``"bfloat16"`` runs
+    the generator under autocast (:func:`gmcpt.device.generator_precision`); the output is float32."""
     height = radiance.shape[2]
+    cast = precision == "bfloat16"
 
     def band_output(band):
         first, stop = band
         top, bottom = max(0, first - BAND_HALO), min(height, stop + BAND_HALO)
-        with torch.inference_mode():
-            output = generator(radiance[:, :, top:bottom], features[:, :, top:bottom])
+        # autocast is a thread's own setting: entered in the thread that runs the band
+        with torch.inference_mode(), torch.autocast(radiance.device.type, torch.bfloat16, enabled=cast):
+            output = generator(radiance[:, :, top:bottom], features[:, :, top:bottom]).float()
         return output[:, :, first - top:stop - top]
 
     layout = bands(height, generator.multiple)
@@ -82,7 +86,7 @@ def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tenso
 
 
 def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
-                exposure: float = 1.0, threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
+                exposure: float = 1.0, threads: int = 1, precision: str = "float32") -> tuple[np.ndarray, np.ndarray]:
     """(completed image in the working domain (H, W, 3), 0..255-like; demodulation factor (H, W, 3)).
 
     The generator sees the frame scaled by ``exposure`` (see :func:`target_exposure`); the
@@ -90,7 +94,8 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
     radiance at the frame's own exposure, and ``domain.forward(frame.radiance, factor)`` is
     the frame in the working domain the generator ran in. The frame is padded (reflect) to a
     multiple of the generator's :attr:`~gmcpt.gan.model.Generator.multiple` and cropped back. The
-    generator runs in bands (:func:`generate`) on ``threads`` threads, on the generator's device.
+    generator runs in bands (:func:`generate`) on ``threads`` threads, on the generator's device, in
+    ``precision``.
     """
     if exposure != 1.0:
         frame = exposed(frame, exposure)
@@ -102,6 +107,6 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
     mode = "reflect" if min(height, width) > multiple else "replicate"
     device = next(generator.parameters()).device
     output = generate(generator, F.pad(radiance, pad, mode=mode).to(device), F.pad(features, pad, mode=mode).to(device),
-                      threads)
+                      threads, precision)
     working = output[0, :, :height, :width].permute(1, 2, 0).cpu().numpy() * SCALE
     return np.maximum(working, 0.0).astype(np.float32), factor / np.float32(exposure)
