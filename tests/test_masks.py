@@ -43,6 +43,17 @@ def test_adaptive_mask_follows_the_density():
     assert near_edge.any() and mask[near_edge].mean() > 2 * mask[~near_edge].mean()
 
 
+@pytest.mark.parametrize("height, width", [(37, 53), (64, 64)])
+def test_feature_density_marks_the_edge_at_any_size(height, width):
+    # the edges are found on 2x2 bins; an odd frame's last row and column are bins of their own
+    density = edge_density(height, width)
+    assert density.shape == (height, width) and density.dtype == np.float32
+    assert np.isclose(density.mean(), 1.0, atol=1e-4) and np.isfinite(density).all()
+    columns = np.arange(width)
+    near, far = np.abs(columns - width // 2) <= 3, np.abs(columns - width // 2) >= 8
+    assert density[:, near].min() > 2 * density[:, far].max()
+
+
 def test_floor_leaves_no_empty_tile_on_a_flat_scene():
     # a flat scene but for one edge: at rate 0.2 every 16x16 tile still gets samples
     mask = make_mask(256, 256, 0.2, "adaptive", 3, edge_density(256, 256))
