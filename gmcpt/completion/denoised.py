@@ -7,9 +7,9 @@ own denoising of the traced pixels is dropped on purpose: OIDN denoises Monte Ca
 better than it cleans up an image that is already smooth (OIDN over ``gan_pawnnm``'s own output
 gains nothing), and the fill gives it what it cannot have at an untraced pixel.
 
-Measured on the 5 evaluation scenes (256x256, 16 spp per traced pixel, two_pass masks with the floor
-0.3; mean PSNR dB at rates 0.2/0.3/0.4): ``gan`` 33.51/34.09/34.59, ``gan_pawnnm`` 34.65/35.53/35.95,
-``gan_oidn`` 34.98/35.96/36.65, ``gan_pawnnm_oidn`` 35.25/36.22/36.80; path tracing at the same samples
+Measured on the 5 evaluation scenes (256x256, 16 spp per traced pixel, two_pass masks; mean PSNR dB at
+rates 0.2/0.3/0.4): ``gan`` 33.47/34.08/34.63, ``gan_pawnnm`` 34.56/35.41/36.01,
+``gan_oidn`` 34.84/36.02/36.62, ``gan_pawnnm_oidn`` 35.09/36.19/36.74; path tracing at the same samples
 + OIDN 34.27/35.29/35.55 (docs/experiments.md, docs/results.md). ``gan_oidn`` is the default: better than ``gan_pawnnm``
 and faster (no low-rank stage; OIDN's filter costs about what the generator does).
 """
