@@ -33,7 +33,7 @@ sys.path.insert(0, str(ROOT))
 
 def simulated_mask(full, pattern: str, rate: float, seed: int) -> np.ndarray:
     """The mask the renderer would draw for ``pattern``, its passes read from the full render ``full``."""
-    from gmcpt.masks import FEATURE_PATTERNS, make_mask, mask_rng, sample_by_density, sample_count
+    from gmcpt.masks import FEATURE_PATTERNS, make_mask, mask_rng, sample_by_density, sample_count, second_pass_mask
     from gmcpt.placement import FIRST_PASS_SHARE, error_density, feature_density
 
     height, width = full.shape
@@ -47,7 +47,7 @@ def simulated_mask(full, pattern: str, rate: float, seed: int) -> np.ndarray:
     radiance = np.where(first[..., None], full.radiance, 0.0)
     errors = error_density(radiance, np.where(first, full.variance, 0.0), first, full.albedo, full.coverage,
                            density)
-    return first | sample_by_density(errors, count - int(first.sum()), mask_rng(seed, 1), exclude=first)
+    return first | second_pass_mask(errors, count - int(first.sum()), first, seed)
 
 
 def masked(full, mask: np.ndarray):

@@ -16,7 +16,7 @@ a pure function of its arguments, and is reproducible from ``seed``.
   blue-noise map with uniform values, so the picks are spread like
   ``blue_noise`` where the density is even (ordered dithering).
 - ``two_pass``: ``adaptive`` for part of the budget, then the rest where the
-  first pass's samples say completion will err
+  first pass's samples say completion will err, on the same thresholds
   (:func:`gmcpt.render.render_sparse_frame` runs both passes).
 """
 from __future__ import annotations
@@ -56,9 +56,11 @@ def check_pattern(pattern: str) -> str:
     return pattern
 
 
-def mask_rng(seed: int, stream: int = 0) -> np.random.Generator:
-    """The random generator of a mask (``stream`` tells apart the passes of one frame)."""
-    return np.random.default_rng([int(seed), 0x6D61736B, int(stream)])  # 'mask'
+def mask_rng(seed: int) -> np.random.Generator:
+    """The random generator of a density-driven mask; both passes of ``two_pass`` draw with it (the same
+    threshold map). The last entry of the seed sequence keeps the masks of the versions that drew the
+    second pass from a stream of its own."""
+    return np.random.default_rng([int(seed), 0x6D61736B, 0])  # 'mask'
 
 
 def make_mask(height: int, width: int, rate: float, pattern: str = "random",
@@ -178,6 +180,13 @@ def _kth_smallest(keys: np.ndarray, k: int) -> np.float32:
         if below <= k < below + inside.size:
             return np.partition(inside, k - below)[k - below]
     return np.partition(keys, k)[k]
+
+
+def second_pass_mask(errors: np.ndarray, count: int, first: np.ndarray, seed: int) -> np.ndarray:
+    """The second pass of ``two_pass``: ``count`` pixels by the density ``errors``, none of the first pass's
+    ``first``, on the first pass's threshold map (:func:`mask_rng` of the same ``seed``), so where both
+    densities are even the two passes together are one blue-noise set at the whole rate."""
+    return sample_by_density(errors, count, mask_rng(seed), exclude=first)
 
 
 def sample_by_density(density: np.ndarray, count: int, rng: np.random.Generator,

@@ -32,7 +32,7 @@ from .domain import ALBEDO_MIN
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame  # noqa: F401  (DEFAULT_FEATURE_SPP re-exported)
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seed, check_spp
 from .masks import (DEFAULT_PATTERN, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
-                    sample_by_density, sample_count)
+                    sample_by_density, sample_count, second_pass_mask)
 from .placement import FIRST_PASS_SHARE, error_density, feature_density
 from .scene import scene_sensor
 
@@ -380,7 +380,7 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
         start = time.perf_counter()
         errors = error_density(radiance.reshape(height, width, 3), variance.reshape(height, width), mask,
                                features["albedo"], features["coverage"], density)
-        second = sample_by_density(errors, rest, mask_rng(settings.seed, 1), exclude=mask)
+        second = second_pass_mask(errors, rest, mask, settings.seed)
         timings["mask_s"] += time.perf_counter() - start
         start = time.perf_counter()
         second_pixels = np.flatnonzero(second)

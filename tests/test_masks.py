@@ -3,7 +3,8 @@ import pytest
 from scipy import ndimage
 
 from gmcpt.errors import GmcptError
-from gmcpt.masks import FEATURE_PATTERNS, PATTERNS, _kth_smallest, make_mask, mask_rng, sample_by_density
+from gmcpt.masks import (FEATURE_PATTERNS, PATTERNS, _kth_smallest, make_mask, mask_rng, sample_by_density,
+                         second_pass_mask)
 from gmcpt.placement import error_density, feature_density
 
 
@@ -59,6 +60,16 @@ def test_floor_leaves_no_empty_tile_on_a_flat_scene():
     mask = make_mask(256, 256, 0.2, "adaptive", 3, edge_density(256, 256))
     tiles = mask.reshape(16, 16, 16, 16).sum(axis=(1, 3))
     assert tiles.min() > 0.2 * 256 * 0.3
+
+
+@pytest.mark.parametrize("seed", [0, 7])
+def test_two_passes_over_an_even_density_are_one_blue_noise_set(seed):
+    # the second pass draws on the first pass's threshold map: together they are the one-pass draw of the
+    # whole count (one threshold tile, so no keys tie), not two independent sets that clump
+    even = np.ones((128, 96), np.float32)
+    first = sample_by_density(even, 1000, mask_rng(seed))
+    both = first | second_pass_mask(even, 1500, first, seed)
+    assert both.sum() == 2500 and np.array_equal(both, sample_by_density(even, 2500, mask_rng(seed)))
 
 
 def test_density_sampling_skips_excluded_pixels_and_clips_the_count():
