@@ -58,8 +58,7 @@ def check_pattern(pattern: str) -> str:
 
 def mask_rng(seed: int) -> np.random.Generator:
     """The random generator of a density-driven mask; both passes of ``two_pass`` draw with it (the same
-    threshold map). The last entry of the seed sequence keeps the masks of the versions that drew the
-    second pass from a stream of its own."""
+    threshold map). The seed sequence's trailing 0 keeps the first passes of earlier versions."""
     return np.random.default_rng([int(seed), 0x6D61736B, 0])  # 'mask'
 
 

@@ -127,13 +127,14 @@ def feature_density(albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray, v
 
 def _binned_mean(image: np.ndarray, size: int) -> np.ndarray:
     """Means of (H, W, ...) ``image`` over ``size`` x ``size`` bins, float32; a partial last bin repeats
-    the image's last row or column."""
+    the image's last row or column. Rows are added first, whole rows at a time (contiguous): 0.19 ms for
+    a (256, 256, 3) buffer, against 0.33 ms adding the four strided sub-images."""
     height, width = image.shape[:2]
     padding = [(0, -height % size), (0, -width % size)] + [(0, 0)] * (image.ndim - 2)
     if any(after for _, after in padding):
         image = np.pad(image, padding, mode="edge")
-    rows = image[0::size].astype(np.float32)  # rows first: whole rows add contiguously (0.33 -> 0.19 ms an
-    for row in range(1, size):                 # (256, 256, 3) buffer)
+    rows = image[0::size].astype(np.float32)
+    for row in range(1, size):
         rows += image[row::size]
     total = rows[:, 0::size].copy()
     for column in range(1, size):
