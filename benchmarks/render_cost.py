@@ -17,7 +17,9 @@ the 13 rounds by default. Each feature pass setting (``--feature-spp``;
 default: the product's 4 and the cheapest, 1) and each sample placement
 (``--masks``; default: the product's) gets its rows; ``mask %`` is the
 median time spent placing the samples (densities, the error estimate between
-the passes of ``two_pass``) as a share of the masked render's time.
+the passes of ``two_pass``) as a share of the masked render's time; ``w/o feat.`` the radiance passes
+and the placement alone over the full render (wall), the feature pass left out: path tracing + OIDN
+needs the same albedo and normal guides, so that is the cost a sparse render adds.
 
     python benchmarks/render_cost.py [--res 256] [--spp 16 64] [--repeats 13] [--masks two_pass random]
 """
@@ -66,7 +68,7 @@ def main() -> int:
     masks = [check_pattern(mask) for mask in args.masks or [DEFAULT_PATTERN]]
     variants = [(feature_spp, rate, mask) for mask in masks
                 for feature_spp in args.feature_spp or sorted({DEFAULT_FEATURE_SPP, 1}, reverse=True) for rate in RATES]
-    mask_shares = {}
+    mask_shares, passes_s = {}, {}  # per variant: the placement's share; wall seconds without the feature pass
     for scene_path in map(Path, args.scenes or [STILL_LIFE.path, BREAKFAST.path]):
         if not scene_path.is_file():
             print(f"skipping {scene_path}: not found (the shared scenes are absent)", flush=True)
@@ -85,8 +87,9 @@ def main() -> int:
 
                 def job():
                     _, timings = render_sparse_frame(scene, nested, settings=settings)
-                    mask_shares.setdefault((scene_path, spp, feature_spp, rate, mask), []).append(
-                        timings["mask_s"] / sum(timings.values()))
+                    key = (scene_path, spp, feature_spp, rate, mask)
+                    mask_shares.setdefault(key, []).append(timings["mask_s"] / sum(timings.values()))
+                    passes_s.setdefault(key, []).append(timings["mask_s"] + timings["render_s"])
                 return job
 
             jobs = [(variant, sparse(*variant)) for variant in variants]
@@ -100,7 +103,9 @@ def main() -> int:
                 full_times.append(before)
                 for variant, (wall, cpu) in this_round.items():
                     masked_times[variant].append(wall)
-                    ratios[variant].append((2 * wall / (before[0] + after[0]), 2 * cpu / (before[1] + after[1])))
+                    passes = passes_s[(scene_path, spp, *variant)][-1]
+                    ratios[variant].append((2 * wall / (before[0] + after[0]), 2 * cpu / (before[1] + after[1]),
+                                            2 * passes / (before[0] + after[0])))
                 before = after
                 print(f"  {scene_path.parent.name} spp={spp}: round {round_index + 1}/{args.repeats} done", flush=True)
             full_s = statistics.median(wall for wall, _ in full_times)
@@ -109,19 +114,24 @@ def main() -> int:
                 share = 100 * statistics.median(mask_shares[(scene_path, spp, *variant)])
                 rows.append((scene_path.parent.name, spp, feature_spp, rate, mask, share, full_s,
                              statistics.median(masked_times[variant]),
-                             statistics.median(wall for wall, _ in ratios[variant]),
-                             statistics.median(cpu for _, cpu in ratios[variant]), rate + 0.05))
+                             statistics.median(wall for wall, _, _ in ratios[variant]),
+                             statistics.median(cpu for _, cpu, _ in ratios[variant]),
+                             statistics.median(passes for _, _, passes in ratios[variant]), rate + 0.05))
 
     print(f"\nmasked render (features + traced pixels) vs stock path, {args.res}x{args.res}, "
           f"median of {args.repeats} paired ratios")
     header = (f"{'scene':<16}{'spp':>5}{'f.spp':>6}{'rate':>6}{'mask':>10}{'mask %':>8}{'full s':>9}{'masked s':>10}"
-              f"{'wall ratio':>12}{'CPU ratio':>11}{'target':>8}  ok")
+              f"{'wall ratio':>12}{'CPU ratio':>11}{'w/o feat.':>11}{'target':>8}  ok")
     print(header)
     print("-" * len(header))
-    for scene_name, spp, feature_spp, rate, mask, share, full_s, masked_s, wall_ratio, cpu_ratio, target in rows:
+    for scene_name, spp, feature_spp, rate, mask, share, full_s, masked_s, wall_ratio, cpu_ratio, passes_ratio, \
+            target in rows:
         print(f"{scene_name:<16}{spp:>5}{feature_spp:>6}{rate:>6.2f}{mask:>10}{share:>8.2f}{full_s:>9.3f}"
-              f"{masked_s:>10.3f}{wall_ratio:>12.3f}{cpu_ratio:>11.3f}{target:>8.2f}  {'yes' if cpu_ratio <= target else 'NO'}")
-    return 0 if all(row[9] <= row[10] for row in rows) else 1
+              f"{masked_s:>10.3f}{wall_ratio:>12.3f}{cpu_ratio:>11.3f}{passes_ratio:>11.3f}{target:>8.2f}  "
+              f"{'yes' if cpu_ratio <= target else 'NO'}")
+    print("w/o feat.: the radiance passes and the placement alone (wall), the feature pass left out: path tracing + "
+          "OIDN needs the same albedo and normal guides")
+    return 0 if all(row[9] <= row[11] for row in rows) else 1
 
 
 if __name__ == "__main__":
