@@ -68,7 +68,8 @@ def main() -> int:
     masks = [check_pattern(mask) for mask in args.masks or [DEFAULT_PATTERN]]
     variants = [(feature_spp, rate, mask) for mask in masks
                 for feature_spp in args.feature_spp or sorted({DEFAULT_FEATURE_SPP, 1}, reverse=True) for rate in RATES]
-    mask_shares, passes_s = {}, {}  # per variant: the placement's share; wall seconds without the feature pass
+    mask_shares = {}  # per variant: the placement's share of each render
+    passes_s = {}  # per variant: the last render's wall seconds without the feature pass
     for scene_path in map(Path, args.scenes or [STILL_LIFE.path, BREAKFAST.path]):
         if not scene_path.is_file():
             print(f"skipping {scene_path}: not found (the shared scenes are absent)", flush=True)
@@ -89,7 +90,7 @@ def main() -> int:
                     _, timings = render_sparse_frame(scene, nested, settings=settings)
                     key = (scene_path, spp, feature_spp, rate, mask)
                     mask_shares.setdefault(key, []).append(timings["mask_s"] / sum(timings.values()))
-                    passes_s.setdefault(key, []).append(timings["mask_s"] + timings["render_s"])
+                    passes_s[key] = timings["mask_s"] + timings["render_s"]
                 return job
 
             jobs = [(variant, sparse(*variant)) for variant in variants]
@@ -103,7 +104,7 @@ def main() -> int:
                 full_times.append(before)
                 for variant, (wall, cpu) in this_round.items():
                     masked_times[variant].append(wall)
-                    passes = passes_s[(scene_path, spp, *variant)][-1]
+                    passes = passes_s[(scene_path, spp, *variant)]
                     ratios[variant].append((2 * wall / (before[0] + after[0]), 2 * cpu / (before[1] + after[1]),
                                             2 * passes / (before[0] + after[0])))
                 before = after
