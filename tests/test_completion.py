@@ -85,6 +85,35 @@ def test_push_pull_fills_everything_from_one_sample():
     assert np.allclose(filled, 2.0)
 
 
+def _pyramid_fill(values, weights):
+    """push_pull written out plainly: block sums by reshape, the coarse level repeated up."""
+    height, width = weights.shape
+    if weights.sum() == 0:
+        return np.zeros_like(values)
+    if max(height, width) <= 1:
+        return values * weights[..., None] / np.maximum(weights[..., None], 1e-12)
+    even = ((0, height % 2), (0, width % 2))
+    padded_w = np.pad(weights, even)
+    padded_v = np.pad(values * weights[..., None], even + ((0, 0),))
+    half_h, half_w = padded_w.shape[0] // 2, padded_w.shape[1] // 2
+    sum_w = padded_w.reshape(half_h, 2, half_w, 2).sum(axis=(1, 3))
+    sum_v = padded_v.reshape(half_h, 2, half_w, 2, -1).sum(axis=(1, 3))
+    coarse = _pyramid_fill(sum_v / np.maximum(sum_w[..., None], 1e-12), np.minimum(sum_w, 1.0))
+    up = np.repeat(np.repeat(coarse, 2, axis=0), 2, axis=1)[:height, :width]
+    return weights[..., None] * values + (1.0 - weights[..., None]) * up
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 6), (2, 2), (9, 7), (33, 64), (100, 37)])
+def test_push_pull_matches_the_plain_pyramid(shape):
+    rng = np.random.default_rng(sum(shape))
+    values = rng.random((*shape, 3), dtype=np.float32)
+    weights = np.where(rng.random(shape) < 0.3, rng.random(shape, dtype=np.float32), np.float32(0.0))
+    weights.flat[-1] = 1.0  # never all empty
+    filled = push_pull(values, weights)
+    assert filled.shape == values.shape and filled.dtype == np.float32
+    np.testing.assert_allclose(filled, _pyramid_fill(values, weights), rtol=1e-6, atol=1e-6)
+
+
 def test_nonfinite_samples_are_dropped_not_spread():
     frame, clean = synthetic_frame(rate=0.4)
     radiance = frame.radiance.copy()
