@@ -153,3 +153,21 @@ def test_tall_frames_run_in_bands_that_match_the_whole_frame_whatever_the_thread
     assert BAND_HALO % generator.multiple == 0
     difference = (two - whole).abs()
     assert float(difference.max()) < 1e-3 and float(whole.std()) > 1e-2
+
+
+def test_generator_runs_channels_last_on_the_cpu_with_the_same_output():
+    import copy
+
+    from gmcpt.gan.infer import generate, memory_format, prepare
+    from gmcpt.gan.weights import load_generator
+
+    shipped, _ = load_generator(None)
+    plain = copy.deepcopy(shipped).to(memory_format=torch.contiguous_format)
+    radiance, features = generator_inputs(batch=1, size=64, config=plain.config)
+    with torch.inference_mode():
+        reference = plain(radiance.contiguous(), features.contiguous())
+    prepared = prepare(copy.deepcopy(plain), "cpu")
+    assert memory_format("cpu") == torch.channels_last and memory_format("cuda") == torch.contiguous_format
+    assert prepared.head.weight.is_contiguous(memory_format=torch.channels_last)
+    output = generate(prepared, radiance, features)
+    assert float((output - reference).abs().max()) < 1e-4 and float(reference.std()) > 1e-2

@@ -62,13 +62,13 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     """
     import torch
 
-    from ..gan.infer import precomplete, target_exposure
+    from ..gan.infer import precomplete, prepare, target_exposure
     from ..gan.weights import load_generator
 
     start = time.perf_counter()
     generator, _ = load_generator(weights)
     device = completion_device()
-    generator.to(device)  # in place: the cached generator stays on that device
+    prepare(generator, device)  # in place: the cached generator stays on that device, in its layout there
     loaded = time.perf_counter()
     threads = int(os.environ.get("GMCPT_TORCH_THREADS", torch.get_num_threads()))
     working, factor = precomplete(generator, frame, domain, target_exposure(frame), threads,

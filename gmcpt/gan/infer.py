@@ -52,6 +52,20 @@ def exposed(frame: SparseFrame, exposure: float) -> SparseFrame:
                                variance=(frame.variance * exposure ** 2).astype(np.float32))
 
 
+def memory_format(device: str | torch.device) -> torch.memory_format:
+    """The layout the generator runs in on ``device``: channels last (pixel-interleaved) on a CPU, where
+    oneDNN's convolutions need no reorder of their inputs then. Measured on the shipped generator
+    (the fill left out), 256x256 on 2 threads: bfloat16 23.4 -> 16.7 ms, float32 30.5 -> 23.8 ms;
+    1024x1024 on one thread (a band's setting): bfloat16 711 -> 456 ms, float32 1266 -> 957 ms. CUDA keeps
+    the contiguous layout (not measured there)."""
+    return torch.channels_last if torch.device(device).type == "cpu" else torch.contiguous_format
+
+
+def prepare(generator: Generator, device: str) -> Generator:
+    """``generator`` moved to ``device`` in its :func:`memory_format`, in place (a no-op once done)."""
+    return generator.to(device=device, memory_format=memory_format(device))
+
+
 def bands(height: int, multiple: int) -> list[tuple[int, int]]:
     """(first, stop) rows of the generator's bands of a frame ``height`` rows high (a multiple of ``multiple``)."""
     count = max(1, int(height / BAND_ROWS + 0.5))
@@ -64,9 +78,12 @@ def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tenso
     """``generator(radiance, features)`` band by band (:data:`BAND_ROWS`), on ``threads`` threads: bands
     dealt to threads that each run torch on one thread, or one band on ``threads`` torch threads. On a
     GPU (the inputs' device) the same bands run one after another. ``precision`` ``"bfloat16"`` runs
-    the generator under autocast (:func:`gmcpt.device.generator_precision`); the output is float32."""
+    the generator under autocast (:func:`gmcpt.device.generator_precision`); the output is float32. The
+    inputs are laid out in the device's :func:`memory_format` (the generator: :func:`prepare`)."""
     height = radiance.shape[2]
     cast = precision == "bfloat16"
+    layout_format = memory_format(radiance.device)
+    radiance, features = (tensor.contiguous(memory_format=layout_format) for tensor in (radiance, features))
 
     def band_output(band):
         first, stop = band
@@ -76,13 +93,13 @@ def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tenso
             output = generator(radiance[:, :, top:bottom], features[:, :, top:bottom]).float()
         return output[:, :, first - top:stop - top]
 
-    layout = bands(height, generator.multiple)
+    cuts = bands(height, generator.multiple)
     if radiance.device.type != "cpu":
-        return torch.cat([band_output(band) for band in layout], 2)
-    if len(layout) > 1:
-        return torch.cat(map_single_threaded(band_output, layout, threads), 2)
+        return torch.cat([band_output(band) for band in cuts], 2)
+    if len(cuts) > 1:
+        return torch.cat(map_single_threaded(band_output, cuts, threads), 2)
     with torch_threads(threads):  # one band: on torch's own threads (see BAND_ROWS)
-        return band_output(layout[0])
+        return band_output(cuts[0])
 
 
 def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
@@ -105,8 +122,9 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
     multiple = generator.multiple
     pad = (0, -width % multiple, 0, -height % multiple)
     mode = "reflect" if min(height, width) > multiple else "replicate"
+    if any(pad):
+        radiance, features = F.pad(radiance, pad, mode=mode), F.pad(features, pad, mode=mode)
     device = next(generator.parameters()).device
-    output = generate(generator, F.pad(radiance, pad, mode=mode).to(device), F.pad(features, pad, mode=mode).to(device),
-                      threads, precision)
+    output = generate(generator, radiance.to(device), features.to(device), threads, precision)
     working = output[0, :, :height, :width].permute(1, 2, 0).cpu().numpy() * SCALE
     return np.maximum(working, 0.0).astype(np.float32), factor / np.float32(exposure)
