@@ -50,8 +50,9 @@ def push_pull(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """Fill an (H, W, C) image from samples with (H, W) weights in [0, 1].
 
     Pushes weighted sums down a 2x2 pyramid and pulls the coarse estimate back
-    up where fine weights are missing. The block sums add the four quarters
-    (in numpy's order for ``reshape(...).sum``: the same result to the bit, in half the time).
+    up where fine weights are missing. The block sums add the four quarters of each block in the order
+    numpy's ``reshape(...).sum`` takes for 3-channel images (the same result to the bit there, in half
+    the time).
     """
     height, width = weights.shape
     total = weights.sum()
