@@ -92,28 +92,34 @@ def _window(radius: int) -> list[tuple[int, int]]:
             if dy * dy + dx * dx <= radius * radius]
 
 
-def _weighted_sums(values: np.ndarray, mask: np.ndarray, planes: np.ndarray, depth: np.ndarray,
+def _weighted_sums(values: np.ndarray, mask: np.ndarray, planes: np.ndarray, norms: np.ndarray, depth: np.ndarray,
                    depth_scale: np.ndarray, radius: int, sigma_space: float, rows: slice):
     """(numerator (C, n, W), denominator (n, W)) of the fill's weighted mean for the ``n`` output rows
-    ``rows``; the inputs are channel-first planes padded by ``radius`` on every side (features and depth
-    by their edge values, values and mask by 0), ``depth_scale`` unpadded."""
+    ``rows``; the inputs are channel-first planes padded by ``radius`` on every side (features, their
+    squared norms and depth by their edge values, values and mask by 0), ``depth_scale`` unpadded.
+
+    The squared feature distance is ``|a|^2 + |b|^2 - 2 a.b``, the dot product one pass over the planes
+    (an ``einsum``): a third less time than differences squared and summed (256x256 at rate 0.2: 21 ->
+    15 ms), within 5e-6 of them relative to the sums."""
     pad = radius
     height, width = rows.stop - rows.start, depth.shape[1] - 2 * pad
     here = (slice(rows.start + pad, rows.stop + pad), slice(pad, pad + width))
-    centre, centre_depth, scale = planes[(slice(None),) + here], depth[here], depth_scale[rows]
+    centre, centre_norm, centre_depth, scale = planes[(slice(None),) + here], norms[here], depth[here], depth_scale[rows]
     numerator = np.zeros((values.shape[0], height, width), np.float32)
     denominator = np.zeros((height, width), np.float32)
     distance = np.empty((height, width), np.float32)
-    feature_terms = np.empty(centre.shape, np.float32)
+    dot = np.empty((height, width), np.float32)
     value_terms = np.empty(numerator.shape, np.float32)
     for dy, dx in _window(radius):
         there = (slice(rows.start + pad + dy, rows.stop + pad + dy), slice(pad + dx, pad + dx + width))
-        np.subtract(planes[(slice(None),) + there], centre, out=feature_terms)
-        np.square(feature_terms, out=feature_terms)
+        np.einsum("khw,khw->hw", planes[(slice(None),) + there], centre, out=dot)
         np.subtract(depth[there], centre_depth, out=distance)
         np.multiply(distance, scale, out=distance)
         np.square(distance, out=distance)
-        distance += feature_terms.sum(0)
+        distance += norms[there]
+        distance += centre_norm
+        dot *= np.float32(2.0)
+        distance -= dot
         distance += np.float32((dy * dy + dx * dx) / (2 * sigma_space ** 2))
         np.negative(distance, out=distance)
         np.exp(distance, out=distance)
@@ -154,6 +160,7 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     depth = features[..., 6].astype(np.float32)
     depth_scale = np.float32(math.sqrt(0.5) / params.sigma_depth) / np.maximum(depth, np.float32(1e-3))
     planes = np.pad(np.moveaxis(scaled, -1, 0), ((0, 0), (pad, pad), (pad, pad)), mode="edge")
+    norms = np.einsum("khw,khw->hw", planes, planes)
     padded_values = np.pad(np.moveaxis(values * mask[..., None], -1, 0).astype(np.float32),
                            ((0, 0), (pad, pad), (pad, pad)))
     padded_mask = np.pad(mask.astype(np.float32), pad)
@@ -163,8 +170,8 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     band = max(1, BAND_PIXELS // mask.shape[1])
     for first in range(0, mask.shape[0], band):
         rows = slice(first, min(first + band, mask.shape[0]))
-        numerator[:, rows], denominator[rows] = _weighted_sums(padded_values, padded_mask, planes, padded_depth,
-                                                               depth_scale, radius, sigma_space, rows)
+        numerator[:, rows], denominator[rows] = _weighted_sums(padded_values, padded_mask, planes, norms,
+                                                               padded_depth, depth_scale, radius, sigma_space, rows)
     confident = denominator > params.min_weight
     guided = np.moveaxis(numerator, 0, -1) / np.maximum(denominator, 1e-12)[..., None]
     filled = guided
