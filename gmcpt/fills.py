@@ -104,7 +104,8 @@ def _weighted_sums(values: np.ndarray, mask: np.ndarray, planes: np.ndarray, nor
     pad = radius
     height, width = rows.stop - rows.start, depth.shape[1] - 2 * pad
     here = (slice(rows.start + pad, rows.stop + pad), slice(pad, pad + width))
-    centre, centre_norm, centre_depth, scale = planes[(slice(None),) + here], norms[here], depth[here], depth_scale[rows]
+    centre, centre_norm = planes[(slice(None),) + here], norms[here]
+    centre_depth, scale = depth[here], depth_scale[rows]
     numerator = np.zeros((values.shape[0], height, width), np.float32)
     denominator = np.zeros((height, width), np.float32)
     distance = np.empty((height, width), np.float32)
