@@ -11,7 +11,7 @@ minute), and the table shows the median over rounds beside the target
 ``rate + 0.05``, in wall-clock time and in CPU time of this process (all its
 threads). CPU time is the cost measure that other programs on a shared
 machine disturb least; the verdict uses it.
-At 16 spp on the bundled still life (0.8 s per full render) single cells
+At 16 spp on the bundled still life (0.24 s per full render at 256x256 here) single cells
 still move by about +-0.02 between runs on a shared 2-core machine, hence
 the 13 rounds by default. Each feature pass setting (``--feature-spp``;
 default: the product's 4 and the cheapest, 1) and each sample placement
