@@ -46,6 +46,15 @@ def _quarters(image: np.ndarray) -> tuple[np.ndarray, ...]:
     return top[:, 0::2], top[:, 1::2], bottom[:, 0::2], bottom[:, 1::2]
 
 
+def upsampled(bins: np.ndarray, size: int, height: int, width: int) -> np.ndarray:
+    """Each bin's value on its ``size`` x ``size`` pixels: (rows, columns, ...) ``bins`` to (height, width, ...),
+    cropped (the coarse level of :func:`push_pull`, the bins of :mod:`gmcpt.placement`)."""
+    rows, columns, *rest = bins.shape
+    blocks = np.empty((rows, size, columns, size, *rest), bins.dtype)
+    blocks[...] = bins[:, None, :, None]
+    return blocks.reshape(rows * size, columns * size, *rest)[:height, :width]
+
+
 def push_pull(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """Fill an (H, W, C) image from samples with (H, W) weights in [0, 1].
 
@@ -73,11 +82,8 @@ def push_pull(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     coarse_w = np.minimum(sum_w, 1.0)
     coarse_v = sum_v / np.maximum(sum_w[..., None], 1e-12)
     coarse = push_pull(coarse_v, coarse_w)
-    up = np.empty((coarse.shape[0], 2, coarse.shape[1], 2, coarse.shape[2]), coarse.dtype)
-    up[...] = coarse[:, None, :, None]
-    up = up.reshape(2 * coarse.shape[0], 2 * coarse.shape[1], -1)[:height, :width]
     alpha = weights[:height, :width, None]
-    return alpha * values + (1.0 - alpha) * up
+    return alpha * values + (1.0 - alpha) * upsampled(coarse, 2, height, width)
 
 
 #: Pixels of the band of rows the fill works on at a time: a band's planes stay in the CPU's cache across
