@@ -145,19 +145,29 @@ def _threshold_tile() -> np.ndarray:
 
 
 def _thresholds(height: int, width: int, rng: np.random.Generator) -> np.ndarray:
-    """(H, W) blue-noise thresholds: the tile, flipped, transposed and shifted as ``rng`` says, repeated."""
+    """(H, W) blue-noise thresholds: the tile, flipped, transposed and shifted as ``rng`` says, repeated.
+    Read-only: the map of the last few placements is kept (:func:`_placed_tiles`)."""
+    flips = tuple(bool(flip) for flip in rng.integers(0, 2, size=3))
+    dy, dx = (int(shift) for shift in rng.integers(0, THRESHOLD_TILE, size=2))
+    return _placed_tiles(height, width, flips, dy, dx)
+
+
+@functools.lru_cache(maxsize=4)
+def _placed_tiles(height: int, width: int, flips: tuple[bool, bool, bool], dy: int, dx: int) -> np.ndarray:
+    """The threshold map of :func:`_thresholds`, made once per size and placement: both passes of a
+    ``two_pass`` frame draw on the same map, and so do frames rendered with the same seed."""
     tile = _threshold_tile()
-    flips = rng.integers(0, 2, size=3)
     if flips[0]:
         tile = tile[::-1]
     if flips[1]:
         tile = tile[:, ::-1]
     if flips[2]:
         tile = tile.T
-    dy, dx = rng.integers(0, THRESHOLD_TILE, size=2)
-    shifted = np.roll(tile, (-int(dy), -int(dx)), axis=(0, 1))  # element (y, x) is the tile's (y + dy, x + dx)
+    shifted = np.roll(tile, (-dy, -dx), axis=(0, 1))  # element (y, x) is the tile's (y + dy, x + dx)
     repeats = (-(-height // THRESHOLD_TILE), -(-width // THRESHOLD_TILE))
-    return np.tile(shifted, repeats)[:height, :width]
+    thresholds = np.ascontiguousarray(np.tile(shifted, repeats)[:height, :width])
+    thresholds.setflags(write=False)
+    return thresholds
 
 
 #: every SELECTION_STRIDE-th key is sorted to bracket the k-th smallest; the bracket spans

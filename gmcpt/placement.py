@@ -165,16 +165,21 @@ def _disagreement(pixels: np.ndarray, values: np.ndarray, noise: np.ndarray, mas
     bins_high, bins_wide = -(-height // ERROR_BIN), -(-width // ERROR_BIN)
     rows, columns = np.divmod(pixels, width)
     index = (rows // ERROR_BIN) * bins_wide + columns // ERROR_BIN
-    values = values.astype(np.float64)
-    # per bin: the traced count, the sum of values, the sum of squares less their noise; then over the window
-    planes = np.stack([np.bincount(index, minlength=bins_high * bins_wide),
-                       np.bincount(index, values, bins_high * bins_wide),
-                       np.bincount(index, values * values - noise, bins_high * bins_wide)])
-    count, total, excess_total = _window_sums(planes.reshape(3, bins_high, bins_wide), ERROR_WINDOW)
-    safe = np.maximum(count, 1.0)
+    # per bin: the traced count, the sum of values, the sum of squares less their noise; then over the
+    # window. float32 planes of one bin a value, each on its own (a float64 stack of three was
+    # 400-KB temporaries, fresh pages in a render); the values centred first, so the squares keep their digits
+    values = values - np.float32(values.mean()) if values.size else values
+    bins = bins_high * bins_wide
+    count, total, excess_total = (_window_sums(np.bincount(index, weights, bins).astype(np.float32)
+                                               .reshape(bins_high, bins_wide), ERROR_WINDOW)
+                                  for weights in (None, values, values * values - noise))
+    safe = np.maximum(count, np.float32(1.0))
     local_mean = total / safe
-    excess = np.where(count > 1, np.maximum(excess_total / safe - local_mean ** 2, 0.0), 0.0)
-    weight = upsampled(_capped_weight(np.sqrt(excess).astype(np.float32)), ERROR_BIN, height, width)
+    excess = excess_total / safe
+    excess -= local_mean * local_mean
+    np.maximum(excess, np.float32(0.0), out=excess)
+    excess[count <= 1] = 0.0
+    weight = upsampled(_capped_weight(np.sqrt(excess, out=excess)), ERROR_BIN, height, width)
     weight += edges_density
     weight += 1.0
     density = _normalise(weight, floor)
