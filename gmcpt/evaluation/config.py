@@ -49,7 +49,7 @@ class EvalConfig:
     grid_rate: float = 0.3
     path_spp: tuple[int, ...] = (1, 2, 4, 8, 16, 32)
     budget_rates: tuple[float, ...] = (0.25, 0.5)
-    budget_spp: tuple[int, ...] = (1, 4, 16)
+    budget_spp: tuple[int, ...] = (1, 4, 16, 32)
     budget_variants: tuple[str, ...] = ("pawnnm", "gan_pawnnm", "gan_oidn")
     timing_resolutions: tuple[int, ...] = (128, 256)
     timing_scene: str = "still-life"
