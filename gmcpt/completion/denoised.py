@@ -23,7 +23,7 @@ from ..denoise import denoise_oidn
 from ..domain import WorkingDomain
 from ..frame import SparseFrame
 from . import Completion, register_method
-from .learned import complete_gan, complete_gan_pawnnm
+from .learned import complete_gan_pawnnm, generator_fill
 
 
 def denoise_over_fill(frame: SparseFrame, fill: Completion) -> Completion:
@@ -38,8 +38,10 @@ def denoise_over_fill(frame: SparseFrame, fill: Completion) -> Completion:
                  summary="GAN fill, traced samples put back, Intel OIDN over the frame (default)")
 def complete_gan_oidn(frame: SparseFrame, *, domain: WorkingDomain = WorkingDomain(),
                       weights: str | None = None) -> Completion:
-    """``gan``'s fill, the traced samples, then OIDN (:func:`denoise_over_fill`)."""
-    return denoise_over_fill(frame, complete_gan(frame, domain=domain, weights=weights))
+    """``gan``'s fill, the traced samples, then OIDN (:func:`denoise_over_fill`). The generator's output
+    goes in as it is: ``gan`` blends the samples back only at the traced pixels, which OIDN gets raw."""
+    working, factor, timings = generator_fill(frame, domain, weights)
+    return denoise_over_fill(frame, Completion(domain.inverse(working, factor), timings))
 
 
 @register_method("gan_pawnnm_oidn", min_size=8,

@@ -51,14 +51,13 @@ from . import Completion, register_method
 GAN_PAWNNM_PARAMS = replace(LOW_RANK_DEFAULT, iterations=1, w0=1875.0, group_size=12, wiener=1.0)
 
 
-def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
-                      weights: str | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(working-domain image (H, W, 3), demodulation factor, timings) from the generator.
+def generator_fill(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
+                   weights: str | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(working-domain image (H, W, 3), demodulation factor, timings): the generator's output at every pixel.
 
     The generator runs on the frame brought to :data:`~gmcpt.gan.infer.EXPOSURE_TARGET`
     (:func:`~gmcpt.gan.infer.target_exposure`); the exposure is folded into the returned factor, so
-    ``domain.inverse(working, factor)`` is radiance at the frame's own exposure. The traced
-    pixels are then blended back by :func:`~gmcpt.lowrank.noise.blend_samples`.
+    ``domain.inverse(working, factor)`` is radiance at the frame's own exposure.
     """
     import torch
 
@@ -73,9 +72,18 @@ def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(
     threads = int(os.environ.get("GMCPT_TORCH_THREADS", torch.get_num_threads()))
     working, factor = precomplete(generator, frame, domain, target_exposure(frame), threads,
                                   generator_precision(device))
+    return working, factor, {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}
+
+
+def gan_precompletion(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
+                      weights: str | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+    """:func:`generator_fill`, with the traced pixels' samples blended back by
+    :func:`~gmcpt.lowrank.noise.blend_samples` (the untraced pixels are the generator's)."""
+    working, factor, timings = generator_fill(frame, domain, weights)
+    start = time.perf_counter()
     observed = domain.forward_traced(frame.radiance, factor, frame.mask)  # the generator's domain, exposure folded in
     working = blend_samples(working, observed, frame.mask, working_variance(frame, domain, observed, factor))
-    timings = {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}
+    timings["pre_completion_s"] += time.perf_counter() - start
     return working, factor, timings
 
 
