@@ -166,8 +166,9 @@ def _disagreement(pixels: np.ndarray, values: np.ndarray, noise: np.ndarray, mas
     rows, columns = np.divmod(pixels, width)
     index = (rows // ERROR_BIN) * bins_wide + columns // ERROR_BIN
     # per bin: the traced count, the sum of values, the sum of squares less their noise; then over the
-    # window. float32 planes of one bin a value, each on its own (a float64 stack of three was
-    # 400-KB temporaries, fresh pages in a render); the values centred first, so the squares keep their digits
+    # window. Each plane float32 and on its own (64 KB at 256x256; a float64 stack of the three and its
+    # padded copies were 400-KB temporaries, fresh pages in a render); the values centred first, so
+    # their squares keep their digits in float32
     values = values - np.float32(values.mean()) if values.size else values
     bins = bins_high * bins_wide
     count, total, excess_total = (_window_sums(np.bincount(index, weights, bins).astype(np.float32)
