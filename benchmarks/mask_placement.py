@@ -15,6 +15,7 @@ completion's squared error on untraced pixels and each candidate.
 
     python benchmarks/mask_placement.py [--rates 0.2 0.3 0.4] [--masks random adaptive two_pass]
                                         [--methods gan_oidn gan_pawnnm] [--seeds 0 1 2 3] [--predictors]
+                                        [--feature-spp 4]
                                         [--json out.json]
 """
 from __future__ import annotations
@@ -99,6 +100,8 @@ def main() -> int:
     parser.add_argument("--methods", nargs="+", help="completion methods (default: the product's)")
     parser.add_argument("--weights", help="generator weights of the gan methods (default: the shipped)")
     parser.add_argument("--spp", type=int, default=16)
+    parser.add_argument("--feature-spp", type=int, help="feature pass samples per pixel, for the completion and "
+                        "OIDN's guides (default: the product's)")
     parser.add_argument("--res", type=int, default=256)
     parser.add_argument("--seeds", "--seed", type=int, nargs="+", default=[0],
                         help="seeds, each with frames of its own; the table is the mean over scenes and seeds "
@@ -131,8 +134,8 @@ def main() -> int:
         integrator = scene.integrator()
         integrator = getattr(integrator, "integrator", integrator)
         for seed in args.seeds:
-            full, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(rate=1.0, spp=args.spp,
-                                                                                      seed=seed))
+            full, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(
+                rate=1.0, spp=args.spp, seed=seed, **({"feature_spp": args.feature_spp} if args.feature_spp else {})))
             if args.predictors and seed == args.seeds[0]:
                 say(f"  {eval_scene.name}: what predicts the error of {args.methods[0]}")
                 correlations[eval_scene.name] = predictors(full, reference, args.methods[0], seed, say)
