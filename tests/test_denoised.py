@@ -48,3 +48,16 @@ def test_oidn_methods_denoise_the_traced_pixels_and_fill_the_rest(method):
     assert np.mean((result.image[~traced] - clean[~traced]) ** 2) < noisy_error
     assert {"pre_completion_s", "denoise_s", "completion_s"} <= result.timings.keys()
     assert np.array_equal(complete(frame, method).image, result.image)  # same frame, same output
+
+
+def test_gan_oidn_fills_with_gans_image_at_the_untraced_pixels(monkeypatch):
+    """gan_oidn skips gan's blend of the samples back (it changes only the traced pixels, which the
+    denoiser gets raw): what the denoiser sees is gan's image with the traced samples put back."""
+    from gmcpt.completion import denoised
+
+    frame, _ = _noisy_frame()
+    seen = {}
+    monkeypatch.setattr(denoised, "denoise_oidn", lambda image, albedo, normal: seen.setdefault("image", image))
+    complete(frame, "gan_oidn")
+    expected = np.where(frame.mask[..., None], frame.radiance, complete(frame, "gan").image)
+    np.testing.assert_array_equal(seen["image"], expected)
