@@ -158,3 +158,14 @@ def test_error_density_follows_radiance_structure_the_features_do_not_explain():
     flat_error = error_density(np.where(first[..., None], noisy, 0), np.where(first, 0.05 ** 2, 0), first,
                                albedo, np.ones((height, width), np.float32), flat)
     assert 0.7 < near_over_far(flat_error) < 1.4
+
+
+def test_the_kept_threshold_map_cannot_be_written():
+    """The threshold map of a placement is kept for the next draw on it: a caller cannot change it."""
+    from gmcpt.masks import _thresholds
+
+    thresholds = _thresholds(200, 300, mask_rng(4))
+    assert thresholds.shape == (200, 300) and not thresholds.flags.writeable
+    with pytest.raises(ValueError):
+        thresholds[0, 0] = 0.0
+    assert np.array_equal(_thresholds(200, 300, mask_rng(4)), thresholds)
