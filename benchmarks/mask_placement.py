@@ -118,7 +118,7 @@ def main() -> int:
     from gmcpt.evaluation.scenes import QUALITY_SCENES, procedural_scenes
     from gmcpt.evaluation.baselines import render_full
     from gmcpt.metrics import all_metrics
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
 
     mi.set_log_level(mi.LogLevel.Error)
     args.methods = args.methods or [DEFAULT_METHOD]
@@ -135,7 +135,7 @@ def main() -> int:
         integrator = getattr(integrator, "integrator", integrator)
         for seed in args.seeds:
             full, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(
-                rate=1.0, spp=args.spp, seed=seed, **({"feature_spp": args.feature_spp} if args.feature_spp else {})))
+                rate=1.0, spp=args.spp, seed=seed, feature_spp=args.feature_spp or DEFAULT_FEATURE_SPP))
             if args.predictors and seed == args.seeds[0]:
                 say(f"  {eval_scene.name}: what predicts the error of {args.methods[0]}")
                 correlations[eval_scene.name] = predictors(full, reference, args.methods[0], seed, say)
