@@ -146,16 +146,17 @@ def _threshold_tile() -> np.ndarray:
 
 def _thresholds(height: int, width: int, rng: np.random.Generator) -> np.ndarray:
     """(H, W) blue-noise thresholds: the tile, flipped, transposed and shifted as ``rng`` says, repeated.
-    Read-only: the map of the last few placements is kept (:func:`_placed_tiles`)."""
+    Read-only: the last placement's map is kept (:func:`_placed_tiles`)."""
     flips = tuple(bool(flip) for flip in rng.integers(0, 2, size=3))
     dy, dx = (int(shift) for shift in rng.integers(0, THRESHOLD_TILE, size=2))
     return _placed_tiles(height, width, flips, dy, dx)
 
 
-@functools.lru_cache(maxsize=4)
+@functools.lru_cache(maxsize=1)
 def _placed_tiles(height: int, width: int, flips: tuple[bool, bool, bool], dy: int, dx: int) -> np.ndarray:
-    """The threshold map of :func:`_thresholds`, made once per size and placement: both passes of a
-    ``two_pass`` frame draw on the same map, and so do frames rendered with the same seed."""
+    """The threshold map of :func:`_thresholds`, kept until a placement of another size or seed: both
+    passes of a ``two_pass`` frame draw on the same map, and so do frames rendered with the same seed.
+    One map only: a 3840x2160 one is 33 MB."""
     tile = _threshold_tile()
     if flips[0]:
         tile = tile[::-1]
