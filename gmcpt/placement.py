@@ -144,17 +144,17 @@ def _binned_mean(image: np.ndarray, size: int) -> np.ndarray:
     return total
 
 
-def _window_sums(planes: np.ndarray, window: int) -> np.ndarray:
-    """Sums of (..., H, W) ``planes`` over ``window`` x ``window`` neighbourhoods (odd), edges repeated."""
+def _window_sums(plane: np.ndarray, window: int) -> np.ndarray:
+    """Sums of (H, W) ``plane`` over ``window`` x ``window`` neighbourhoods (odd), edges repeated."""
     radius = window // 2
-    height, width = planes.shape[-2:]
-    padded = np.pad(planes, [(0, 0)] * (planes.ndim - 2) + [(radius, radius)] * 2, mode="edge")
-    rows = padded[..., :height, :].copy()  # summed in place: one buffer a direction
+    height, width = plane.shape
+    padded = np.pad(plane, radius, mode="edge")
+    rows = padded[:height].copy()  # summed in place: one buffer a direction
     for shift in range(1, window):
-        rows += padded[..., shift:shift + height, :]
-    total = rows[..., :width].copy()
+        rows += padded[shift:shift + height]
+    total = rows[:, :width].copy()
     for shift in range(1, window):
-        total += rows[..., shift:shift + width]
+        total += rows[:, shift:shift + width]
     return total
 
 
