@@ -65,38 +65,58 @@ def test_readme_section_is_replaced_between_markers():
 
 
 def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
-    """Every table, plot and README section from a small run on the Cornell box and one procedural scene."""
+    """Every table, plot and README section from a small run on the Cornell box (standing in for a real scene)
+    and one procedural scene."""
+    from dataclasses import replace
+
+    from gmcpt.evaluation import measure
     from gmcpt.evaluation.scenes import CORNELL, ProceduralScene
     from gmcpt.evaluation.cli import evaluate
     from gmcpt.evaluation.config import EvalConfig
     from gmcpt.evaluation.document import readme_section, results_markdown
 
     monkeypatch.setenv("GMCPT_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(measure, "FULL_REFERENCES", tmp_path / "full")
     config = EvalConfig(name="test", procedural=1, resolution=32, reference_spp=32, rates=(0.3, 0.5),
                         variants=("interp", "nnm", "pawnnm"), patch_sizes=(5, 7), path_spp=(1, 2),
-                        budget_rates=(0.5,), budget_spp=(1, 2), budget_variants=("interp",),
-                        timing_resolutions=(32,), timing_scene="cornell-box", repeats=1)
+                        adaptive_budgets=(1.5, 3), budget_rates=(0.5,), budget_spp=(1, 2),
+                        budget_variants=("interp", "gan_oidn"), timing_resolutions=(32,), timing_scene="cornell-box",
+                        repeats=1, full_scene="cornell-box", full_size=(48, 32), full_reference_spp=16,
+                        full_spp=(2, 4), full_path_spp=(1, 2), full_adaptive_budgets=(1.5, 2))
     out = tmp_path / "docs"
     out.mkdir()
-    record = evaluate(config, [CORNELL, ProceduralScene(2_000_003)], out, lambda message: None)
+    record = evaluate(config, [replace(CORNELL, real=True), ProceduralScene(2_000_003)], out, lambda message: None)
     record.update(command="test", date="today", commit="abc", versions={"gmcpt": "0"}, machine="here")
     assert {r["scene"] for r in record["quality"]} == {"cornell-box", "proc-2000003"}
+    assert record["real_scenes"] == ["cornell-box"]
+    assert {r["real"] for r in record["quality"] if r["scene"] == "cornell-box"} == {True}
     assert len(record["quality"]) == 2 * (2 * 3 + 2)  # scenes x (rates x variants + patch sizes at rate 0.3)
-    assert {r["contender"] for r in record["equal_time"]} == {"path", "path+oidn", "interp"}
+    assert {r["contender"] for r in record["equal_time"]} == {"path", "path+oidn", "adaptive+oidn", "interp",
+                                                              "gan_oidn"}
+    full = record["full_resolution"]
+    assert {r["size"] for r in full} == {"48x32"} and {r["contender"] for r in full} == {
+        "path", "path+oidn", "adaptive+oidn", "gan_oidn"}
+    assert (tmp_path / "full").is_dir()
     noise = record["references"][0]
     assert np.isfinite(noise["noise_psnr"]) and noise["noise_psnr"] > 10
     # a completion at a higher rate is better: the measurements are real
     pawnnm = {r["rate"]: r["psnr"] for r in record["quality"] if r["variant"] == "pawnnm" and r["scene"] == "cornell-box"}
     assert pawnnm[0.5] > pawnnm[0.3]
     placements = {r["variant"] for r in record["placement"]}
-    assert placements == {"path+oidn", "random", "stratified", "adaptive", "two_pass"}
+    assert placements == {"path+oidn", "adaptive+oidn", "random", "stratified", "adaptive", "two_pass"}
     for row in record["placement"]:  # equal samples: the masks spend round(rate * pixels) x spp, path tracing
-        expected = round(row["rate"] * 32 * 32) * 16 / (32 * 32) if row["variant"] != "path+oidn" \
-            else round(row["rate"] * 16)
-        assert row["samples_per_pixel"] == pytest.approx(expected)
+        # round(rate * spp) a pixel, adaptive path tracing round(rate * spp * pixels) in all
+        expected = {"path+oidn": round(row["rate"] * 16), "adaptive+oidn": round(row["rate"] * 16 * 32 * 32) / 1024}
+        assert row["samples_per_pixel"] == pytest.approx(expected.get(row["variant"],
+                                                                      round(row["rate"] * 32 * 32) * 16 / 1024))
     markdown = results_markdown(record)
     assert "Sample placement at equal samples" in markdown and "two_pass - path+oidn dB" in markdown
-    assert "with each sample placement against path tracing + OIDN" in readme_section(record)
+    assert "two_pass - adaptive+oidn dB" in markdown
+    assert "**mean of 1 real**" in markdown and "**mean of 1 synthetic**" in markdown
+    assert "Speed-up at equal quality" in markdown and "Full resolution: cornell-box at 48x32" in markdown
+    section = readme_section(record)
+    assert "adaptive path tracing + OIDN" in section and "default - better baseline" in section
+    assert "1 real and 1 synthetic scenes" in section and "At equal time" in section
     for heading in ("Table 1", "Table 2", "Fig. 10", "Fig. 12", "Table 3", "Crossover", "Table 4"):
         assert heading in markdown
     assert "pawnnm - nnm" in markdown
@@ -122,3 +142,29 @@ def test_eval_bad_input_is_one_line(args, message):
     result = _eval(*args)
     assert result.returncode == 2
     assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1
+
+
+def test_time_to_reach_interpolates_on_the_frontier_in_log_time():
+    from gmcpt.evaluation.report import speedup, time_to_reach
+
+    # path+oidn: 20 dB at 1 s, 26 at 2 s, 30 at 4 s; a slower setting that scores worse does not lower the frontier
+    rows = ROWS + [_row("s", "path+oidn", 8, 8.0, 29.0)]
+    assert time_to_reach(rows, "path+oidn", 23.0) == ("=", pytest.approx(2 ** 0.5))
+    assert time_to_reach(rows, "path+oidn", 30.0) == ("=", pytest.approx(4.0))
+    assert time_to_reach(rows, "path+oidn", 19.0) == ("<", 1.0)
+    assert time_to_reach(rows, "path+oidn", 31.0) == (">", 8.0)
+    assert time_to_reach(rows, "nobody", 20.0) is None
+    # m's 22 dB at 1.5 s: path+oidn needs 2 ** (1/3) s for it
+    assert speedup(rows, ROWS[4], "path+oidn") == ("=", pytest.approx(2 ** (1 / 3) / 1.5))
+
+
+def test_group_means_split_real_and_synthetic_scenes():
+    from gmcpt.evaluation.report import groups, variant_table
+
+    rows = [{"scene": s, "real": s.startswith("r"), "variant": "v", "rate": 0.3, "psnr": p, "flip": 0.1}
+            for s, p in (("r1", 30.0), ("r2", 32.0), ("s1", 20.0))]
+    assert [label for label, _ in groups(rows)] == ["r1", "r2", "s1", "**mean of 2 real**", "**mean of 1 synthetic**",
+                                                    "**mean of 3**"]
+    table = variant_table(rows, ["v"], ["psnr"], [0.3])
+    assert "| **mean of 2 real** | 30% | 31.00 |" in table and "| **mean of 1 synthetic** | 30% | 20.00 |" in table
+    assert "| **mean of 3** | 30% | 27.33 |" in table

@@ -24,7 +24,7 @@ from pathlib import Path
 from ..errors import GmcptError
 from ..exr import atomic_output, check_writable
 from .config import CONFIGS, SECOND_REFERENCE_SEED
-from .scenes import QUALITY_SCENES, by_name, procedural_scenes
+from .scenes import by_name, procedural_scenes
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -84,23 +84,31 @@ def evaluate(config, scenes, out: Path, say, quiet: bool = False) -> dict:
 
     start = time.perf_counter()
     record = {"config": asdict(config), "second_reference_seed": SECOND_REFERENCE_SEED, "references": [],
-              "quality": [], "placement": [], "equal_time": [], "stage_timings": [], "grids": {}}
+              "quality": [], "placement": [], "equal_time": [], "full_resolution": [], "stage_timings": [],
+              "grids": {}, "real_scenes": [scene.name for scene in scenes if scene.real]}
     with Progress(len(scenes), "eval", unit="scene", say=say, quiet=quiet) as bar:
         say = bar.write
         for index, eval_scene in enumerate(scenes, 1):
+            tagged = lambda rows: [dict(row, real=eval_scene.real) for row in rows]  # noqa: E731
             say(f"[{index}/{len(scenes)}] {eval_scene.name}: references")
             loaded, noise = measure.load(eval_scene, config, say)
             record["references"].append(noise)
             say(f"[{index}/{len(scenes)}] {eval_scene.name}: quality at rates {', '.join(map(str, config.rates))}")
-            record["quality"] += measure.quality(loaded, config, say)
+            record["quality"] += tagged(measure.quality(loaded, config, say))
             say(f"[{index}/{len(scenes)}] {eval_scene.name}: sample placement at equal samples")
-            record["placement"] += measure.placement(loaded, config, say)
-            say(f"[{index}/{len(scenes)}] {eval_scene.name}: equal-time settings")
-            record["equal_time"] += measure.equal_time(loaded, config, say)
+            record["placement"] += tagged(measure.placement(loaded, config, say))
+            say(f"[{index}/{len(scenes)}] {eval_scene.name}: equal-time settings (warm)")
+            record["equal_time"] += tagged(measure.equal_time(loaded, config, say))
             grid = f"grid-{eval_scene.name}.png"
             plots.image_grid(loaded.images, out / grid, f"{eval_scene.name}, rate {config.grid_rate:g} x {config.spp} spp")
             record["grids"][eval_scene.name] = grid
             bar.update(note=eval_scene.name)
+        full_scene = next((s for s in scenes if s.name == config.full_scene), None)
+        if full_scene is None:
+            say(f"skipping the full-resolution check: {config.full_scene} is not among the scenes")
+        else:
+            say(f"full resolution: {full_scene.name} at {'x'.join(map(str, config.full_size))}")
+            record["full_resolution"] = measure.full_resolution(full_scene, config, say)
         timing_scene = next((s for s in scenes if s.name == config.timing_scene), scenes[0])
         say(f"stage timings on {timing_scene.name} at {', '.join(map(str, config.timing_resolutions))} px")
         record["stage_timings"] = measure.stage_timings(timing_scene, config, say)
@@ -121,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.procedural < 0:
                 raise GmcptError("--procedural must be >= 0")
             config = replace(config, procedural=args.procedural)
-        chosen = by_name(args.scenes, QUALITY_SCENES)
+        chosen = by_name(args.scenes)
         missing = [scene for scene in chosen if not scene.available()]
         scenes = [scene for scene in chosen if scene.available()] + procedural_scenes(config.procedural)
         if not scenes:
@@ -140,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
         except ImportError:
             raise GmcptError("the evaluation's denoiser baseline needs pyoidn: pip install -e '.[dev]'") from None
         for scene in missing:  # after every check, so that a refusal stays one line
-            say(f"skipping {scene.name}: {scene.path} not found")
+            say(scene.missing_line())
 
         import gmcpt  # noqa: F401  (LLVM, variant)
         import mitsuba as mi

@@ -25,10 +25,16 @@ class EvalConfig:
     patch_sizes, patch_rates : the PSNR-against-patch-size sweep of PAWNNM (paper Fig. 12).
     grid_rate : rate of the image grids.
     path_spp : full-frame path tracing sample counts of the equal-time comparison.
+    adaptive_budgets : mean samples per pixel of adaptive path tracing + OIDN in the equal-time comparison (at
+        equal samples it runs at each rate x spp of the placement table).
     budget_rates, budget_spp : (rate, spp) grid of the completion methods in the equal-time comparison.
     budget_variants : the completion variants that enter the equal-time comparison.
     timing_resolutions : resolutions of the stage-timing table.
     timing_scene : scene of the stage-timing table.
+    full_scene, full_size, full_reference_spp, full_rate, full_spp, full_path_spp, full_adaptive_budgets: the
+        full-resolution check: on ``full_scene`` at ``full_size`` (W, H), the default at ``full_rate`` x each
+        of ``full_spp``, whose times are the budgets, against both baselines at their settings (reference
+        cached under ``data/references``).
     repeats : timed runs of each render (the fastest counts: the first may trace kernels).
     """
 
@@ -48,11 +54,19 @@ class EvalConfig:
     patch_rates: tuple[float, ...] = (0.3,)
     grid_rate: float = 0.3
     path_spp: tuple[int, ...] = (1, 2, 4, 8, 16, 32)
+    adaptive_budgets: tuple[float, ...] = (2, 4, 8, 16, 32)
     budget_rates: tuple[float, ...] = (0.25, 0.5)
     budget_spp: tuple[int, ...] = (1, 4, 16, 32)
     budget_variants: tuple[str, ...] = ("pawnnm", "gan_pawnnm", "gan_oidn")
     timing_resolutions: tuple[int, ...] = (128, 256)
     timing_scene: str = "still-life"
+    full_scene: str = "living-room"
+    full_size: tuple[int, int] = (1920, 1080)
+    full_reference_spp: int = 1024
+    full_rate: float = 0.3
+    full_spp: tuple[int, ...] = (8, 16)
+    full_path_spp: tuple[int, ...] = (1, 2, 3, 4, 6, 8)
+    full_adaptive_budgets: tuple[float, ...] = (1.5, 2, 3, 4, 6, 8)
     repeats: int = 2
 
 
@@ -94,6 +108,8 @@ VARIANTS = {variant.label: variant for variant in (
     Variant("gan_oidn", "gan_oidn", "GAN fill, the traced samples put back, Intel OIDN over the frame (the default)"),
     Variant("gan_pawnnm_oidn", "gan_pawnnm_oidn", "gan_pawnnm's fill, the traced samples put back, Intel OIDN"),
 )}
+#: the product's default method (:data:`gmcpt.completion.DEFAULT_METHOD`): the one the baselines are held against
+DEFAULT_VARIANT = "gan_oidn"
 
 
 def patch_variant(size: int) -> Variant:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from . import report
+from .config import DEFAULT_VARIANT
 
 README_START = "<!-- results:start (written by python -m gmcpt eval; do not edit) -->"
 README_END = "<!-- results:end -->"
@@ -32,11 +33,11 @@ def headline_table(run: dict) -> str:
 
 
 def placement_table(run: dict) -> str:
-    """PSNR / FLIP of each placement beside path tracing + OIDN at equal samples, per scene and the mean."""
+    """PSNR / FLIP of each placement beside both baselines at equal samples, per scene and the means."""
     c = run["config"]
     default = c.get("mask", "two_pass")
-    return report.variant_table(run.get("placement", []), ["path+oidn", *c.get("placements", ())], ["psnr", "flip"],
-                                c["rates"], delta=(default, "path+oidn"))
+    return report.variant_table(run.get("placement", []), [*report.BASELINES, *c.get("placements", ())],
+                                ["psnr", "flip"], c["rates"], deltas=[(default, baseline) for baseline in report.BASELINES])
 
 
 def placement_section(run: dict) -> list[str]:
@@ -46,28 +47,93 @@ def placement_section(run: dict) -> list[str]:
     return [
         "## Sample placement at equal samples",
         "",
-        f"`{c['placement_variant']}` at each rate x {c['spp']} spp with each mask, beside full-frame path tracing "
-        f"with the same total samples (round(rate x {c['spp']}) spp a pixel) denoised by Intel Open Image Denoise "
-        "(albedo and normal from the same feature pass). `random` is the paper's mask; `adaptive` places the "
+        f"`{c['placement_variant']}` at each rate x {c['spp']} spp with each mask, beside two baselines denoised by "
+        "Intel Open Image Denoise (albedo and normal from the same feature pass): full-frame path tracing with the "
+        f"same total samples (round(rate x {c['spp']}) spp a pixel) and adaptive path tracing with exactly "
+        f"rate x {c['spp']} samples a pixel on average (`gmcpt/adaptive.py`: 1 spp everywhere, the rest where "
+        "the first pass's local relative error is high). `random` is the paper's mask; `adaptive` places the "
         "samples by a density from the feature buffers' edges; `two_pass` (the default) spends half the budget "
         "so, then the rest where the first half's samples disagree with their neighbours "
-        "(`gmcpt/placement.py`). PSNR dB / FLIP; the last column is the default's lead over path tracing + OIDN.",
+        "(`gmcpt/placement.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline.",
         "",
         placement_table(run),
         "",
     ]
 
 
+def _lead(rows: list[dict], default: str, rate: float, **where) -> float | None:
+    """The default's mean PSNR over the better of the two baselines' (at equal samples, placement rows)."""
+    mine = report._mean(rows, "psnr", variant=default, rate=rate, **where)
+    theirs = [report._mean(rows, "psnr", variant=b, rate=rate, **where) for b in report.BASELINES]
+    theirs = [t for t in theirs if t is not None]
+    return None if mine is None or not theirs else mine - max(theirs)
+
+
 def readme_placement(run: dict) -> list[str]:
-    """The placement table's mean PSNR rows, for the README."""
-    if not run.get("placement"):
+    """Equal samples in the README: both baselines and the default, mean PSNR of the real and synthetic scenes."""
+    rows = run.get("placement", [])
+    if not rows:
         return []
     c = run["config"]
-    variants = [v for v in ["path+oidn", *c.get("placements", ())] if any(r["variant"] == v for r in run["placement"])]
-    rows = [[f"{rate:.0%}", *(f"{report._mean(run['placement'], 'psnr', variant=v, rate=rate):.2f}" for v in variants)]
-            for rate in c["rates"]]
-    return [f"At equal samples, `{c['placement_variant']}` with each sample placement against path tracing + OIDN "
-            "(mean PSNR dB; per scene, with FLIP, in results.md):", "", report._table(["rate", *variants], rows), ""]
+    default = c.get("mask", "two_pass")
+    columns = [v for v in [*report.BASELINES, default] if any(r["variant"] == v for r in rows)]
+    table = []
+    for label, where in report.groups(rows)[-3:] if len(report.groups(rows)) > 2 else report.groups(rows)[-1:]:
+        for rate in c["rates"]:
+            lead = _lead(rows, default, rate, **where)
+            table.append([label.strip("*"), f"{rate:g} x {c['spp']} = {rate * c['spp']:g}",
+                          *(f"{report._mean(rows, 'psnr', variant=v, rate=rate, **where):.2f}" for v in columns),
+                          "-" if lead is None else f"{lead:+.2f}"])
+    names = [report.contender_name(v) if v in report.CONTENDER_NAMES else f"default ({c['placement_variant']})"
+             for v in columns]
+    return ["Mean PSNR (dB) at equal samples per pixel:", "",
+            report._table(["scenes", "samples / pixel", *names, "default - better baseline"], table), ""]
+
+
+def verdict(run: dict) -> list[str]:
+    """Plain sentences: where the default wins and where it loses, at equal samples and at equal time."""
+    rows, c = run.get("placement", []), run["config"]
+    if not rows:
+        return []
+    default = c.get("mask", "two_pass")
+    middle = c["rates"][len(c["rates"]) // 2]
+    behind = [(s, _lead(rows, default, middle, scene=s)) for s in report._scenes(rows)]
+    behind = [f"{s} ({lead:+.2f} dB)" for s, lead in behind if lead is not None and lead < 0]
+    lines = [f"At {middle * c['spp']:g} samples per pixel the default is behind the better baseline on "
+             + (", ".join(behind) if behind else "no scene") + "."]
+    timed = run.get("equal_time", [])
+    if timed:
+        for label, where in report.groups(timed)[-3:-1] if len(report.groups(timed)) > 2 else []:
+            scenes = report._in_group(timed, where)
+            ahead = total = 0
+            for scene in scenes:
+                scene_rows = [r for r in timed if r["scene"] == scene]
+                for setting in (r for r in scene_rows if r["contender"] == c.get("placement_variant", "gan_oidn")):
+                    rivals = [report.best_within(scene_rows, b, "seconds", setting["seconds"]) for b in report.BASELINES]
+                    rivals = [r["psnr"] for r in rivals if r is not None]
+                    total += 1
+                    ahead += not rivals or setting["psnr"] > max(rivals)
+            lines.append(f"At equal time (warm, every stage counted) on the {label.strip('*').split(' ', 3)[-1]} "
+                         f"scenes, the default is ahead of both baselines at {ahead} of its {total} settings.")
+    return [" ".join(lines), ""]
+
+
+def full_resolution_section(run: dict) -> list[str]:
+    rows = run.get("full_resolution", [])
+    if not rows:
+        return []
+    c = run["config"]
+    return [
+        f"## Full resolution: {rows[0]['scene']} at {rows[0]['size']}",
+        "",
+        f"The default at rate {c['full_rate']:g} x {', '.join(map(str, c['full_spp']))} spp; its warm time is the "
+        f"budget. Within it, the best of path tracing + OIDN at {', '.join(map(str, c['full_path_spp']))} spp and "
+        f"of adaptive path tracing + OIDN at {', '.join(f'{b:g}' for b in c['full_adaptive_budgets'])} samples a "
+        f"pixel (timed as in Table 3), against a {c['full_reference_spp']}-spp reference. PSNR dB / FLIP.",
+        "",
+        report.full_resolution_table(rows, DEFAULT_VARIANT),
+        "",
+    ]
 
 
 def results_markdown(run: dict) -> str:
@@ -135,10 +201,12 @@ def results_markdown(run: dict) -> str:
         "",
         "Every contender ran at several settings in this run: full-frame path tracing at "
         f"{', '.join(map(str, c['path_spp']))} spp; the same + Intel Open Image Denoise (`pyoidn`, CPU, HDR, "
-        "with the albedo and normal of the feature pass, whose time is counted); the completion methods at "
-        f"rates {', '.join(f'{r:g}' for r in c['budget_rates'])} x {', '.join(map(str, c['budget_spp']))} spp "
-        "(features pass, masked render and completion counted). Renders are timed "
-        f"{c['repeats']} times, the fastest counts. For each budget, each contender's best setting that fits it: "
+        "with the albedo and normal of a feature pass, whose time is counted); adaptive path tracing + OIDN at "
+        f"{', '.join(f'{b:g}' for b in c.get('adaptive_budgets', ()))} samples a pixel on average; the completion "
+        f"methods at rates {', '.join(f'{r:g}' for r in c['budget_rates'])} x {', '.join(map(str, c['budget_spp']))} spp "
+        "(feature pass, placement, masked render and completion counted). Timed warm, in one process: each "
+        f"contender's whole pipeline runs {max(2, c['repeats'])} times and the fastest counts (kernels compiled, "
+        "weights loaded). For each budget, each contender's best setting that fits it: "
         "PSNR dB / SSIM / FLIP. Path tracing cannot spend less than 1 sample per pixel.",
         "",
         "### Crossover",
@@ -159,6 +227,16 @@ def results_markdown(run: dict) -> str:
         "",
         report.budget_table(budget, "seconds"),
         "",
+        "### Speed-up at equal quality",
+        "",
+        f"For each setting of the default (`{DEFAULT_VARIANT}`), the time each baseline needs to reach its PSNR "
+        "(interpolated in log time on the baseline's best-PSNR-within-time curve), as a multiple of the default's "
+        "time: above 1x the default is faster. `>`: even the baseline's slowest setting falls short; `<`: its "
+        "fastest already does better. Means are geometric.",
+        "",
+        report.speedup_table(budget, DEFAULT_VARIANT),
+        "",
+        *full_resolution_section(run),
         "## Table 4: stage timings per resolution",
         "",
         f"Scene `{c['timing_scene']}`, rate 0.3, {c['spp']} spp, wall seconds on this machine "
@@ -183,12 +261,12 @@ def readme_section(run: dict) -> str:
     return "\n".join([
         README_START,
         "",
-        f"Mean over {len({r['scene'] for r in run['quality']})} scenes ({_settings_line(run)}), "
-        f"PSNR / SSIM, from `{run['command']}` on {run['date']}:",
-        "",
-        headline_table(run),
+        f"{len(run.get('real_scenes', []))} real and "
+        f"{len({r['scene'] for r in run['quality']}) - len(run.get('real_scenes', []))} synthetic scenes "
+        f"({_settings_line(run)}), from `{run['command']}` on {run['date']}.",
         "",
         *readme_placement(run),
+        *verdict(run),
         "![PSNR against wall time: path tracing, path tracing + OIDN, and the completion methods](docs/psnr_vs_time.png)",
         "",
         "All tables (the paper's Tables 1-2, Figs. 10 and 12, equal time and where completion overtakes "

@@ -2,12 +2,15 @@
 
 Every timing here is wall time on this machine, measured in the same run as
 the quality figures. Renders are timed ``config.repeats`` times and the
-fastest counts (the first call in a process traces Dr.Jit kernels);
-completions run once.
+fastest counts (the first call in a process traces Dr.Jit kernels); in the
+equal-time comparison every contender's whole pipeline runs so, in one warm
+process: features, placement, render and completion for the completion
+methods; features, render and OIDN for the baselines.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -18,6 +21,8 @@ from .baselines import fastest, render_full
 from .config import SECOND_REFERENCE_SEED, VARIANTS, EvalConfig, Variant, patch_variant
 
 Say = Callable[[str], None]
+#: where the full-resolution check caches its reference (ignored by git: a 1920x1080 EXR is 20 MB)
+FULL_REFERENCES = Path(__file__).resolve().parents[2] / "data" / "references"
 
 
 @dataclass
@@ -31,6 +36,7 @@ class LoadedScene:
     features: dict
     features_s: float
     images: dict = field(default_factory=dict)  # label -> image at the grid rate, for the image grid
+    sensor: object = None  # default: the scene's first
 
 
 def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
@@ -68,6 +74,15 @@ def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig,
     return best
 
 
+def adaptive_oidn(loaded: LoadedScene, budget: float, config: EvalConfig, features: dict | None = None):
+    """(image, info, timings) of adaptive path tracing + OIDN at ``budget`` mean samples a pixel
+    (:func:`gmcpt.adaptive.render_adaptive`; ``features``: OIDN's guides, default a feature pass of its own)."""
+    from ..adaptive import AdaptiveSettings, render_adaptive
+
+    settings = AdaptiveSettings(budget=budget, seed=config.seed + 17, feature_spp=config.feature_spp)
+    return render_adaptive(loaded.scene, loaded.integrator, settings, loaded.sensor, features)
+
+
 def run_variant(frame, variant: Variant, reference: np.ndarray) -> tuple[np.ndarray, dict, dict]:
     """(image, metrics, timings) of one completion variant on one frame."""
     from ..completion import complete
@@ -102,32 +117,70 @@ def quality(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     return rows
 
 
-def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
+def _path_oidn(loaded: LoadedScene, spp: int, seed: int, feature_spp: int) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(noisy, denoised, timings) of path tracing + OIDN, its own feature pass for the guides included."""
+    import time
+
+    from ..render import render_features
+
+    timings = {}
+    start = time.perf_counter()
+    features = render_features(loaded.scene, loaded.sensor or loaded.scene.sensors()[0], feature_spp)
+    timings["features_s"] = time.perf_counter() - start
+    start = time.perf_counter()
+    noisy = render_full(loaded.scene, loaded.integrator, spp, seed)
+    timings["render_s"] = time.perf_counter() - start
+    start = time.perf_counter()
+    denoised = denoise_oidn(noisy, features["albedo"], features["normal"])
+    timings["denoise_s"] = time.perf_counter() - start
+    return noisy, denoised, timings
+
+
+def _warm(pipeline: Callable[[], tuple], repeats: int) -> tuple:
+    """The result of the fastest of ``max(2, repeats)`` runs of ``pipeline`` (returning ``(..., timings)``),
+    and its total seconds: the first run in a process compiles kernels and loads weights, later ones do not."""
+    best = None
+    for _ in range(max(2, repeats)):
+        result = pipeline()
+        seconds = sum(result[-1].values())
+        if best is None or seconds < best[1]:
+            best = (result, seconds)
+    return best
+
+
+def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, rates=None, spps=None) -> list[dict]:
     """Quality and total wall time of every contender at every setting of the equal-time comparison.
 
-    Path tracing: a full-frame render. Path tracing + OIDN: the same render,
-    a 1-spp albedo/normal pass and the denoiser. Completion variants: the
-    masked render (its features pass included) and the completion.
+    Path tracing: a full-frame render. Path tracing + OIDN: a feature pass for the guides, the same render
+    and the denoiser. Adaptive path tracing + OIDN: the same with the samples placed adaptively. Completion
+    variants: feature pass, placement, masked render and completion. Each timed warm (:func:`_warm`).
+    ``rates``, ``spps``: the completion settings (default ``config.budget_rates``, ``config.budget_spp``).
     """
     rows = []
-    albedo, normal = loaded.features["albedo"], loaded.features["normal"]
+    base = {"scene": loaded.name}
     for spp in config.path_spp:
-        noisy, render_s = fastest(lambda: render_full(loaded.scene, loaded.integrator, spp, config.seed + 17),
-                                  config.repeats)
-        denoised, oidn_s = fastest(lambda: denoise_oidn(noisy, albedo, normal), config.repeats)
-        for contender, image, seconds in (("path", noisy, render_s),
-                                          ("path+oidn", denoised, render_s + loaded.features_s + oidn_s)):
-            rows.append({"scene": loaded.name, "contender": contender, "rate": 1.0, "spp": spp,
-                         "samples_per_pixel": float(spp), "seconds": seconds, **all_metrics(image, loaded.reference)})
+        (noisy, denoised, timings), seconds = _warm(lambda: _path_oidn(loaded, spp, config.seed + 17, config.feature_spp),
+                                                   config.repeats)
+        for contender, image, spent in (("path", noisy, timings["render_s"]), ("path+oidn", denoised, seconds)):
+            rows.append({**base, "contender": contender, "rate": 1.0, "spp": spp, "samples_per_pixel": float(spp),
+                         "seconds": spent, **all_metrics(image, loaded.reference)})
         say(f"  {loaded.name} path {spp:>3} spp: {rows[-2]['psnr']:6.2f} dB, + OIDN {rows[-1]['psnr']:6.2f} dB "
-            f"({render_s:.2f} s + {loaded.features_s + oidn_s:.2f} s)")
-    for rate in config.budget_rates:
-        for spp in config.budget_spp:
-            frame, render_timings = sparse_frame(loaded, rate, spp, config)
+            f"({timings['render_s']:.2f} s, {seconds:.2f} s in all)")
+    for budget in config.adaptive_budgets:
+        (image, info, _), seconds = _warm(lambda: adaptive_oidn(loaded, budget, config), config.repeats)
+        rows.append({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
+                     "samples_per_pixel": float(budget), "seconds": seconds, **all_metrics(image, loaded.reference)})
+        say(f"  {loaded.name} adaptive {budget:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB ({seconds:.2f} s)")
+    for rate in rates or config.budget_rates:
+        for spp in spps or config.budget_spp:
             for label in config.budget_variants:
-                _, metrics, timings = run_variant(frame, VARIANTS[label], loaded.reference)
-                seconds = sum(render_timings.values()) + timings["completion_s"]
-                rows.append({"scene": loaded.name, "contender": label, "rate": rate, "spp": spp,
+                def pipeline():
+                    frame, render_timings = sparse_frame(loaded, rate, spp, replace(config, repeats=1))
+                    image, metrics, timings = run_variant(frame, VARIANTS[label], loaded.reference)
+                    return image, metrics, {**render_timings, "completion_s": timings["completion_s"]}
+
+                (_, metrics, _), seconds = _warm(pipeline, config.repeats)
+                rows.append({**base, "contender": label, "rate": rate, "spp": spp,
                              "samples_per_pixel": rate * spp, "seconds": seconds, **metrics})
                 say(f"  {loaded.name} {label} rate {rate:.3f} x {spp:>2} spp: {metrics['psnr']:6.2f} dB "
                     f"({seconds:.2f} s)")
@@ -145,7 +198,12 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
         noisy = render_full(loaded.scene, loaded.integrator, samples, config.seed + 17)
         rows.append({"scene": loaded.name, "rate": rate, "variant": "path+oidn", "samples_per_pixel": samples,
                      **all_metrics(denoise_oidn(noisy, albedo, normal), loaded.reference)})
-        say(f"  {loaded.name} rate {rate:.2f} path {samples} spp + OIDN: {rows[-1]['psnr']:6.2f} dB")
+        image, info, _ = adaptive_oidn(loaded, rate * config.spp, config, loaded.features)
+        rows.append({"scene": loaded.name, "rate": rate, "variant": "adaptive+oidn",
+                     "samples_per_pixel": info["path_samples"] / image.shape[0] / image.shape[1],
+                     **all_metrics(image, loaded.reference)})
+        say(f"  {loaded.name} rate {rate:.2f} path {samples} spp + OIDN: {rows[-2]['psnr']:6.2f} dB, adaptive "
+            f"{rate * config.spp:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB")
         for pattern in config.placements:
             frame, render_timings = sparse_frame(loaded, rate, config.spp, config, pattern)
             _, metrics, timings = run_variant(frame, variant, loaded.reference)
@@ -155,6 +213,28 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
             say(f"  {loaded.name} rate {rate:.2f} {variant.label} {pattern:<10}: {metrics['psnr']:6.2f} dB "
                 f"(mask {render_timings['mask_s'] * 1000:.0f} ms, render {render_timings['render_s']:.2f} s)")
     return rows
+
+
+def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
+    """The equal-time comparison (:func:`equal_time`) at ``config.full_size`` on one scene: the default at
+    ``config.full_rate`` x ``config.full_spp`` against both baselines at ``config.full_path_spp`` and
+    ``config.full_adaptive_budgets``. The reference is cached under ``data/references``."""
+    from ..render import render_features
+    from .config import DEFAULT_VARIANT
+    from .reference import render_reference
+
+    progress = lambda message: say(f"  {message} (cached under data/references after the first run)")  # noqa: E731
+    reference = render_reference(eval_scene.path, config.full_size, config.full_reference_spp, progress=progress,
+                                 without=eval_scene.without, folder=FULL_REFERENCES)
+    scene = eval_scene.load(config.full_size)
+    integrator = scene.integrator()
+    integrator = getattr(integrator, "integrator", integrator)
+    features = render_features(scene, scene.sensors()[0], config.feature_spp)
+    loaded = LoadedScene(eval_scene.name, scene, integrator, reference, features, 0.0)
+    full = replace(config, path_spp=config.full_path_spp, adaptive_budgets=config.full_adaptive_budgets,
+                   budget_variants=(DEFAULT_VARIANT,))
+    size = "x".join(map(str, config.full_size))
+    return [dict(row, size=size) for row in equal_time(loaded, full, say, (config.full_rate,), config.full_spp)]
 
 
 def stage_timings(eval_scene, config: EvalConfig, say: Say) -> list[dict]:

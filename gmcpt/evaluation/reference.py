@@ -24,39 +24,50 @@ def cache_dir() -> Path:
     return root / "references"
 
 
-def reference_key(scene_path: str | Path, resolution: int, spp: int, seed: int,
+def film_size(resolution: int | tuple[int, int]) -> tuple[int, int]:
+    """(W, H) of a square side or a (W, H) pair."""
+    return (resolution, resolution) if isinstance(resolution, int) else tuple(resolution)
+
+
+def reference_key(scene_path: str | Path, resolution: int | tuple[int, int], spp: int, seed: int,
                   parameters: dict | None = None, without: tuple[str, ...] = ()) -> str:
     digest = hashlib.sha256(Path(scene_path).read_bytes())
-    key = [resolution, spp, seed, sorted((parameters or {}).items())]
+    key = [resolution if isinstance(resolution, int) else list(resolution), spp, seed,
+           sorted((parameters or {}).items())]
     if without:  # keys of references made before this option stay valid
         key.append(sorted(without))
     digest.update(json.dumps(key).encode())
-    return f"{Path(scene_path).parent.name}-{resolution}px-{spp}spp-s{seed}-{digest.hexdigest()[:12]}"
+    size = resolution if isinstance(resolution, int) else "x".join(map(str, resolution))
+    return f"{Path(scene_path).parent.name}-{size}px-{spp}spp-s{seed}-{digest.hexdigest()[:12]}"
 
 
-def render_reference(scene_path: str | Path, resolution: int = 256, spp: int = 4096, seed: int = 1_000_003,
-                     parameters: dict | None = None, pass_spp: int = 256,
-                     progress: Callable[[str], None] | None = None, without: tuple[str, ...] = ()) -> np.ndarray:
+def render_reference(scene_path: str | Path, resolution: int | tuple[int, int] = 256, spp: int = 4096,
+                     seed: int = 1_000_003, parameters: dict | None = None, pass_spp: int = 256,
+                     progress: Callable[[str], None] | None = None, without: tuple[str, ...] = (),
+                     folder: Path | None = None) -> np.ndarray:
     """Return a cached (H, W, 3) reference of a scene file, rendering it on a miss.
 
-    ``without`` lists ids of scene elements left out (see :func:`gmcpt.scene.load_scene`).
+    ``resolution``: a square side or (W, H). ``without`` lists ids of scene elements left out (see
+    :func:`gmcpt.scene.load_scene`). ``folder``: where the cache is (default :func:`cache_dir`).
     """
     from ..scene import load_scene
 
     key = reference_key(scene_path, resolution, spp, seed, parameters, without)
-    return cached_reference(key, lambda: load_scene(scene_path, (resolution, resolution), parameters, without),
-                            spp, seed, pass_spp, progress, label=Path(scene_path).parent.name)
+    return cached_reference(key, lambda: load_scene(scene_path, film_size(resolution), parameters, without),
+                            spp, seed, pass_spp, progress, label=Path(scene_path).parent.name, folder=folder)
 
 
 def cached_reference(key: str, load: Callable[[], object], spp: int, seed: int, pass_spp: int = 256,
-                     progress: Callable[[str], None] | None = None, label: str = "") -> np.ndarray:
-    """The reference stored under ``key`` in :func:`cache_dir`, or render it from ``load()`` and store it.
+                     progress: Callable[[str], None] | None = None, label: str = "",
+                     folder: Path | None = None) -> np.ndarray:
+    """The reference stored under ``key`` in ``folder`` (default :func:`cache_dir`), or render it from ``load()``
+    and store it.
 
     The scene's own integrator (unwrapped from ``masked_path``) runs full frame
     in passes of ``pass_spp`` samples with seeds ``seed, seed + 1, ...``; the
     passes are averaged in float64 (:func:`render_full`). Written atomically.
     """
-    path = cache_dir() / (key + ".exr")
+    path = (folder or cache_dir()) / (key + ".exr")
     if path.is_file():
         return read_rgb_exr(path)
     reference = render_full(load(), spp, seed, pass_spp, progress, label or key)

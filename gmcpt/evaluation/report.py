@@ -9,7 +9,10 @@ from .config import VARIANTS, patch_variant
 TIME_BUDGETS = (1, 2, 4, 8, 16, 32, 64, 128, 256, 512)
 #: Equal-sample budgets (path samples per pixel, rate x spp for the completion methods).
 SAMPLE_BUDGETS = (0.125, 0.25, 0.5, 1, 2, 4, 8, 16, 32, 64)
-CONTENDER_NAMES = {"path": "path tracing", "path+oidn": "path tracing + OIDN"}
+CONTENDER_NAMES = {"path": "path tracing", "path+oidn": "path tracing + OIDN",
+                   "adaptive+oidn": "adaptive path tracing + OIDN"}
+#: the baselines the default is held against (docs/design.md section 6)
+BASELINES = ("path+oidn", "adaptive+oidn")
 
 
 def contender_name(label: str) -> str:
@@ -30,37 +33,54 @@ def _mean(rows: list[dict], key: str, **where) -> float | None:
     return float(np.mean(chosen)) if chosen else None
 
 
+def groups(rows: list[dict]) -> list[tuple[str, dict]]:
+    """(label, filter) of each scene, then of the mean over the real scenes and over the synthetic ones (where
+    there are both), then of the mean over all; a filter is ``where`` for :func:`_mean`."""
+    scenes = _scenes(rows)
+    real = [scene for scene in scenes if any(r["scene"] == scene and r.get("real") for r in rows)]
+    out = [(scene, {"scene": scene}) for scene in scenes]
+    if real and len(real) < len(scenes):
+        out += [(f"**mean of {len(real)} real**", {"real": True}),
+                (f"**mean of {len(scenes) - len(real)} synthetic**", {"real": False})]
+    return out + [(f"**mean of {len(scenes)}**", {})]
+
+
+def _in_group(rows: list[dict], where: dict) -> list[str]:
+    """The scenes of one group."""
+    return [s for s in _scenes(rows) if any(r["scene"] == s and all(r.get(k) == v for k, v in where.items())
+                                            for r in rows)]
+
+
 def _per_scene_and_mean(rows, rates, cell) -> list[list[str]]:
-    """Rows (scene, rate, cells...) for each scene and the mean over scenes; ``cell(scene_or_None, rate)``."""
-    table = []
-    for scene in _scenes(rows) + [None]:
-        for rate in rates:
-            table.append([scene or f"**mean of {len(_scenes(rows))}**", f"{rate:.0%}", *cell(scene, rate)])
-    return table
+    """Rows (group, rate, cells...) for each scene and the means (:func:`groups`); ``cell(where, rate)``."""
+    return [[label, f"{rate:.0%}", *cell(where, rate)] for label, where in groups(rows) for rate in rates]
 
 
-def _cells(rows, variants, metrics, scene, rate):
+def _cells(rows, variants, metrics, where, rate):
     formats = {"psnr": 2, "ssim": 3, "mse": -1, "flip": 3, "relmse": -1}
     out = []
     for variant in variants:
         for metric in metrics:
             digits = formats[metric]
-            value = _mean(rows, metric, variant=variant, rate=rate, **({"scene": scene} if scene else {}))
+            value = _mean(rows, metric, variant=variant, rate=rate, **where)
             out.append("-" if value is None else (f"{value:.1e}" if digits < 0 else f"{value:.{digits}f}"))
     return out
 
 
-def variant_table(rows: list[dict], variants: list[str], metrics: list[str], rates, delta: tuple | None = None) -> str:
-    """Per scene and rate, ``metrics`` of each variant; ``delta=(a, b)`` adds PSNR(a) - PSNR(b)."""
+def variant_table(rows: list[dict], variants: list[str], metrics: list[str], rates, delta: tuple | None = None,
+                  deltas: tuple = ()) -> str:
+    """Per scene and rate, ``metrics`` of each variant; ``delta=(a, b)`` adds PSNR(a) - PSNR(b), ``deltas``
+    several such pairs."""
     variants = [v for v in variants if any(row["variant"] == v for row in rows)]
+    pairs = [pair for pair in ([delta] if delta else []) + list(deltas)
+             if all(any(row["variant"] == v for row in rows) for v in pair)]
     header = ["scene", "rate"] + [f"{v} {m.upper() if m != 'psnr' else 'PSNR dB'}" for v in variants for m in metrics]
-    if delta:
-        header.append(f"{delta[0]} - {delta[1]} dB")
+    header += [f"{a} - {b} dB" for a, b in pairs]
 
-    def cell(scene, rate):
-        cells = _cells(rows, variants, metrics, scene, rate)
-        if delta:
-            a, b = (_mean(rows, "psnr", variant=v, rate=rate, **({"scene": scene} if scene else {})) for v in delta)
+    def cell(where, rate):
+        cells = _cells(rows, variants, metrics, where, rate)
+        for pair in pairs:
+            a, b = (_mean(rows, "psnr", variant=v, rate=rate, **where) for v in pair)
             cells.append("-" if a is None or b is None else f"{a - b:+.2f}")
         return cells
 
@@ -72,7 +92,7 @@ def patch_table(rows: list[dict], sizes, rates) -> str:
     labels = [patch_variant(size).label for size in sizes]
     header = ["scene", "rate"] + [f"{size}x{size}" for size in sizes]
     table = _per_scene_and_mean([r for r in rows if r["variant"] in labels], rates,
-                                lambda scene, rate: _cells(rows, labels, ["psnr"], scene, rate))
+                                lambda where, rate: _cells(rows, labels, ["psnr"], where, rate))
     return _table(header, table)
 
 
@@ -99,7 +119,7 @@ def one_spp_seconds(rows: list[dict], scene: str) -> float:
 
 
 def _setting(row: dict) -> str:
-    return f"{row['spp']} spp" if row["rate"] == 1.0 else f"{row['rate']:g} x {row['spp']} spp"
+    return f"{row['spp']:g} spp" if row["rate"] == 1.0 else f"{row['rate']:g} x {row['spp']} spp"
 
 
 def budget_table(rows: list[dict], axis: str) -> str:
@@ -115,8 +135,8 @@ def budget_table(rows: list[dict], axis: str) -> str:
     unit = "x 1-spp time" if axis == "seconds" else "samples / pixel"
     header = ["scene", f"budget ({unit})"] + [contender_name(c) for c in names]
     table = []
-    for scene in _scenes(rows) + [None]:
-        scenes = [scene] if scene else _scenes(rows)
+    for label, where in groups(rows):
+        scenes = _in_group(rows, where)
         for budget in budgets:
             cells = []
             for name in names:
@@ -124,15 +144,15 @@ def budget_table(rows: list[dict], axis: str) -> str:
                                     budget * (one_spp_seconds(rows, s) if axis == "seconds" else 1)) for s in scenes]
                 if any(b is None for b in best):
                     cells.append("-")
-                elif scene:
+                elif "scene" in where:
                     b = best[0]
                     cells.append(f"{b['psnr']:.2f} / {b['ssim']:.3f} / {b['flip']:.3f} ({_setting(b)}, {b['seconds']:.2f} s)")
                 else:
                     cells.append(" / ".join(f"{np.mean([b[m] for b in best]):.{d}f}"
                                             for m, d in (("psnr", 2), ("ssim", 3), ("flip", 3))))
-            previous = table[-1] if table and table[-1][0] == (scene or f"**mean of {len(scenes)}**") else None
+            previous = table[-1] if table and table[-1][0] == label else None
             if any(c != "-" for c in cells) and (previous is None or previous[2:] != cells):
-                table.append([scene or f"**mean of {len(scenes)}**", f"{budget:g}", *cells])
+                table.append([label, f"{budget:g}", *cells])
     return _table(header, table)
 
 
@@ -215,3 +235,83 @@ def stage_table(rows: list[dict]) -> str:
 
 def variant_legend(labels: list[str]) -> str:
     return "\n".join(f"- `{label}`: {VARIANTS[label].summary}" for label in labels if label in VARIANTS)
+
+
+# --- speed-up at equal quality ----------------------------------------------------------------------------
+
+def time_to_reach(rows: list[dict], contender: str, psnr: float) -> tuple[str, float] | None:
+    """Seconds ``contender`` needs for ``psnr`` on its frontier (the best PSNR within each time), interpolated
+    linearly in log time between its two settings that bracket it: ``("=", s)``; ``(">", s)`` when even its
+    slowest setting ``s`` falls short, ``("<", s)`` when its fastest setting ``s`` already does better."""
+    points = sorted((r["seconds"], r["psnr"]) for r in rows if r["contender"] == contender)
+    if not points:
+        return None
+    best, frontier = -np.inf, []
+    for seconds, value in points:
+        best = max(best, value)
+        frontier.append((seconds, best))
+    if frontier[0][1] >= psnr:
+        return "<", frontier[0][0]
+    for (t0, p0), (t1, p1) in zip(frontier, frontier[1:]):
+        if p1 >= psnr > p0:
+            return "=", float(np.exp(np.log(t0) + (psnr - p0) / (p1 - p0) * (np.log(t1) - np.log(t0))))
+    return ">", frontier[-1][0]
+
+
+def speedup(rows: list[dict], setting: dict, baseline: str) -> tuple[str, float] | None:
+    """(bound, ratio): the time ``baseline`` needs for the PSNR of ``setting`` (a row of the default) over
+    the default's time; above 1 the default is faster. ``bound`` as in :func:`time_to_reach`."""
+    reached = time_to_reach([r for r in rows if r["scene"] == setting["scene"]], baseline, setting["psnr"])
+    return None if reached is None else (reached[0], reached[1] / setting["seconds"])
+
+
+def _ratio(value: tuple[str, float] | None) -> str:
+    if value is None:
+        return "-"
+    return {"=": "", "<": "<", ">": ">"}[value[0]] + f"{value[1]:.2f}x"
+
+
+def speedup_table(rows: list[dict], default: str) -> str:
+    """Per scene and group mean, for each setting of ``default``: how much time each baseline needs to match its
+    PSNR, as a multiple of the default's time (geometric means over scenes; ``<``/``>``: a bound)."""
+    settings = list(dict.fromkeys((r["rate"], r["spp"]) for r in rows if r["contender"] == default))
+    baselines = [b for b in BASELINES if any(r["contender"] == b for r in rows)]
+    header = ["scene", "baseline"] + [f"{rate:g} x {spp} spp" for rate, spp in settings]
+    table = []
+    for label, where in groups(rows):
+        scenes = _in_group(rows, where)
+        for baseline in baselines:
+            cells = []
+            for rate, spp in settings:
+                found = [speedup(rows, r, baseline) for r in rows if r["contender"] == default and r["rate"] == rate
+                         and r["spp"] == spp and r["scene"] in scenes]
+                found = [f for f in found if f is not None]
+                if not found:
+                    cells.append("-")
+                elif len(scenes) == 1:
+                    cells.append(_ratio(found[0]))
+                else:
+                    bounds = sum(f[0] != "=" for f in found)
+                    mean = float(np.exp(np.mean([np.log(f[1]) for f in found])))
+                    cells.append(f"{mean:.2f}x" + (f" ({bounds} bound{'s' if bounds > 1 else ''})" if bounds else ""))
+            table.append([label, contender_name(baseline), *cells])
+    return _table(header, table)
+
+
+def full_resolution_table(rows: list[dict], default: str) -> str:
+    """For each setting of ``default``: its PSNR / FLIP and time, and the best of each baseline within that
+    time, with the time the baseline needs for the default's PSNR (:func:`speedup`)."""
+    baselines = [b for b in BASELINES if any(r["contender"] == b for r in rows)]
+    header = ["budget (the default's time)", contender_name(default) if default in CONTENDER_NAMES else default,
+              *(f"{contender_name(b)} within it" for b in baselines),
+              *(f"{contender_name(b)}: time for the default's PSNR" for b in baselines)]
+    table = []
+    for setting in (r for r in rows if r["contender"] == default):
+        cells = [f"{setting['seconds']:.2f} s", f"{setting['psnr']:.2f} / {setting['flip']:.3f} ({_setting(setting)})"]
+        for baseline in baselines:
+            best = best_within(rows, baseline, "seconds", setting["seconds"])
+            cells.append("cannot run" if best is None else
+                         f"{best['psnr']:.2f} / {best['flip']:.3f} ({_setting(best)}, {best['seconds']:.2f} s)")
+        cells += [_ratio(speedup(rows, setting, baseline)) for baseline in baselines]
+        table.append(cells)
+    return _table(header, table)

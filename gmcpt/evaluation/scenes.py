@@ -14,6 +14,11 @@ place, never copied) where present, in two forms:
   two 512-spp renders agree to 31.5 dB (measured with Mitsuba 3.9.1).
 - ``breakfast-room``: as shipped, for timings (``benchmarks/render_cost.py``)
   and to show the reference-noise problem above.
+
+Real interiors imported from Mitsuba 0.6 by ``scripts/import_scenes.py`` into the ignored ``data/real-scenes``
+(``$GMCPT_REAL_SCENES`` overrides): too large to commit, so each is skipped with one line where it was not
+imported. With the breakfast room they make the *real* scenes of the evaluation's separate means; the bundled
+and procedural ones are the *synthetic* scenes.
 """
 from __future__ import annotations
 
@@ -29,6 +34,8 @@ ROOT = Path(__file__).resolve().parents[2]
 #: the shared scenes beside the checkout (``$GMCPT_SHARED_SCENES`` overrides); a fresh clone has none,
 #: and every use of them skips the scenes that are not there
 SHARED_SCENES = Path(os.environ.get("GMCPT_SHARED_SCENES") or ROOT.parent / "shared" / "scenes")
+#: the scenes ``scripts/import_scenes.py`` writes
+IMPORTED_SCENES = Path(os.environ.get("GMCPT_REAL_SCENES") or ROOT / "data" / "real-scenes")
 
 
 @dataclass(frozen=True)
@@ -38,14 +45,21 @@ class EvalScene:
     name: str
     path: Path
     without: tuple[str, ...] = ()
+    real: bool = False  # a real interior (else a bundled test scene)
+    how_to_get: str = ""  # said when the scene is missing
 
     def available(self) -> bool:
         return self.path.is_file()
 
-    def load(self, resolution: int):
-        from ..scene import load_scene
+    def missing_line(self) -> str:
+        return f"skipping {self.name}: {self.path} not found" + (f" ({self.how_to_get})" if self.how_to_get else "")
 
-        return load_scene(self.path, (resolution, resolution), without=self.without)
+    def load(self, resolution: int | tuple[int, int]):
+        """The scene at a square side or (W, H)."""
+        from ..scene import load_scene
+        from .reference import film_size
+
+        return load_scene(self.path, film_size(resolution), without=self.without)
 
     def reference(self, resolution: int = 256, spp: int = 4096, **options):
         """The cached reference (:func:`gmcpt.evaluation.reference.render_reference`; ``options``: seed, progress, ...)."""
@@ -65,6 +79,7 @@ class ProceduralScene:
     """
 
     seed: int
+    real = False
 
     @property
     def name(self) -> str:
@@ -106,12 +121,16 @@ def procedural_scenes(count: int) -> list[ProceduralScene]:
 
 CORNELL = EvalScene("cornell-box", ROOT / "scenes" / "cornell-box" / "scene.xml")
 STILL_LIFE = EvalScene("still-life", ROOT / "scenes" / "still-life" / "scene.xml")
-BREAKFAST = EvalScene("breakfast-room", SHARED_SCENES / "breakfast-room" / "scene.xml")
-BREAKFAST_OPEN = EvalScene("breakfast-room-open", BREAKFAST.path, ("windowglass1", "windowglass2"))
+BREAKFAST = EvalScene("breakfast-room", SHARED_SCENES / "breakfast-room" / "scene.xml", real=True)
+BREAKFAST_OPEN = EvalScene("breakfast-room-open", BREAKFAST.path, ("windowglass1", "windowglass2"), real=True)
+#: public real interiors (Bitterli's Rendering Resources, Mitsuba 0.6 ports), as scripts/import_scenes.py names them
+IMPORTED = tuple(EvalScene(name, IMPORTED_SCENES / name / "scene.xml", real=True,
+                           how_to_get="python scripts/import_scenes.py imports it")
+                 for name in ("dining-room", "living-room", "sponza", "veach-lamp"))
 
 #: scenes of the quality tables
-QUALITY_SCENES = (CORNELL, STILL_LIFE, BREAKFAST_OPEN)
-ALL_SCENES = (CORNELL, STILL_LIFE, BREAKFAST_OPEN, BREAKFAST)
+QUALITY_SCENES = (CORNELL, STILL_LIFE, BREAKFAST_OPEN, *IMPORTED)
+ALL_SCENES = (*QUALITY_SCENES, BREAKFAST)
 
 
 def by_name(names: list[str] | None, default=QUALITY_SCENES) -> list[EvalScene]:
@@ -123,3 +142,13 @@ def by_name(names: list[str] | None, default=QUALITY_SCENES) -> list[EvalScene]:
     if unknown:
         raise BadValue(f"unknown scene {', '.join(unknown)}; choose from {', '.join(known)}")
     return [known[name] for name in names]
+
+
+def evaluation_scenes(names: list[str] | None = None, procedural: int = 2, say=None) -> list:
+    """The available scenes among ``names`` (default: the quality scenes) and ``procedural`` held-out procedural
+    ones; ``say`` gets one line for each named scene that is missing."""
+    chosen = by_name(names)
+    for scene in chosen:
+        if not scene.available() and say is not None:
+            say(scene.missing_line())
+    return [scene for scene in chosen if scene.available()] + procedural_scenes(procedural)

@@ -1,0 +1,192 @@
+"""Adaptive path tracing + OIDN: what a Blender Cycles user has, and the strongest baseline of the evaluation.
+
+Every pixel is traced at ``first_spp`` samples; the rest of the budget goes out in one step, each pixel's extra
+samples proportional to a power of its estimated relative error, at most ``max_extra`` a pixel, the total exact
+(``round(budget * W * H)`` path samples); Intel OIDN then denoises the frame with the feature pass's albedo and
+normal, the same guides the completion methods' last stage gets. The passes are the masked integrator's own
+(:func:`gmcpt.render.trace_pixels`), so its time is real.
+
+Rounds that re-estimate each pixel's error from its own samples (as Cycles does) did worse than one step from
+the first pass (docs/experiments.md).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import GmcptError
+from .frame import DEFAULT_FEATURE_SPP
+from .limits import SEED_LIMIT, check_feature_spp, check_seed, check_spp
+
+#: the second pass's sampler seeds differ from the first's
+EXTRA_SEED_OFFSET = 0xADA97
+#: relative error = local variance / (local mean^2 + this): keeps near-black pixels from taking the budget
+DARK_LEVEL = 1e-2
+
+
+@dataclass(frozen=True)
+class AdaptiveSettings:
+    """What :func:`render_adaptive` traces.
+
+    Attributes
+    ----------
+    budget : mean path samples per pixel, in [first_spp, first_spp + max_extra].
+    seed : sampler seed (the second pass uses ``seed + EXTRA_SEED_OFFSET``).
+    first_spp : samples of every pixel in the first pass.
+    max_extra : most extra samples one pixel gets.
+    exponent : extra samples follow ``error ** exponent``.
+    feature_spp : primary samples per pixel of the feature pass (OIDN's guides).
+    """
+
+    budget: float
+    seed: int = 0
+    first_spp: int = 1
+    max_extra: int = 32
+    exponent: float = 0.5
+    feature_spp: int = DEFAULT_FEATURE_SPP
+
+    def __post_init__(self):
+        check_seed(self.seed)
+        check_spp(self.first_spp, "first_spp")
+        check_spp(self.max_extra, "max_extra")
+        check_feature_spp(self.feature_spp)
+        budget = float(self.budget)
+        if not math.isfinite(budget) or not self.first_spp <= budget <= self.first_spp + self.max_extra:
+            raise GmcptError(f"adaptive budget must be in [{self.first_spp}, {self.first_spp + self.max_extra}] "
+                             f"samples per pixel, got {self.budget}")
+        if not math.isfinite(self.exponent) or self.exponent < 0:
+            raise GmcptError(f"adaptive exponent must be >= 0, got {self.exponent}")
+
+
+def _box3(plane: np.ndarray) -> np.ndarray:
+    """3x3 mean with edge replication."""
+    padded = np.pad(plane, 1, mode="edge")
+    height, width = plane.shape
+    total = np.zeros_like(plane)
+    for dy in range(3):
+        for dx in range(3):
+            total += padded[dy:dy + height, dx:dx + width]
+    return total / 9
+
+
+def relative_error(image: np.ndarray) -> np.ndarray:
+    """(H, W) estimate of each pixel's relative squared error from a noisy (H, W, 3) image: the variance of the
+    luminance over its 3x3 neighbourhood over the squared local mean, smoothed over 3x3 again.
+
+    One sample a pixel has no variance of its own; its neighbours' spread stands in for it (and also counts
+    edges, where a denoiser needs samples too).
+    """
+    luminance = np.asarray(image, np.float64).mean(axis=-1)
+    mean = _box3(luminance)
+    variance = np.maximum(_box3(luminance * luminance) - mean * mean, 0.0)
+    return _box3(variance / (mean * mean + DARK_LEVEL))
+
+
+def allocate(weights: np.ndarray, total: int, cap: int) -> np.ndarray:
+    """Integer extra samples a pixel, proportional to ``weights``, at most ``cap`` each, summing to ``total``.
+
+    Pixels above the cap are clipped and the rest shared again among the others, until none is above;
+    the rounding remainder goes to the largest fractional parts (ties to the lower pixel index), so the
+    result is a pure function of the inputs.
+    """
+    weights = np.asarray(weights, np.float64).ravel()
+    if total < 0 or total > cap * weights.size:
+        raise GmcptError(f"cannot place {total} samples on {weights.size} pixels at most {cap} each")
+    weights = np.where(np.isfinite(weights) & (weights > 0), weights, 0.0)
+    if weights.sum() <= 0:
+        weights = np.ones_like(weights)
+    ideal = np.zeros_like(weights)
+    free = np.ones(weights.size, bool)
+    left = float(total)
+    while left > 0 and free.any():
+        share = weights * free
+        if share.sum() <= 0:  # only zero-weight pixels left free: spread what is left evenly over them
+            share = free.astype(np.float64)
+        ideal = np.where(free, left * share / share.sum(), ideal)
+        over = free & (ideal >= cap)
+        if not over.any():
+            break
+        ideal[over] = cap
+        free &= ~over
+        left = total - ideal[~free].sum()
+    counts = np.minimum(np.floor(ideal + 1e-9), cap).astype(np.int64)
+    remainder = int(total - counts.sum())
+    if remainder > 0:
+        fraction = np.where(counts < cap, ideal - counts, -1.0)
+        order = np.lexsort((np.arange(fraction.size), -fraction))  # largest fraction first, then pixel index
+        counts[order[:remainder]] += 1
+    return counts
+
+
+def _trace_counts(scene, sensor, integrator, counts: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Trace ``counts[p]`` samples of each flat pixel ``p``: (sum (N, 3), finite sample count (N,)).
+
+    Each sample is one lane of a 1-spp pass over the pixel list with repeats, split like the masked
+    render's passes (:data:`gmcpt.render.MAX_LANES`) with a seed of its own per part.
+    """
+    from .render import MAX_LANES, pass_seed, trace_pixels
+
+    pixels = np.repeat(np.arange(counts.size), counts)
+    total, finite = np.zeros((counts.size, 3)), np.zeros(counts.size)
+    parts = max(1, -(-pixels.size // MAX_LANES))
+    for index, chunk in enumerate(np.array_split(pixels, parts)):
+        if chunk.size == 0:
+            continue
+        sums, _, count = trace_pixels(scene, sensor, integrator, chunk, 1, pass_seed(seed, index, parts))
+        for channel in range(3):
+            total[:, channel] += np.bincount(chunk, weights=sums[:, channel], minlength=counts.size)
+        finite += np.bincount(chunk, weights=count, minlength=counts.size)
+    return total, finite
+
+
+def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
+                    features: dict | None = None) -> tuple[np.ndarray, dict, dict]:
+    """Adaptive path tracing + OIDN.
+
+    Returns ``(image (H, W, 3) float32, info, timings)``: ``info`` has ``path_samples`` (exactly
+    ``round(budget * W * H)``), ``samples`` (the (H, W) count map) and ``nonfinite_samples``; ``timings`` has
+    ``features_s`` (0 when ``features`` are given), ``render_s`` (both passes), ``placement_s`` and
+    ``denoise_s``.
+    """
+    from .denoise import denoise_oidn
+    from .render import _sensor_film_size, render_features
+    from .scene import scene_sensor
+
+    sensor = sensor if sensor is not None else scene_sensor(scene)
+    height, width = _sensor_film_size(sensor)
+    pixels = height * width
+    timings = {"features_s": 0.0}
+    if features is None:
+        start = time.perf_counter()
+        features = render_features(scene, sensor, settings.feature_spp, settings.seed)
+        timings["features_s"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    first = np.full(pixels, settings.first_spp, np.int64)
+    total, finite = _trace_counts(scene, sensor, integrator, first, settings.seed)
+    timings["render_s"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    image = (total / np.maximum(finite, 1)[:, None]).reshape(height, width, 3)
+    extra_total = int(round(settings.budget * pixels)) - int(first.sum())
+    extra = allocate(relative_error(image) ** settings.exponent, extra_total, settings.max_extra)
+    timings["placement_s"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    if extra_total > 0:
+        more, more_finite = _trace_counts(scene, sensor, integrator, extra,
+                                          (settings.seed + EXTRA_SEED_OFFSET) % SEED_LIMIT)
+        total, finite = total + more, finite + more_finite
+    timings["render_s"] += time.perf_counter() - start
+    image = (total / np.maximum(finite, 1)[:, None]).reshape(height, width, 3).astype(np.float32)
+
+    start = time.perf_counter()
+    denoised = denoise_oidn(image, features["albedo"], features["normal"])
+    timings["denoise_s"] = time.perf_counter() - start
+    samples = (first + extra).reshape(height, width)
+    info = {"budget": settings.budget, "path_samples": int(samples.sum()), "samples": samples,
+            "nonfinite_samples": int(samples.sum() - finite.sum())}
+    return denoised, info, timings

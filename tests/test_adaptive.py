@@ -1,0 +1,87 @@
+"""Adaptive path tracing + OIDN, the evaluation's strongest baseline: exact sample totals, determinism, bounds."""
+import numpy as np
+import pytest
+
+from conftest import CORNELL
+
+
+@pytest.fixture(scope="module")
+def cornell(mi):
+    from gmcpt.scene import load_scene
+    return load_scene(CORNELL, resolution=(40, 32))
+
+
+@pytest.fixture(scope="module")
+def path_tracer(mi):
+    return mi.load_dict({"type": "path", "max_depth": 8})
+
+
+@pytest.mark.parametrize("total,cap", [(0, 4), (1, 4), (997, 4), (4000, 4), (2500, 32)])
+def test_allocation_is_exact_capped_and_follows_the_weights(total, cap):
+    from gmcpt.adaptive import allocate
+
+    weights = np.random.default_rng(3).gamma(0.5, size=1000)
+    weights[:10] = 0.0
+    counts = allocate(weights, total, cap)
+    assert counts.sum() == total and counts.min() >= 0 and counts.max() <= cap
+    if 0 < total < cap * 1000 // 4:
+        heavy, light = weights > np.quantile(weights, 0.9), (weights > 0) & (weights < np.quantile(weights, 0.1))
+        assert counts[heavy].mean() > counts[light].mean()
+        assert counts[:10].sum() == 0  # no error estimate, no extra samples
+    np.testing.assert_array_equal(counts, allocate(weights, total, cap))
+
+
+def test_allocation_refuses_more_samples_than_the_cap_allows():
+    from gmcpt.adaptive import allocate
+    from gmcpt.errors import GmcptError
+
+    with pytest.raises(GmcptError, match="cannot place"):
+        allocate(np.ones(10), 41, 4)
+
+
+def test_relative_error_is_high_where_the_image_is_noisy():
+    from gmcpt.adaptive import relative_error
+
+    rng = np.random.default_rng(0)
+    image = np.full((32, 32, 3), 0.5, np.float32)
+    image[:, 16:] *= rng.exponential(size=(32, 16, 1)).astype(np.float32)
+    error = relative_error(image)
+    assert error[:, :14].max() < 1e-6 < error[:, 18:].min()
+
+
+@pytest.mark.parametrize("budget", [1.0, 2.5, 4.8])
+def test_render_traces_exactly_the_budget_and_repeats_itself(mi, cornell, path_tracer, budget):
+    from gmcpt.adaptive import AdaptiveSettings, render_adaptive
+
+    settings = AdaptiveSettings(budget=budget, seed=5)
+    image, info, timings = render_adaptive(cornell, path_tracer, settings)
+    assert info["path_samples"] == round(budget * 40 * 32) == info["samples"].sum()
+    assert info["samples"].min() >= 1 and info["samples"].max() <= 1 + settings.max_extra
+    assert image.shape == (32, 40, 3) and np.isfinite(image).all() and image.mean() > 0.01
+    assert {"features_s", "render_s", "placement_s", "denoise_s"} <= timings.keys()
+    again, info_again, _ = render_adaptive(cornell, path_tracer, settings)
+    np.testing.assert_array_equal(image, again)
+    np.testing.assert_array_equal(info["samples"], info_again["samples"])
+
+
+def test_more_samples_land_where_the_first_pass_is_noisy(mi, cornell, path_tracer):
+    """The Cornell box's light and the shadows under the boxes are noisier than its lit walls: the extra
+    samples must not be spread evenly."""
+    from gmcpt.adaptive import AdaptiveSettings, render_adaptive
+
+    _, info, _ = render_adaptive(cornell, path_tracer, AdaptiveSettings(budget=6.0, seed=1))
+    samples = info["samples"]
+    assert samples.max() >= 3 * np.median(samples)
+
+
+@pytest.mark.parametrize("options,message", [
+    ({"budget": 0.5}, "budget must be in"), ({"budget": 40.0}, "budget must be in"),
+    ({"budget": float("nan")}, "budget must be in"), ({"budget": 4, "seed": -1}, "seed"),
+    ({"budget": 4, "exponent": -1}, "exponent"), ({"budget": 4, "max_extra": 0}, "max_extra")])
+def test_bad_settings_get_one_line(options, message):
+    from gmcpt.adaptive import AdaptiveSettings
+    from gmcpt.errors import GmcptError
+
+    with pytest.raises(GmcptError, match=message) as error:
+        AdaptiveSettings(**options)
+    assert "\n" not in str(error.value)
