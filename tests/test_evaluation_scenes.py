@@ -38,3 +38,33 @@ def test_by_name():
     assert by_name(["breakfast-room-open"]) == [BREAKFAST_OPEN]
     with pytest.raises(ValueError, match="unknown scene"):
         by_name(["kitchen"])
+
+
+def test_reference_key_tells_sizes_apart():
+    from gmcpt.evaluation.reference import reference_key
+
+    assert reference_key(CORNELL, 64, 256, 1) != reference_key(CORNELL, (64, 48), 256, 1)
+    assert "-64x48px-" in reference_key(CORNELL, (64, 48), 256, 1)
+
+
+def test_a_missing_imported_scene_is_skipped_with_one_line(tmp_path):
+    """Without data/real-scenes (a fresh clone), the real interiors are left out, each said in one line."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("from gmcpt.evaluation.scenes import evaluation_scenes\n"
+            "print([s.name for s in evaluation_scenes(['dining-room', 'cornell-box'], 1, print)])")
+    env = dict(os.environ, GMCPT_REAL_SCENES=str(tmp_path / "nothing"))
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.strip().splitlines()
+    assert lines == [f"skipping dining-room: {tmp_path / 'nothing' / 'dining-room' / 'scene.xml'} not found "
+                     "(python scripts/import_scenes.py imports it)", "['cornell-box', 'proc-2000000']"]
+
+
+def test_the_real_scenes_are_marked_real():
+    from gmcpt.evaluation.scenes import BREAKFAST_OPEN, CORNELL as CORNELL_SCENE, IMPORTED, procedural_scenes
+
+    assert BREAKFAST_OPEN.real and all(scene.real for scene in IMPORTED) and len(IMPORTED) >= 4
+    assert not CORNELL_SCENE.real and not procedural_scenes(1)[0].real
