@@ -60,7 +60,7 @@ class EvalConfig:
     budget_variants: tuple[str, ...] = ("pawnnm", "gan_pawnnm", "gan_oidn")
     timing_resolutions: tuple[int, ...] = (128, 256)
     timing_scene: str = "still-life"
-    full_scene: str = "living-room"
+    full_scene: str = "sponza"
     full_size: tuple[int, int] = (1920, 1080)
     full_reference_spp: int = 1024
     full_rate: float = 0.3

@@ -224,8 +224,9 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     from .reference import render_reference
 
     progress = lambda message: say(f"  {message} (cached under data/references after the first run)")  # noqa: E731
-    reference = render_reference(eval_scene.path, config.full_size, config.full_reference_spp, progress=progress,
-                                 without=eval_scene.without, folder=FULL_REFERENCES)
+    # passes of 32 spp: the sampler holds a state per lane, 1 GB for a 1920x1080 pass of 32
+    reference = render_reference(eval_scene.path, config.full_size, config.full_reference_spp, pass_spp=32,
+                                 progress=progress, without=eval_scene.without, folder=FULL_REFERENCES)
     scene = eval_scene.load(config.full_size)
     integrator = scene.integrator()
     integrator = getattr(integrator, "integrator", integrator)
