@@ -62,7 +62,7 @@ class EvalConfig:
     timing_scene: str = "still-life"
     full_scene: str = "sponza"
     full_size: tuple[int, int] = (1920, 1080)
-    full_reference_spp: int = 1024
+    full_reference_spp: int = 512
     full_rate: float = 0.3
     full_spp: tuple[int, ...] = (8, 16)
     full_path_spp: tuple[int, ...] = (1, 2, 3, 4, 6, 8)
