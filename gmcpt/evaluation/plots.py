@@ -9,7 +9,8 @@ from ..exr import atomic_output
 from ..metrics import flip_map, tonemap
 from .report import contender_name, contenders
 
-STYLE = {"path": ("tab:gray", "o"), "path+oidn": ("tab:blue", "s"), "pawnnm": ("tab:orange", "^"),
+STYLE = {"path": ("tab:gray", "o"), "path+oidn": ("tab:blue", "s"), "adaptive+oidn": ("navy", "D"),
+         "pawnnm": ("tab:orange", "^"),
          "gan_pawnnm": ("tab:red", "v"), "interp": ("tab:olive", "x"), "liu": ("tab:purple", "d"),
          "nnm": ("tab:brown", "<"), "gan": ("tab:pink", ">"), "gan_oidn": ("tab:green", "*"),
          "gan_pawnnm_oidn": ("tab:cyan", "P")}
