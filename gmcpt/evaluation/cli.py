@@ -85,7 +85,8 @@ def evaluate(config, scenes, out: Path, say, quiet: bool = False) -> dict:
     start = time.perf_counter()
     record = {"config": asdict(config), "second_reference_seed": SECOND_REFERENCE_SEED, "references": [],
               "quality": [], "placement": [], "equal_time": [], "full_resolution": [], "stage_timings": [],
-              "grids": {}, "real_scenes": [scene.name for scene in scenes if scene.real]}
+              "grids": {}, "real_scenes": [scene.name for scene in scenes if scene.real],
+              "credits": {scene.name: scene.credit for scene in scenes if getattr(scene, "credit", "")}}
     with Progress(len(scenes), "eval", unit="scene", say=say, quiet=quiet) as bar:
         say = bar.write
         for index, eval_scene in enumerate(scenes, 1):

@@ -148,7 +148,10 @@ def results_markdown(run: dict) -> str:
         "",
         f"Scenes: {scenes}. Held-out procedural scenes are seeds of the dataset's test split, never trained on; "
         "`breakfast-room-open` is `../shared/scenes/breakfast-room` with its window panes left out "
-        "(see `gmcpt/evaluation/scenes.py` for why).",
+        "(see `gmcpt/evaluation/scenes.py` for why). The real scenes (their own means in every table) are "
+        "imported from public Mitsuba 0.6 ports by `scripts/import_scenes.py`:",
+        "",
+        *[f"- `{name}`: {credit}" for name, credit in run.get("credits", {}).items()],
         "",
         f"Settings: {_settings_line(run)}",
         "",

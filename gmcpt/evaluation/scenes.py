@@ -47,6 +47,7 @@ class EvalScene:
     without: tuple[str, ...] = ()
     real: bool = False  # a real interior (else a bundled test scene)
     how_to_get: str = ""  # said when the scene is missing
+    credit: str = ""  # author and licence of a scene made by others
 
     def available(self) -> bool:
         return self.path.is_file()
@@ -121,12 +122,21 @@ def procedural_scenes(count: int) -> list[ProceduralScene]:
 
 CORNELL = EvalScene("cornell-box", ROOT / "scenes" / "cornell-box" / "scene.xml")
 STILL_LIFE = EvalScene("still-life", ROOT / "scenes" / "still-life" / "scene.xml")
-BREAKFAST = EvalScene("breakfast-room", SHARED_SCENES / "breakfast-room" / "scene.xml", real=True)
-BREAKFAST_OPEN = EvalScene("breakfast-room-open", BREAKFAST.path, ("windowglass1", "windowglass2"), real=True)
-#: public real interiors (Bitterli's Rendering Resources, Mitsuba 0.6 ports), as scripts/import_scenes.py names them
-IMPORTED = tuple(EvalScene(name, IMPORTED_SCENES / name / "scene.xml", real=True,
+WIG42 = "by Wig42 (CC BY 3.0), Mitsuba port by Benedikt Bitterli"
+BREAKFAST = EvalScene("breakfast-room", SHARED_SCENES / "breakfast-room" / "scene.xml", real=True,
+                      credit=f"The Breakfast Room {WIG42}")
+BREAKFAST_OPEN = EvalScene("breakfast-room-open", BREAKFAST.path, ("windowglass1", "windowglass2"), real=True,
+                           credit=BREAKFAST.credit)
+#: public real interiors (Bitterli's Rendering Resources, Mitsuba 0.6 ports in hchoi405/dppm-scenes), as
+#: scripts/import_scenes.py names them; its READMEs beside each imported scene say more
+IMPORTED = tuple(EvalScene(name, IMPORTED_SCENES / name / "scene.xml", real=True, credit=credit,
                            how_to_get="python scripts/import_scenes.py imports it")
-                 for name in ("dining-room", "living-room", "sponza", "veach-lamp"))
+                 for name, credit in (
+                     ("dining-room", f"The Breakfast Room {WIG42}, lit by its sun and sky"),
+                     ("living-room", f"The Grey & White Room {WIG42}"),
+                     ("sponza", "Sponza Atrium by Marko Dabrovic (the source states no licence)"),
+                     ("veach-lamp", "after Eric Veach's lamp test scene, Mitsuba 0.6's `bidir` example "
+                                    "(the source states no licence)")))
 
 #: scenes of the quality tables
 QUALITY_SCENES = (CORNELL, STILL_LIFE, BREAKFAST_OPEN, *IMPORTED)
