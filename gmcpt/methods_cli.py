@@ -27,10 +27,14 @@ def listing() -> str:
     return "\n".join(lines)
 
 
+def build_parser() -> Parser:
+    return Parser("methods", "List the completion methods (--method) and the sample placements (--mask).")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``gmcpt methods``; returns the exit status."""
     def body() -> int:
-        Parser("methods", "List the completion methods (--method) and the sample placements (--mask).").parse_args(sys.argv[1:] if argv is None else argv)
+        build_parser().parse_args(sys.argv[1:] if argv is None else argv)
         print(listing())
         return 0
     return exit_status(body)

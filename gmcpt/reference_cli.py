@@ -6,7 +6,7 @@ The scene's own integrator (the nested one, for a scene that names
 ``masked_path``) renders every pixel in passes of ``--pass-spp`` samples with
 seeds ``--seed``, ``--seed`` + 1, ... averaged, as the evaluation's cached
 references are (:func:`gmcpt.evaluation.reference.render_full`): at the same
-size, spp and seed the pixels are the same. Progress is a bar (a line per pass
+size, spp, seed and ``--pass-spp 256`` the pixels are the same. Progress is a bar (a line per pass
 off a terminal) with the time left; the file is written under a temporary name
 and renamed when complete.
 """
@@ -27,7 +27,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("scene", help="Mitsuba 3 scene XML")
     parser.add_argument("--out", required=True, help="output EXR (required); its folder is created if its parent exists")
     parser.add_argument("--spp", type=int, default=4096, help="samples per pixel")
-    parser.add_argument("--pass-spp", type=int, default=256, help="samples per pass (one progress step)")
+    parser.add_argument("--pass-spp", type=int, default=64,
+                        help="samples per pass, one step of the progress (256: the evaluation's references)")
     parser.add_argument("--seed", type=int, default=DEFAULT_SEED, help="seed of the first pass")
     parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="film resolution (default: the scene's)")
     parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
@@ -73,7 +74,7 @@ def render(args, say=lambda message: None) -> None:
     check_resolution(width, height, 1)
     passes = max(1, args.spp // args.pass_spp)
     spp = passes * min(args.pass_spp, args.spp)
-    say(f"{Path(args.scene).name}: {width}x{height}, {spp} spp in {passes} passes")
+    say(f"{args.scene}: {width}x{height} px, {spp} spp in {passes} passes")
     with Progress(passes, "reference", unit="pass", say=say, quiet=args.quiet) as bar:
         started = []
 
