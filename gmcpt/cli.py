@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import sys
+from pathlib import Path
 
 from .command import EXIT_BAD_INPUT
 
@@ -41,8 +42,8 @@ def subcommand(argv: list[str]) -> tuple[str | None, list[str]]:
     """(subcommand, its arguments); None for a first argument that is neither a subcommand nor a scene."""
     if argv and argv[0] in SUBCOMMANDS:
         return argv[0], argv[1:]
-    if argv and (argv[0].lower().endswith(".xml") or argv[0].startswith("-")):  # yesterday's command lines
-        return DEFAULT, argv
+    if argv and (argv[0].lower().endswith(".xml") or argv[0].startswith("-") or Path(argv[0]).is_file()):
+        return DEFAULT, argv  # yesterday's command lines: a scene file (any name), or options, first
     return None, argv
 
 

@@ -117,6 +117,9 @@ def test_a_scene_first_still_means_render(tmp_path):
     assert subcommand(["--rate", "0.3", str(CORNELL)])[0] == "render"
     assert subcommand(["batch", str(CORNELL)]) == ("batch", [str(CORNELL)])
     assert subcommand(["cornell"])[0] is None
+    scene = tmp_path / "shot.json"  # a scene file of any name
+    scene.write_text("<scene/>")
+    assert subcommand([str(scene), "--out", "x.exr"])[0] == "render"
 
 
 def test_methods_lists_every_method_and_placement():
