@@ -30,22 +30,14 @@ from .scenes import QUALITY_SCENES, by_name, procedural_scenes
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _shown(path: Path) -> str:
-    """``path`` relative to the working folder where it is inside it, as help shows it."""
-    try:
-        return str(path.relative_to(Path.cwd()))
-    except ValueError:
-        return str(path)
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser("eval", "Measure the completion methods against references; rewrite docs/results.md, its "
                     "plots and the README's results.\nReferences are rendered once (tens of minutes), then cached.")
     parser.add_argument("--quick", action="store_true", help="the quick configuration (default: full)")
-    parser.add_argument("--out", default=_shown(ROOT / "docs"), help="folder of results.md, results.json, plots")
+    parser.add_argument("--out", default=str(ROOT / "docs"), help="folder of results.md, results.json, plots")
     parser.add_argument("--scenes", nargs="+", help="named scenes of gmcpt.evaluation.scenes (default: the quality scenes)")
     parser.add_argument("--procedural", type=int, help="held-out procedural scenes (default: the configuration's)")
-    parser.add_argument("--readme", default=_shown(ROOT / "README.md"), help="README whose results section to rewrite")
+    parser.add_argument("--readme", default=str(ROOT / "README.md"), help="README whose results section to rewrite")
     parser.add_argument("--no-readme", dest="readme", action="store_const", const=None,
                         help="leave the README alone (default: rewrite its results section)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
