@@ -1,10 +1,10 @@
-"""``python -m gmcpt batch``: render and complete many scenes or frames, here or on a Ray cluster.
+"""``gmcpt batch``: render and complete many scenes or frames, here or on a Ray cluster.
 
-    python -m gmcpt batch scenes/*/scene.xml --out out/batch --rate 0.3
-    python -m gmcpt batch anim.xml --frames 0:240 --out out/anim --ray local
-    python -m gmcpt batch scene.xml --sweep seed=0,1,2,3 --out out/seeds --ray HEAD:6379
+    gmcpt batch scenes/*/scene.xml --out out/batch --rate 0.3
+    gmcpt batch anim.xml --frames 0:240 --out out/anim --ray local
+    gmcpt batch scene.xml --sweep seed=0,1,2,3 --out out/seeds --ray HEAD:6379
 
-Each frame is one single render (:func:`gmcpt.cli.run`, the same options)
+Each frame is one single render (:func:`gmcpt.render_cli.run`, the same options)
 written as ``DIR/NAME.exr``, ``.png`` and ``.json``; NAME is the scene's
 folder (its file name unless it is ``scene.xml``) with the frame's swept
 parameters appended (``anim_frame-0012``). ``DIR/batch-summary.json``
@@ -30,8 +30,9 @@ import sys
 import time
 from pathlib import Path
 
-from .cli import _Parser, _validate, add_render_options, exit_status, run, stamped_say, start_mitsuba
+from .command import Parser, exit_status, stamped_say, start_mitsuba
 from .errors import GmcptError
+from .render_cli import add_render_options, run, validate
 
 SUMMARY = "batch-summary.json"
 #: Test hook: the first task that creates this file (a path) kills its own process, once per batch.
@@ -44,17 +45,21 @@ def _render_dests() -> list[str]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="python -m gmcpt batch", description=__doc__.splitlines()[0])
+    parser = Parser("batch", "Render and complete many scenes, frames or parameter sweeps, here or on a Ray "
+                    "cluster.\nEach frame is one gmcpt render, written as DIR/NAME.exr, .png and .json; a stopped "
+                    "batch resumes.")
     parser.add_argument("scenes", nargs="+", metavar="SCENE", help="Mitsuba 3 scene XML files")
-    parser.add_argument("--out", required=True, help="output folder (created): NAME.exr/.png/.json per frame")
+    parser.add_argument("--out", required=True, help="output folder (required; created if its parent exists): "
+                        "NAME.exr, .png, .json per frame")
     add_render_options(parser)
+    parser.add_argument("--frames", metavar="START:STOP", help="one frame per $frame value START..STOP-1, as "
+                        "--sweep frame=START,...,STOP-1 (default: none)")
     parser.add_argument("--sweep", action="append", default=[], metavar="NAME=V1,V2,...",
-                        help="one frame per value of scene parameter NAME; several sweeps multiply")
-    parser.add_argument("--frames", metavar="START:STOP", help="shorthand for --sweep frame=START,...,STOP-1")
+                        help="one frame per value of scene parameter $NAME; several sweeps multiply (default: none)")
     parser.add_argument("--threads", type=int, default=1,
                         help="CPU threads of one frame: torch's everywhere, Dr.Jit's and the Ray task's CPUs on Ray")
-    parser.add_argument("--ray", metavar="ADDRESS",
-                        help="run frames as Ray tasks: local (start a cluster here), auto, HOST:PORT, ray://HOST:PORT")
+    parser.add_argument("--ray", metavar="ADDRESS", help="run frames as Ray tasks: local (start a cluster here), "
+                        "auto, HOST:PORT, ray://HOST:PORT (default: in this process)")
     parser.add_argument("--gpus", type=float, help="GPUs per Ray task (default: 1 where the cluster has GPUs)")
     parser.add_argument("--retries", type=int, default=3, help="runs of a Ray task again when its worker dies")
     return parser
@@ -120,7 +125,7 @@ def plan(args) -> list[dict]:
 
 
 def job_args(job: dict) -> argparse.Namespace:
-    """The single render's arguments of ``job`` (what :func:`gmcpt.cli.run` takes)."""
+    """The single render's arguments of ``job`` (what :func:`gmcpt.render_cli.run` takes)."""
     return argparse.Namespace(scene=job["scene"], out=job["out"], reference=None, quiet=True, **job["options"])
 
 
@@ -211,7 +216,7 @@ def _validate_batch(args) -> list[dict]:
     created = _prepare_out(Path(args.out))
     try:
         for job in jobs:
-            _validate(job_args(job))
+            validate(job_args(job))
     except GmcptError:
         if created:
             Path(args.out).rmdir()
@@ -250,7 +255,7 @@ def batch(args, say=lambda message: None) -> dict:
             rows[row["name"]] = row
             bar.update(note=f"{row['name']} {row['seconds']:.1f}s")
     ordered = [rows[job["name"]] for job in jobs]
-    summary = {"command": "python -m gmcpt batch " + " ".join(getattr(args, "argv", [])), "ray": args.ray,
+    summary = {"command": "gmcpt batch " + " ".join(getattr(args, "argv", [])), "ray": args.ray,
                "threads": args.threads, "frames": len(jobs),
                "rendered": sum(row["status"] != "skipped" for row in ordered),
                "skipped": sum(row["status"] == "skipped" for row in ordered),
@@ -263,7 +268,7 @@ def batch(args, say=lambda message: None) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``python -m gmcpt batch``; returns the exit status."""
+    """Entry point of ``gmcpt batch``; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
 
     def body() -> int:

@@ -1,285 +1,64 @@
-"""Command line: render a scene sparsely, complete it, write EXR + PNG + JSON.
+"""``gmcpt``: one command, its subcommands each a module with a ``main(argv)``.
 
-    python render_and_complete.py SCENE.xml --out OUT.exr [options]
-    python -m gmcpt SCENE.xml --out OUT.exr [options]
-    python -m gmcpt dataset ...   (procedural training data, see gmcpt.dataset.cli)
-    python -m gmcpt train ...     (GAN training, see gmcpt.gan.cli)
-    python -m gmcpt eval [--quick] (docs/results.md and plots, see gmcpt.evaluation.cli)
-    python -m gmcpt batch SCENE... --out DIR [--ray local] (many scenes or frames, see gmcpt.batch)
-    python -m gmcpt regress DIR   (scene regression tests against goldens, see gmcpt.regress.cli)
+    gmcpt SUBCOMMAND [options]          gmcpt SUBCOMMAND --help
+    gmcpt SCENE.xml --out OUT.exr ...   (a scene file first means ``gmcpt render``)
 
-Bad input ends with one ``error: ...`` line on stderr and exit status 2; no
-output file is written or replaced. Ctrl-C ends it with ``error: interrupted``
-(exit 130), SIGTERM with ``error: terminated`` (143), temporary files removed.
+``python -m gmcpt`` and ``render_and_complete.py`` are the same command. The
+table below is the only list of subcommands: ``--help`` prints it, and a name
+not in it is refused in one line (exit 2).
 """
 from __future__ import annotations
 
-import argparse
-import os
+import importlib
 import sys
-import time
 from pathlib import Path
-from typing import Callable
 
-from . import interrupts
-from .device import DEVICE_ENV, PRECISION_ENV, completion_device, generator_precision
-from .errors import GmcptError
-from .frame import DEFAULT_FEATURE_SPP
+from .command import EXIT_BAD_INPUT
 
-EXIT_BAD_INPUT = 2
-EXIT_INTERNAL = 1
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, our exit code
-        raise GmcptError(message)
-
-
-def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """The options of one render (all but the scene, ``--out`` and ``--reference``), shared with ``batch``."""
-    parser.add_argument("--rate", type=float, help="fraction of pixels to path trace, in (0, 1] (default: scene's, else 0.3)")
-    parser.add_argument("--spp", type=int, help="samples per traced pixel (default: the scene's sampler)")
-    parser.add_argument("--seed", type=int, help="seed of mask and samplers (default: scene's, else 0)")
-    parser.add_argument("--mask", help="sample placement: two_pass, adaptive, random, stratified, blue_noise "
-                        "(default: the scene's, else two_pass)")
-    parser.add_argument("--method", help="completion method: gan_oidn, gan_pawnnm_oidn, gan_pawnnm, gan, pawnnm, "
-                        "nnm, liu, interp, none (default: the scene's, else gan_oidn)")
-    parser.add_argument("--tile", type=int, help="complete frames larger than this in overlapping tiles of at most "
-                        "this side (bounded memory); 0: the whole frame at once (default: the scene's, else 1024)")
-    parser.add_argument("--weights", help="GAN weights for the gan methods: a shipped name or a .pt path "
-                        "(default: the scene's, else gan-cpu)")
-    parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="override the film resolution")
-    parser.add_argument("--feature-spp", type=int, help="primary samples per pixel of the feature pass (default 4)")
-    parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
-                        help="set a scene parameter ($NAME in the XML); repeatable")
-    parser.add_argument("--allow-nonfinite", action="store_true",
-                        help="drop NaN/Inf radiance samples with a warning instead of failing")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
-    return parser
+#: name -> (module, one line for ``gmcpt --help``)
+SUBCOMMANDS = {
+    "render": ("gmcpt.render_cli", "path trace a fraction of a scene's pixels, complete the image (EXR, PNG, JSON)"),
+    "reference": ("gmcpt.reference_cli", "render a converged reference EXR of a scene at N spp"),
+    "batch": ("gmcpt.batch", "render many scenes, frames (--frames) or parameter sweeps, here or on Ray"),
+    "regress": ("gmcpt.regress.cli", "check a folder of scenes against its golden images"),
+    "eval": ("gmcpt.evaluation.cli", "measure the methods, rewrite docs/results.md and the README's results"),
+    "dataset": ("gmcpt.dataset.cli", "render the procedural training data of the GAN"),
+    "train": ("gmcpt.gan.cli", "train the GAN pre-completion and export its weights"),
+    "methods": ("gmcpt.methods_cli", "list the completion methods and the sample placements"),
+}
+DEFAULT = "render"
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="render_and_complete.py",
-                     description="Path trace a random subset of pixels of a Mitsuba 3 scene and complete the image.")
-    parser.add_argument("scene", help="Mitsuba 3 scene XML (any integrator; it is wrapped by masked_path)")
-    parser.add_argument("--out", required=True, help="output EXR; OUT.png and OUT.json are written beside it")
-    parser.add_argument("--reference", help="reference EXR: adds MSE/PSNR/SSIM (tonemapped sRGB) and relMSE to the JSON")
-    return add_render_options(parser)
+def usage() -> str:
+    width = max(map(len, SUBCOMMANDS))
+    lines = ["usage: gmcpt SUBCOMMAND [options]   (gmcpt SUBCOMMAND --help for its options)", "",
+             "Sparse path tracing in Mitsuba 3 with GAN + matrix completion.", "", "subcommands:"]
+    lines += [f"  {name:<{width}}  {summary}" for name, (_, summary) in SUBCOMMANDS.items()]
+    lines += ["", "A scene file as the first argument means render: gmcpt SCENE.xml --out OUT.exr"]
+    return "\n".join(lines)
 
 
-def _validate(args) -> None:
-    """Every check on the command line's own values, before any work (the scene's are checked once loaded)."""
-    from .completion import check_options
-    from .files import check_not_inputs, check_writable
-    from .gan.weights import weights_path
-    from .limits import check_feature_spp, check_resolution, check_seed, check_spp
-    from .completion.tiles import check_tile
-    from .masks import check_pattern, check_rate
-    from .scene import scene_inputs
-
-    if not args.out.lower().endswith(".exr"):
-        raise GmcptError(f"--out must name an .exr file, got {args.out}")
-    for path in _outputs(args.out):
-        check_writable(path)
-    if args.rate is not None:
-        check_rate(args.rate)
-    if args.tile is not None:
-        check_tile(args.tile)
-    if args.spp is not None:
-        check_spp(args.spp, "--spp")
-    if args.feature_spp is not None:
-        check_feature_spp(args.feature_spp, "--feature-spp")
-    if args.seed is not None:
-        check_seed(args.seed, "--seed")
-    if args.mask is not None:
-        check_pattern(args.mask)
-    if args.res is not None:
-        check_resolution(*args.res, args.feature_spp or DEFAULT_FEATURE_SPP, "--res")
-    for define in args.defines:
-        if "=" not in define:
-            raise GmcptError(f"-D expects NAME=VALUE, got {define!r}")
-    weights = [weights_path(args.weights)] if args.weights else []
-    check_not_inputs(_outputs(args.out), {"scene file": scene_inputs(args.scene), "weights file": weights,
-                                          "weights record": [path.with_suffix(".json") for path in weights],
-                                          "reference": [args.reference] if args.reference else []})
-    check_options(args.method, args.weights)
-
-
-def _weights_record(integrator) -> dict:
-    """The GAN weights a method used (name and sha256) and the generator's arithmetic, or nothing for the
-    methods without a network."""
-    from .completion import get_method
-    from .gan.weights import DEFAULT_WEIGHTS, load_generator
-
-    if not get_method(integrator.completion).takes("weights"):
-        return {}
-    name = integrator.weights or DEFAULT_WEIGHTS
-    return {"weights": name, "weights_sha256": load_generator(name)[1].get("sha256"),
-            "generator_precision": generator_precision(completion_device())}
-
-
-def _reference(path: str):
-    """The reference image, refused (one line) if metrics against it would be NaN."""
-    from .exr import read_rgb_exr
-    from .metrics import check_reference
-
-    reference = read_rgb_exr(path)
-    try:
-        return check_reference(reference)
-    except GmcptError as error:
-        raise GmcptError(f"reference {path}: {error}") from None
-
-
-def _outputs(out: str):
-    from .outputs import sidecar_paths
-    return sidecar_paths(out)
-
-
-def run(args, say=lambda message: None, extra: dict | None = None) -> dict:
-    """Render, complete and write; returns the JSON record (``extra`` entries added to it)."""
-    from .completion import check_size, complete
-    from .limits import check_resolution
-    from .metrics import all_metrics
-    from .outputs import library_versions, write_outputs
-    from .render import render_sparse_frame
-    from .scene import load_scene, masked_integrator, scene_sensor
-
-    started = time.perf_counter()
-    _validate(args)
-    reference = _reference(args.reference) if args.reference else None
-    parameters = dict(define.split("=", 1) for define in args.defines)
-    scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
-    integrator = masked_integrator(scene, rate=args.rate, mask=args.mask, seed=args.seed,
-                                   feature_spp=args.feature_spp, completion=args.method, weights=args.weights,
-                                   tile=args.tile)
-    # every check on the input happens before the first progress line (render_sparse_frame checks the
-    # scene's own resolution and spp before its first one)
-    size = scene_sensor(scene, path=args.scene).film().crop_size()
-    width, height = int(size[0]), int(size[1])
-    check_resolution(width, height, integrator.feature_spp)
-    check_size(integrator.completion, height, width)
-    if os.environ.get(DEVICE_ENV):  # a device asked for by name must exist before the render starts
-        completion_device()
-    if os.environ.get(PRECISION_ENV):  # and a precision asked for must be one
-        generator_precision("cpu")
-    if reference is not None and reference.shape != (height, width, 3):
-        raise GmcptError(f"reference {args.reference} is {reference.shape[1]}x{reference.shape[0]}, "
-                         f"the render is {width}x{height}")
-    settings = integrator.settings(spp=args.spp or 0)
-    frame, timings = render_sparse_frame(scene, integrator.integrator, None, settings, progress=say)
-    dropped = frame.info["nonfinite_samples"]
-    if dropped:
-        message = f"{dropped} radiance samples were NaN/Inf"
-        if not args.allow_nonfinite:
-            raise GmcptError(message + " (broken scene data?); --allow-nonfinite drops them and goes on")
-        print(f"warning: {message}; dropped them", file=sys.stderr)
-    say(f"completing with {integrator.completion!r}")
-    result = complete(frame, integrator.completion, **integrator.completion_options())
-    timings.update(result.timings)
-    record = {
-        "scene": str(Path(args.scene).resolve()),
-        "output": str(Path(args.out).resolve()),
-        "parameters": {"rate": settings.rate, "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
-                       "feature_spp": settings.feature_spp, "method": integrator.completion,
-                       "tile": integrator.tile, **_weights_record(integrator),
-                       # completion imports torch only for the methods that run on it
-                       "device": completion_device() if "torch" in sys.modules else "cpu",
-                       "resolution": [width, height], "scene_parameters": parameters,
-                       "integrator": " ".join(str(integrator.integrator).split())},
-        "versions": library_versions(),
-        "rendered_fraction": frame.rendered_fraction,
-        "traced_pixels": frame.info["traced_pixels"],
-        "path_samples": frame.info["path_samples"],
-        **({"first_pass_pixels": frame.info["first_pass_pixels"]} if settings.pattern == "two_pass" else {}),
-        "nonfinite_samples": frame.info["nonfinite_samples"],
-        "timings": timings,
-    }
-    if reference is not None:
-        say("computing metrics against the reference")
-        record["reference"] = str(Path(args.reference).resolve())
-        record["metrics"] = all_metrics(result.image, reference)
-    record.update(extra or {})
-    timings["total_s"] = time.perf_counter() - started
-    written = write_outputs(args.out, frame, result.image, record)
-    say("wrote " + ", ".join(str(p) for p in written))
-    return record
-
-
-SUBCOMMANDS = {"dataset": "gmcpt.dataset.cli", "train": "gmcpt.gan.cli", "eval": "gmcpt.evaluation.cli",
-               "batch": "gmcpt.batch", "regress": "gmcpt.regress.cli"}
-
-
-def exit_status(body: Callable[[], int], start_up: Callable[[], None] | None = None) -> int:
-    """Run a command: ``start_up`` (parsing, the heavy imports), then ``body`` with signals handled
-    (:mod:`gmcpt.interrupts`). Bad input or the environment become one ``error:`` line and status 2,
-    Ctrl-C 130, SIGTERM 143, a crash one line and 1."""
-    handlers = {}
-    try:
-        if start_up is not None:
-            start_up()
-        handlers = interrupts.install()  # from here a signal raises, and no temporary file is left behind
-        return body()
-    except GmcptError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except (KeyboardInterrupt, interrupts.Terminated) as error:
-        return interrupts.report(error)
-    except MemoryError:  # the estimate (gmcpt.limits) let through a run this machine cannot hold
-        print("error: out of memory; lower the resolution (--res), or free memory", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except OSError as error:  # the environment: a file that cannot be read, a device that fails
-        where = f" ({error.filename})" if error.filename else ""
-        print(f"error: {error.strerror or error}{where}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except Exception as error:  # an internal error is still one line, unless debugging
-        if os.environ.get("GMCPT_DEBUG"):
-            raise
-        message = " ".join(str(error).split()) or type(error).__name__
-        print(f"error: internal error ({type(error).__name__}): {message} (set GMCPT_DEBUG=1 for a traceback)",
-              file=sys.stderr)
-        return EXIT_INTERNAL
-    finally:
-        interrupts.restore(handlers)
-
-
-def stamped_say(label: str, quiet: bool = False) -> Callable[[str], None]:
-    """A ``say`` that prints ``[label   1.2s] message`` on stderr (seconds since now); silent if ``quiet``."""
-    start = time.perf_counter()
-
-    def say(message: str) -> None:
-        if not quiet:
-            print(f"[{label} {time.perf_counter() - start:6.1f}s] {message}", file=sys.stderr, flush=True)
-    return say
-
-
-def start_mitsuba() -> None:
-    """Import gmcpt (LLVM, variant, plugin registration) and quieten Mitsuba's log."""
-    import gmcpt  # noqa: F401
-    import mitsuba as mi
-    import OpenEXR  # noqa: F401  (native modules are imported before signals raise: see gmcpt.interrupts)
-    mi.set_log_level(mi.LogLevel.Error)
+def subcommand(argv: list[str]) -> tuple[str | None, list[str]]:
+    """(subcommand, its arguments); None for a first argument that is neither a subcommand nor a scene."""
+    if argv and argv[0] in SUBCOMMANDS:
+        return argv[0], argv[1:]
+    if argv and (argv[0].lower().endswith(".xml") or argv[0].startswith("-") or Path(argv[0]).is_file()):
+        return DEFAULT, argv  # yesterday's command lines: a scene file (any name), or options, first
+    return None, argv
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``gmcpt``; returns the exit status."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv and argv[0] in SUBCOMMANDS:
-        import importlib
-        return exit_status(lambda: importlib.import_module(SUBCOMMANDS[argv[0]]).main(argv[1:]))
-    parsed = {}
-
-    def start_up() -> None:
-        parsed["args"] = build_parser().parse_args(argv)
-        start_mitsuba()
-
-    def body() -> int:
-        args = parsed["args"]
-        say = stamped_say("gmcpt", args.quiet)
-        record = run(args, say)
-        if "metrics" in record:
-            m = record["metrics"]
-            say(f"PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  MSE {m['mse']:.3e}  relMSE {m['relmse']:.3e}  FLIP {m['flip']:.4f}")
-        return 0
-    return exit_status(body, start_up)
+    if not argv or argv[0] in ("-h", "--help"):
+        print(usage(), file=sys.stdout if argv else sys.stderr)
+        return 0 if argv else EXIT_BAD_INPUT
+    name, rest = subcommand(argv)
+    if name is None:
+        print(f"error: unknown subcommand {argv[0]!r}; choose from {', '.join(SUBCOMMANDS)} "
+              f"(or give a scene file)", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    return importlib.import_module(SUBCOMMANDS[name][0]).main(rest)
 
 
 if __name__ == "__main__":

@@ -25,6 +25,7 @@ from typing import Callable, Iterable, Iterator
 from .errors import GmcptError
 
 LOCAL = "local"
+AUTH_LOGGER = "ray._private.authentication.authentication_token_setup"
 _ADDRESS = re.compile(r"^(auto|(ray://)?[A-Za-z0-9_.\-\[\]:]+:\d{1,5})$")
 
 
@@ -61,6 +62,19 @@ def _package_path() -> str:
 
 
 @contextlib.contextmanager
+def _quiet_auth_notice():
+    """Ray's notice that token authentication is on (its default for a cluster it starts) is left unsaid:
+    nothing is asked of the user, and authentication stays as Ray sets it."""
+    auth_log = logging.getLogger(AUTH_LOGGER)
+    level = auth_log.level
+    auth_log.setLevel(logging.ERROR)
+    try:
+        yield
+    finally:
+        auth_log.setLevel(level)
+
+
+@contextlib.contextmanager
 def connected(address: str, quiet: bool = False):
     """Connect to (``local``: start) the Ray cluster at ``address`` for the ``with`` block.
 
@@ -76,7 +90,7 @@ def connected(address: str, quiet: bool = False):
     path = os.pathsep.join(filter(None, [_package_path(), os.environ.get("PYTHONPATH")]))
     options = {"runtime_env": {"env_vars": {"PYTHONPATH": path}}, "log_to_driver": not quiet,
                "logging_level": logging.ERROR, "configure_logging": quiet}
-    with contextlib.redirect_stdout(sys.stderr):
+    with contextlib.redirect_stdout(sys.stderr), _quiet_auth_notice():
         try:
             if address == LOCAL:
                 ray.init(include_dashboard=False, **options)

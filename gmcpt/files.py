@@ -7,7 +7,7 @@
 - :func:`atomic_output`: the same for one file, as a context manager.
 - A failed write (``OSError``, or a library's ``RuntimeError`` such as OpenEXR's on a full disk)
   is one :class:`GmcptError` line naming the target and the reason; temporaries are always removed.
-- :func:`check_writable` and :func:`check_not_inputs` refuse an output before any work is done;
+- :func:`check_writable`, :func:`check_output` and :func:`check_not_inputs` refuse an output before any work;
   :func:`json_text` is strict JSON (a NaN or infinite number is written as ``null``);
   :func:`captured_output` keeps what a C library prints out of the terminal.
 """
@@ -117,8 +117,11 @@ def _commit(pairs: Sequence[tuple[Path, str]]) -> None:
                 _remove(backup)
 
 
-def write_together(writers: Sequence[tuple[str | os.PathLike, Callable[[str], None]]]) -> list[Path]:
+def write_together(writers: Sequence[tuple[str | os.PathLike, Callable[[str], None]]],
+                   committed: Callable[[], None] | None = None) -> list[Path]:
     """Write a set of files: ``write(temporary)`` for each ``(path, write)``, then rename all, or none.
+
+    ``committed`` runs once every file is in place, before a signal deferred meanwhile arrives.
 
     Raises
     ------
@@ -136,6 +139,8 @@ def write_together(writers: Sequence[tuple[str | os.PathLike, Callable[[str], No
                 raise _write_error(path, error, pairs[-1][1]) from None
         with held():
             _commit(pairs)
+            if committed is not None:
+                committed()
     finally:
         with held():
             for _, temporary in pairs:
@@ -160,6 +165,23 @@ def check_writable(path: str | os.PathLike) -> Path:
     except OSError as error:
         raise _write_error(path, error) from None
     return path
+
+
+def check_output(path: str | os.PathLike) -> Path:
+    """:func:`check_writable`, but a missing folder is fine if it can be made (:func:`make_folder`, when writing)."""
+    path = Path(path)
+    if path.parent.exists() and not path.parent.is_dir():
+        raise GmcptError(f"output directory {path.parent} is not a folder")
+    check_writable(path if path.parent.is_dir() else path.parent)
+    return path
+
+
+def make_folder(path: str | os.PathLike) -> None:
+    """Create ``path``'s folder if it is missing (its parent exists: :func:`check_output`)."""
+    try:
+        Path(path).parent.mkdir(exist_ok=True)
+    except OSError as error:
+        raise GmcptError(f"cannot create {Path(path).parent}: {error.strerror}") from None
 
 
 def _same_file(first: Path, second: Path) -> bool:

@@ -5,7 +5,8 @@ or SIGTERM ends the process at once with one line: nothing is written yet, and a
 inside a native module's initialisation can crash the interpreter (Dr.Jit's does, with SIGSEGV).
 From :func:`install` on (the work itself), SIGINT raises ``KeyboardInterrupt`` and SIGTERM
 :class:`Terminated`, so ``finally`` blocks run and remove temporary files; the command line then
-prints one line (``error: interrupted`` or ``error: terminated``) and exits 130 or 143.
+prints one line (``error: interrupted`` or ``error: terminated``) and exits 130 or 143. Once the
+outputs are complete (:func:`settle`) a signal changes nothing: the command exits 0.
 
 The standard library only: ``gmcpt/__init__`` wraps its imports in :func:`startup`. A library
 caller's process keeps its own signal handling.
@@ -48,6 +49,16 @@ def restore(previous: dict) -> None:
     for number, handler in previous.items():
         if handler is not None:
             signal.signal(number, handler)
+
+
+def settle() -> None:
+    """The command's outputs are complete: ignore SIGINT and SIGTERM from now on, so that it exits 0.
+
+    Called with the signals deferred (:func:`held`), so one that arrived during the last rename is dropped too.
+    """
+    if threading.current_thread() is threading.main_thread():
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, signal.SIG_IGN)
 
 
 def report(error: BaseException) -> int:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import platform
 from importlib import metadata
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -35,8 +36,10 @@ def sidecar_paths(out: str | Path) -> tuple[Path, Path, Path]:
     return out, out.with_suffix(".png"), out.with_suffix(".json")
 
 
-def write_outputs(out: str | Path, frame: SparseFrame, image: np.ndarray, record: dict) -> list[Path]:
-    """Write ``out`` (EXR), its PNG preview and JSON ``record`` (strict JSON: NaN/Inf as null), as one set."""
+def write_outputs(out: str | Path, frame: SparseFrame, image: np.ndarray, record: dict,
+                  committed: Callable[[], None] | None = None) -> list[Path]:
+    """Write ``out`` (EXR), its PNG preview and JSON ``record`` (strict JSON: NaN/Inf as null), as one set;
+    ``committed`` runs once all three are in place (:func:`gmcpt.files.write_together`)."""
     exr_path, png_path, json_path = sidecar_paths(out)
     tensor = pack(frame, image)
     channels = {name: tensor[..., index] for index, name in enumerate(channel_names())}
@@ -44,4 +47,4 @@ def write_outputs(out: str | Path, frame: SparseFrame, image: np.ndarray, record
     text = json_text(record)
     return write_together([(exr_path, lambda path: write_exr(path, channels, attributes)),
                            (png_path, lambda path: write_png(path, image)),
-                           (json_path, lambda path: Path(path).write_text(text))])
+                           (json_path, lambda path: Path(path).write_text(text))], committed)

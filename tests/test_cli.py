@@ -158,8 +158,10 @@ def test_reference_of_wrong_size(rendered, tmp_path):
 def test_python_m_gmcpt_is_the_same_cli():
     import subprocess
     import sys
-    result = subprocess.run([sys.executable, "-m", "gmcpt", "--help"], capture_output=True, text=True, cwd=ROOT)
+    result = subprocess.run([sys.executable, "-m", "gmcpt", "render", "--help"], capture_output=True, text=True,
+                            cwd=ROOT)
     assert result.returncode == 0 and "--rate" in result.stdout and "--method" in result.stdout
+    assert result.stdout.startswith("usage: gmcpt render ")
 
 
 def test_pawnnm_end_to_end_records_substage_timings(tmp_path):

@@ -95,7 +95,8 @@ def test_coverage_feature_is_the_frames_buffer_or_the_0_1_rule(tmp_path):
 
     from gmcpt.dataset import list_examples
     from gmcpt.domain import WorkingDomain
-    from gmcpt.gan.data import PatchSampler, frame_inputs
+    from gmcpt.gan.data import PatchSampler
+    from gmcpt.gan.inputs import frame_inputs
     from tests.conftest import synthetic_frame
 
     frame, _ = synthetic_frame(16, 16)

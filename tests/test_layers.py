@@ -1,9 +1,11 @@
-"""Layers that point one way: the import graph of gmcpt/ and mitsuba_plugins/ has no cycle.
+"""Layers that point one way: the import graph of gmcpt/ and mitsuba_plugins/ has no cycle, and
+inference (completion/, the GAN's inference modules) never reaches the dataset builder or the renderer.
 
 The graph is read from the source with ``ast``: every ``import`` and ``from ... import``,
-those inside functions included, and ``importlib.import_module`` of a literal name. Importing
-``a.b.c`` runs ``a`` and ``a.b`` too, so it is an edge to each of them. A package's
-``__init__`` importing its own submodules is left out (that is what a package is).
+those inside functions included, and ``importlib.import_module`` (of a literal name, else of
+every project module a string in that file names). Importing ``a.b.c`` runs ``a`` and ``a.b``
+too, so it is an edge to each of them, except to the importer's own enclosing packages, which
+are already running. A package's ``__init__`` (its face) has edges to the submodules it imports.
 """
 import ast
 from pathlib import Path
@@ -34,9 +36,12 @@ def _imported_names(tree: ast.AST, package: str) -> set[str]:
             module = ".".join(base + ([node.module] if node.module else []))
             names.add(module)
             names.update(f"{module}.{alias.name}" for alias in node.names)
-        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
-              and node.func.attr == "import_module" and node.args and isinstance(node.args[0], ast.Constant)):
-            names.add(node.args[0].value)
+        elif isinstance(node, ast.Call) and getattr(node.func, "attr", None) == "import_module" and node.args:
+            if isinstance(node.args[0], ast.Constant):
+                names.add(node.args[0].value)
+            else:  # a name looked up in a table: any module the file names could be the one
+                names.update(constant.value for constant in ast.walk(tree) if isinstance(constant, ast.Constant)
+                             and isinstance(constant.value, str) and constant.value.startswith(PACKAGES))
     return names
 
 
@@ -50,9 +55,20 @@ def import_graph() -> dict[str, set[str]]:
         for imported in _imported_names(ast.parse(path.read_text(), str(path)), package):
             parts = imported.split(".")
             targets.update(".".join(parts[:n]) for n in range(1, len(parts) + 1) if ".".join(parts[:n]) in modules)
-        graph[name] = {target for target in targets
-                       if target != name and not (is_package and target.startswith(name + "."))}
+        enclosing = {".".join(name.split(".")[:n]) for n in range(1, name.count(".") + 1)}
+        graph[name] = targets - enclosing - {name}
     return graph
+
+
+def reached(graph: dict[str, set[str]], start: set[str]) -> set[str]:
+    """Every module importing ``start`` can run, ``start`` included."""
+    seen, todo = set(), list(start)
+    while todo:
+        node = todo.pop()
+        if node not in seen:
+            seen.add(node)
+            todo.extend(graph.get(node, ()))
+    return seen
 
 
 def find_cycle(graph: dict[str, set[str]]) -> list[str]:
@@ -82,6 +98,26 @@ def test_the_graph_sees_imports_inside_functions_and_parent_packages():
     assert "gmcpt.gan.weights" in graph["gmcpt.completion.check"]     # inside check_weights
     assert {"gmcpt", "gmcpt.completion"} <= graph["mitsuba_plugins.masked_path"]
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == ["a", "b", "c", "a"]
+
+
+def test_the_graph_follows_package_faces_and_importlib_tables():
+    graph = import_graph()
+    assert "gmcpt.dataset.build" in graph["gmcpt.dataset"]             # the face's own import
+    assert "gmcpt.render" in reached(graph, {"gmcpt.gan.data"})        # training data -> dataset -> renderer
+    assert "gmcpt.batch" in graph["gmcpt.cli"]                          # import_module(SUBCOMMANDS[...])
+    assert "gmcpt" not in graph["gmcpt.completion.learned"]             # its own package runs first
+
+
+INFERENCE = {"gmcpt.gan", "gmcpt.gan.infer", "gmcpt.gan.inputs", "gmcpt.gan.model", "gmcpt.gan.weights"}
+RENDERING = ("gmcpt.dataset", "gmcpt.render", "gmcpt.scene")
+
+
+def test_inference_never_reaches_the_dataset_or_the_renderer():
+    graph = import_graph()
+    start = INFERENCE | {module for module in graph if module.startswith("gmcpt.completion")}
+    wrong = sorted(module for module in reached(graph, start)
+                   if module in RENDERING or module.startswith(RENDERING[0] + "."))
+    assert not wrong
 
 
 def test_no_import_cycle():

@@ -121,14 +121,11 @@ sys.exit(main(sys.argv[2:]))
 """
 
 
-@pytest.mark.parametrize("number, status, message", [(signal.SIGTERM, 143, "terminated"),
-                                                     (signal.SIGINT, 130, "interrupted")], ids=["SIGTERM", "SIGINT"])
-def test_signal_while_writing_removes_the_temporaries(tmp_path, number, status, message):
-    script, marker, folder = tmp_path / "slow_write.py", tmp_path / "marker", tmp_path / "out"
-    script.write_text(SLOW_WRITE)
-    folder.mkdir()
-    out = previous_outputs(folder)
-    before = snapshot(folder)
+def _signal_once_marked(script_text: str, folder: Path, out: Path, number: int) -> tuple[int, str]:
+    """Run ``script_text`` (argv: a marker file, then the command line) on TINY; send signal ``number`` once
+    the script has made the marker; (exit status, stderr)."""
+    script, marker = folder / "script.py", folder / "marker"
+    script.write_text(script_text)
     process = subprocess.Popen([sys.executable, str(script), str(marker), *TINY, "--out", str(out)], cwd=ROOT,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                env={**os.environ, "PYTHONPATH": str(ROOT)})
@@ -138,8 +135,46 @@ def test_signal_while_writing_removes_the_temporaries(tmp_path, number, status, 
     assert marker.exists(), process.communicate()[1]
     process.send_signal(number)
     _, stderr = process.communicate(timeout=60)
-    assert_one_line(process.returncode, stderr, message, code=status)
+    return process.returncode, stderr
+
+
+@pytest.mark.parametrize("number, status, message", [(signal.SIGTERM, 143, "terminated"),
+                                                     (signal.SIGINT, 130, "interrupted")], ids=["SIGTERM", "SIGINT"])
+def test_signal_while_writing_removes_the_temporaries(tmp_path, number, status, message):
+    folder = tmp_path / "out"
+    folder.mkdir()
+    out = previous_outputs(folder)
+    before = snapshot(folder)
+    returncode, stderr = _signal_once_marked(SLOW_WRITE, tmp_path, out, number)
+    assert_one_line(returncode, stderr, message, code=status)
     assert snapshot(folder) == before  # the previous run's outputs, and no hidden temporary
+
+
+AFTER_WRITE = """
+import sys, time
+from pathlib import Path
+from gmcpt import outputs
+from gmcpt.cli import main
+
+write_outputs = outputs.write_outputs
+
+def then_wait(*args, **kwargs):  # the three files are in place; the command has not ended yet
+    written = write_outputs(*args, **kwargs)
+    Path(sys.argv[1]).write_text("written")
+    time.sleep(3)
+    return written
+
+outputs.write_outputs = then_wait
+sys.exit(main(sys.argv[2:]))
+"""
+
+
+@pytest.mark.parametrize("number", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_signal_once_the_outputs_are_complete_exits_0(tmp_path, number):
+    out = tmp_path / "out" / "x.exr"
+    returncode, stderr = _signal_once_marked(AFTER_WRITE, tmp_path, out, number)
+    assert returncode == 0 and "error" not in stderr, stderr
+    assert sorted(p.name for p in out.parent.iterdir()) == ["x.exr", "x.json", "x.png"]  # its folder made too
 
 
 # 12. Ctrl-C while the command line starts

@@ -1,6 +1,6 @@
-"""``python -m gmcpt dataset``: render (or resume) the procedural dataset.
+"""``gmcpt dataset``: render (or resume) the procedural dataset.
 
-    python -m gmcpt dataset --out data/procedural --train 300 --val 10 --test 6
+    gmcpt dataset --out data/procedural --train 300 --val 10 --test 6
 
 Each split's scenes come from its own seed range; an interrupted build resumes.
 """
@@ -11,12 +11,14 @@ import json
 import sys
 
 from .. import interrupts
+from ..command import Parser
 from ..errors import GmcptError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="gmcpt dataset", description=__doc__.splitlines()[0])
-    parser.add_argument("--out", required=True, help="dataset folder (created; resumed if it exists)")
+    parser = Parser("dataset", "Render (or resume) the procedural training data of the GAN.\n"
+                    "Each split's scenes come from its own seed range; an interrupted build resumes.")
+    parser.add_argument("--out", required=True, help="dataset folder (required; created, resumed if it exists)")
     parser.add_argument("--train", type=int, default=200, help="training scenes (seeds 0..)")
     parser.add_argument("--val", type=int, default=10, help="validation scenes (seeds 1000000..)")
     parser.add_argument("--test", type=int, default=0, help="held-out evaluation scenes (seeds 2000000..)")
@@ -31,7 +33,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--threads", type=int, default=0,
                         help="Dr.Jit threads per worker (0: all cores; with --ray: CPUs per task, default 1)")
     parser.add_argument("--ray", metavar="ADDRESS",
-                        help="render each scene as a Ray task: local (start a cluster here), auto, HOST:PORT")
+                        help="render each scene as a Ray task: local (start a cluster here), auto, HOST:PORT "
+                        "(default: --workers processes here)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
     return parser
 
@@ -50,7 +53,7 @@ def spec_from_args(args) -> "DatasetSpec":  # noqa: F821
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``python -m gmcpt dataset``; returns the exit status."""
+    """Entry point of ``gmcpt dataset``; returns the exit status."""
     # a terminated build stops its workers too (the `finally` in build); it resumes later
     handlers = interrupts.install()
     try:

@@ -1,8 +1,8 @@
-"""``python -m gmcpt eval``: run the evaluation and regenerate ``docs/results.md``, its plots and the README section.
+"""``gmcpt eval``: run the evaluation and regenerate ``docs/results.md``, its plots and the README section.
 
-    python -m gmcpt eval --quick          # under 10 minutes on 2 CPU cores once references are cached
-    python -m gmcpt eval                  # full mode
-    python -m gmcpt eval --quick --out /tmp/eval --no-readme
+    gmcpt eval --quick          # under 10 minutes on 2 CPU cores once references are cached
+    gmcpt eval                  # full mode
+    gmcpt eval --quick --out /tmp/eval --no-readme
 
 References (4096 spp, and a second independent one per scene for its noise
 level) are rendered on the first run and cached (``gmcpt.evaluation.reference``);
@@ -21,6 +21,7 @@ import time
 from dataclasses import asdict, replace
 from pathlib import Path
 
+from ..command import Parser
 from ..errors import GmcptError
 from ..exr import atomic_output, check_writable
 from .config import CONFIGS, SECOND_REFERENCE_SEED
@@ -29,19 +30,16 @@ from .scenes import by_name, procedural_scenes
 ROOT = Path(__file__).resolve().parents[2]
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):
-        raise GmcptError(message)
-
-
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="python -m gmcpt eval", description=__doc__.splitlines()[0])
+    parser = Parser("eval", "Measure the completion methods against references; rewrite docs/results.md, its "
+                    "plots and the README's results.\nReferences are rendered once (tens of minutes), then cached.")
     parser.add_argument("--quick", action="store_true", help="the quick configuration (default: full)")
     parser.add_argument("--out", default=str(ROOT / "docs"), help="folder of results.md, results.json, plots")
     parser.add_argument("--scenes", nargs="+", help="named scenes of gmcpt.evaluation.scenes (default: the quality scenes)")
     parser.add_argument("--procedural", type=int, help="held-out procedural scenes (default: the configuration's)")
     parser.add_argument("--readme", default=str(ROOT / "README.md"), help="README whose results section to rewrite")
-    parser.add_argument("--no-readme", dest="readme", action="store_const", const=None)
+    parser.add_argument("--no-readme", dest="readme", action="store_const", const=None,
+                        help="leave the README alone (default: rewrite its results section)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
     return parser
 
@@ -120,7 +118,7 @@ def evaluate(config, scenes, out: Path, say, quiet: bool = False) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from ..cli import stamped_say
+    from ..command import stamped_say
 
     try:
         args = build_parser().parse_args(argv)

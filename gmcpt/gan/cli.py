@@ -1,6 +1,6 @@
-"""``python -m gmcpt train``: train the GAN pre-completion and (optionally) export shipped weights.
+"""``gmcpt train``: train the GAN pre-completion and (optionally) export shipped weights.
 
-    python -m gmcpt train --config cpu --out runs/gan-cpu --export gan-cpu
+    gmcpt train --config cpu --out runs/gan-cpu --export gan-cpu
 
 Rerunning with the same ``--out`` resumes from its checkpoint; ``--export``
 writes ``gmcpt/gan/weights/NAME.pt`` and its metadata JSON when training ends.
@@ -15,17 +15,19 @@ import sys
 import time
 from pathlib import Path
 
+from ..command import Parser
 from ..errors import GmcptError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="gmcpt train", description=__doc__.splitlines()[0])
+    parser = Parser("train", "Train the GAN pre-completion and (optionally) export its weights.\n"
+                    "Rerunning with the same --out resumes from its checkpoint.")
     parser.add_argument("--config", default="cpu", help="preset (cpu, gpu) or a JSON file")
     parser.add_argument("--out", help="run folder: checkpoint, curves.png, history.json (default: runs/gan-CONFIG)")
-    parser.add_argument("--dataset", help="override train.dataset")
+    parser.add_argument("--dataset", help="dataset folder (default: the config's train.dataset)")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=JSON",
-                        help="override a config value, e.g. train.steps=100 (repeatable)")
-    parser.add_argument("--export", metavar="NAME", help="write the trained generator to gmcpt/gan/weights/NAME.pt")
+                        help="override a config value, e.g. train.steps=100; repeatable (default: none)")
+    parser.add_argument("--export", metavar="NAME", help="write the trained generator to gmcpt/gan/weights/NAME.pt (default: none)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
     return parser
 
@@ -62,7 +64,7 @@ def export(trainer, name: str, command: str) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of ``python -m gmcpt train``; returns the exit status."""
+    """Entry point of ``gmcpt train``; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         args = build_parser().parse_args(argv)
@@ -80,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
             ranks = from_environment()
         except ValueError as error:
             raise GmcptError(str(error)) from None
-        from ..cli import stamped_say
+        from ..command import stamped_say
         say = stamped_say("train", args.quiet)
         try:
             trainer = Trainer(config, out, say, ranks=ranks, quiet=args.quiet)

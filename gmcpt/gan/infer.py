@@ -10,7 +10,7 @@ import torch.nn.functional as F
 from ..domain import WorkingDomain, channel_mean
 from ..frame import SparseFrame
 from ..workers import map_single_threaded, torch_threads
-from .data import SCALE, frame_inputs
+from .inputs import SCALE, frame_inputs
 from .model import Generator
 
 #: Brightness the product brings a frame to before the generator sees it: the 95th percentile of

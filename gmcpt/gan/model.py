@@ -50,7 +50,7 @@ class GeneratorConfig:
     encoder_blocks, decoder_blocks : residual blocks per level (decoder: levels 0 and 1).
     condition_width : channels of the conditioning feature map.
     use_variance : add the standard deviation of each traced pixel's mean (working domain / 255, clipped
-        at 1; :func:`gmcpt.gan.data.working_std`) as a feature.
+        at 1; :func:`gmcpt.gan.inputs.working_std`) as a feature.
     use_coverage : add the feature pass's ``coverage`` (the fraction of a pixel's feature rays on a
         diffuse surface, :func:`gmcpt.render.render_features`) as a feature: at a silhouette it says how
         much of the pixel the albedo describes.

@@ -1,7 +1,7 @@
-"""``python -m gmcpt regress DIR``: check a suite of scenes against its goldens.
+"""``gmcpt regress DIR``: check a suite of scenes against its goldens.
 
-    python -m gmcpt regress DIR [--scene NAME ...] [--seed N] [--report OUT.html]
-    python -m gmcpt regress DIR --update [--golden-spp N] [--rate R] [--spp S] [--seeds N] [--res W H]
+    gmcpt regress DIR [--scene NAME ...] [--seed N] [--report OUT.html]
+    gmcpt regress DIR --update [--golden-spp N] [--rate R] [--spp S] [--seeds N] [--res W H]
 
 Exit status: 0 when every scene passes, 1 when any regressed, 2 on bad input
 (one ``error: ...`` line on stderr, nothing written). A check's time covers
@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..cli import _Parser, exit_status
+from ..command import Parser, mitsuba_command
 from ..errors import GmcptError
 from .manifest import Settings
 
@@ -22,22 +22,26 @@ EXIT_PASS, EXIT_REGRESSED = 0, 1
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="gmcpt regress",
-                     description="Check scenes against golden images with cheap masked renders + completion.")
-    parser.add_argument("folder", metavar="DIR", help="suite folder: scenes NAME.xml or NAME/scene.xml, goldens in DIR/golden")
-    parser.add_argument("--scene", action="append", default=[], metavar="NAME", help="only this scene; repeatable")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the check's mask and samplers (default 0)")
-    parser.add_argument("--report", metavar="OUT.html", help="write an HTML report (images embedded)")
+    parser = Parser("regress", "Check scenes against golden images with cheap masked renders and completion.\n"
+                    "Exit status: 0 every scene passes, 1 one regressed, 2 bad input.")
+    parser.add_argument("folder", metavar="DIR",
+                        help="suite folder: scenes NAME.xml or NAME/scene.xml, goldens in DIR/golden")
+    parser.add_argument("--scene", action="append", default=[], metavar="NAME",
+                        help="only this scene; repeatable (default: every scene)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the check's mask and samplers")
+    parser.add_argument("--report", metavar="OUT.html", help="write an HTML report, images embedded (default: none)")
     parser.add_argument("--update", action="store_true",
                         help="render the goldens and set each scene's thresholds from the check's spread")
-    group = parser.add_argument_group("with --update (defaults: the manifest's, else as shown)")
+    group = parser.add_argument_group("with --update")
     default = Settings()
-    group.add_argument("--golden-spp", type=int, help=f"samples per pixel of the goldens ({default.golden_spp})")
-    group.add_argument("--rate", type=float, help=f"fraction of pixels the check traces ({default.rate})")
-    group.add_argument("--spp", type=int, help=f"samples per traced pixel of the check ({default.spp})")
-    group.add_argument("--method", help=f"completion method of the check ({default.method})")
-    group.add_argument("--seeds", type=int, help=f"seeds the thresholds are calibrated on ({default.seeds})")
-    group.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="render every scene at W x H")
+    prior = "(default: the manifest's, else {})".format
+    group.add_argument("--golden-spp", type=int, help="samples per pixel of the goldens " + prior(default.golden_spp))
+    group.add_argument("--rate", type=float, help="fraction of pixels the check traces " + prior(default.rate))
+    group.add_argument("--spp", type=int, help="samples per traced pixel of the check " + prior(default.spp))
+    group.add_argument("--method", help="completion method of the check " + prior(default.method))
+    group.add_argument("--seeds", type=int, help="seeds the thresholds are calibrated on " + prior(default.seeds))
+    group.add_argument("--res", type=int, nargs=2, metavar=("W", "H"),
+                       help="render every scene at W x H " + prior("the scene's"))
     return parser
 
 
@@ -88,14 +92,9 @@ def run(args, out=print) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    def body() -> int:
-        args = build_parser().parse_args(sys.argv[1:] if argv is None else list(argv))
-        import gmcpt  # noqa: F401  (LLVM, variant, plugin registration)
-        import mitsuba as mi
-        mi.set_log_level(mi.LogLevel.Error)
-        return run(args, out=lambda line: print(line, flush=True))
-
-    return exit_status(body)
+    """Entry point of ``gmcpt regress``; returns the exit status."""
+    return mitsuba_command(sys.argv[1:] if argv is None else list(argv), build_parser,
+                           lambda args: run(args, out=lambda line: print(line, flush=True)))
 
 
 if __name__ == "__main__":

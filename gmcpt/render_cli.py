@@ -1,0 +1,219 @@
+"""``gmcpt render``: path trace a fraction of a scene's pixels, complete the image, write EXR + PNG + JSON.
+
+    gmcpt render SCENE.xml --out OUT.exr [options]
+    gmcpt SCENE.xml --out OUT.exr [options]        (the same: a scene file first means render)
+
+The output's folder is created if its parent exists, as ``gmcpt batch`` does.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Callable
+
+from . import interrupts
+from .command import Parser, mitsuba_command, stamped_say
+from .device import DEVICE_ENV, PRECISION_ENV, completion_device, generator_precision
+from .errors import GmcptError
+from .frame import DEFAULT_FEATURE_SPP
+
+DESCRIPTION = "Path trace a fraction of the pixels of a Mitsuba 3 scene and complete the image."
+
+
+def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """The options of one render (all but the scene, --out and --reference), shared with batch."""
+    parser.add_argument("--rate", type=float, help="fraction of pixels to path trace, in (0, 1] "
+                        "(default: the scene's, else 0.3)")
+    parser.add_argument("--spp", type=int, help="samples per traced pixel (default: the scene's sampler)")
+    parser.add_argument("--seed", type=int, help="seed of the mask and the samplers (default: the scene's, else 0)")
+    parser.add_argument("--mask", help="sample placement: two_pass, adaptive, random, stratified, blue_noise "
+                        "(default: the scene's, else two_pass)")
+    parser.add_argument("--method", help="completion method, see gmcpt methods (default: the scene's, else gan_oidn)")
+    parser.add_argument("--weights", help="generator of the GAN methods: a shipped name or a .pt file "
+                        "(default: the scene's, else gan-cpu)")
+    parser.add_argument("--tile", type=int, help="complete frames larger than N x N in blended tiles (bounded "
+                        "memory); 0: whole (default: the scene's, else 1024)")
+    parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"),
+                        help="film resolution (default: the scene's)")
+    parser.add_argument("--feature-spp", type=int, help=f"primary samples per pixel of the feature pass "
+                        f"(default: the scene's, else {DEFAULT_FEATURE_SPP})")
+    parser.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE",
+                        help="set a scene parameter ($NAME in the XML); repeatable (default: none)")
+    parser.add_argument("--allow-nonfinite", action="store_true",
+                        help="drop NaN/Inf samples with a warning instead of failing")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress messages")
+    return parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser("render", DESCRIPTION)
+    parser.add_argument("scene", help="Mitsuba 3 scene XML (any integrator; masked_path wraps it)")
+    parser.add_argument("--out", required=True, help="output EXR (required); OUT.png and OUT.json go beside it, "
+                        "its folder is created if its parent exists")
+    parser.add_argument("--reference", help="reference EXR (gmcpt reference makes one): adds MSE, PSNR, SSIM, "
+                        "FLIP and relMSE to the JSON (default: none)")
+    return add_render_options(parser)
+
+
+def validate(args) -> None:
+    """Every check on the command line's own values, before any work (the scene's are checked once loaded)."""
+    from .completion import check_options
+    from .files import check_not_inputs, check_output
+    from .gan.weights import weights_path
+    from .limits import check_feature_spp, check_resolution, check_seed, check_spp
+    from .completion.tiles import check_tile
+    from .masks import check_pattern, check_rate
+    from .scene import scene_inputs
+
+    if not args.out.lower().endswith(".exr"):
+        raise GmcptError(f"--out must name an .exr file, got {args.out}")
+    for path in _outputs(args.out):
+        check_output(path)
+    if args.rate is not None:
+        check_rate(args.rate)
+    if args.tile is not None:
+        check_tile(args.tile)
+    if args.spp is not None:
+        check_spp(args.spp, "--spp")
+    if args.feature_spp is not None:
+        check_feature_spp(args.feature_spp, "--feature-spp")
+    if args.seed is not None:
+        check_seed(args.seed, "--seed")
+    if args.mask is not None:
+        check_pattern(args.mask)
+    if args.res is not None:
+        check_resolution(*args.res, args.feature_spp or DEFAULT_FEATURE_SPP, "--res")
+    for define in args.defines:
+        if "=" not in define:
+            raise GmcptError(f"-D expects NAME=VALUE, got {define!r}")
+    weights = [weights_path(args.weights)] if args.weights else []
+    check_not_inputs(_outputs(args.out), {"scene file": scene_inputs(args.scene), "weights file": weights,
+                                          "weights record": [path.with_suffix(".json") for path in weights],
+                                          "reference": [args.reference] if args.reference else []})
+    check_options(args.method, args.weights)
+
+
+def _weights_record(integrator) -> dict:
+    """The GAN weights a method used (name and sha256) and the generator's arithmetic, or nothing for the
+    methods without a network."""
+    from .completion import get_method
+    from .gan.weights import DEFAULT_WEIGHTS, load_generator
+
+    if not get_method(integrator.completion).takes("weights"):
+        return {}
+    name = integrator.weights or DEFAULT_WEIGHTS
+    return {"weights": name, "weights_sha256": load_generator(name)[1].get("sha256"),
+            "generator_precision": generator_precision(completion_device())}
+
+
+def _reference(path: str):
+    """The reference image, refused (one line) if metrics against it would be NaN."""
+    from .exr import read_rgb_exr
+    from .metrics import check_reference
+
+    reference = read_rgb_exr(path)
+    try:
+        return check_reference(reference)
+    except GmcptError as error:
+        raise GmcptError(f"reference {path}: {error}") from None
+
+
+def _outputs(out: str):
+    from .outputs import sidecar_paths
+    return sidecar_paths(out)
+
+
+def run(args, say=lambda message: None, extra: dict | None = None,
+        committed: Callable[[], None] | None = None) -> dict:
+    """Render, complete and write; returns the JSON record (``extra`` entries added to it).
+
+    ``committed`` runs as soon as the three outputs are in place (:func:`gmcpt.files.write_together`).
+    """
+    from .completion import check_size, complete
+    from .limits import check_resolution
+    from .metrics import all_metrics
+    from .files import make_folder
+    from .outputs import library_versions, write_outputs
+    from .render import render_sparse_frame
+    from .scene import load_scene, masked_integrator, scene_sensor
+
+    started = time.perf_counter()
+    validate(args)
+    reference = _reference(args.reference) if args.reference else None
+    parameters = dict(define.split("=", 1) for define in args.defines)
+    scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
+    integrator = masked_integrator(scene, rate=args.rate, mask=args.mask, seed=args.seed,
+                                   feature_spp=args.feature_spp, completion=args.method, weights=args.weights,
+                                   tile=args.tile)
+    # every check on the input happens before the first progress line (render_sparse_frame checks the
+    # scene's own resolution and spp before its first one)
+    size = scene_sensor(scene, path=args.scene).film().crop_size()
+    width, height = int(size[0]), int(size[1])
+    check_resolution(width, height, integrator.feature_spp)
+    check_size(integrator.completion, height, width)
+    if os.environ.get(DEVICE_ENV):  # a device asked for by name must exist before the render starts
+        completion_device()
+    if os.environ.get(PRECISION_ENV):  # and a precision asked for must be one
+        generator_precision("cpu")
+    if reference is not None and reference.shape != (height, width, 3):
+        raise GmcptError(f"reference {args.reference} is {reference.shape[1]}x{reference.shape[0]}, "
+                         f"the render is {width}x{height}")
+    settings = integrator.settings(spp=args.spp or 0)
+    frame, timings = render_sparse_frame(scene, integrator.integrator, None, settings, progress=say)
+    dropped = frame.info["nonfinite_samples"]
+    if dropped:
+        message = f"{dropped} radiance samples were NaN/Inf"
+        if not args.allow_nonfinite:
+            raise GmcptError(message + " (broken scene data?); --allow-nonfinite drops them and goes on")
+        print(f"warning: {message}; dropped them", file=sys.stderr)
+    say(f"completing with {integrator.completion!r}")
+    result = complete(frame, integrator.completion, **integrator.completion_options())
+    timings.update(result.timings)
+    record = {
+        "scene": str(Path(args.scene).resolve()),
+        "output": str(Path(args.out).resolve()),
+        "parameters": {"rate": settings.rate, "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
+                       "feature_spp": settings.feature_spp, "method": integrator.completion,
+                       "tile": integrator.tile, **_weights_record(integrator),
+                       # completion imports torch only for the methods that run on it
+                       "device": completion_device() if "torch" in sys.modules else "cpu",
+                       "resolution": [width, height], "scene_parameters": parameters,
+                       "integrator": " ".join(str(integrator.integrator).split())},
+        "versions": library_versions(),
+        "rendered_fraction": frame.rendered_fraction,
+        "traced_pixels": frame.info["traced_pixels"],
+        "path_samples": frame.info["path_samples"],
+        **({"first_pass_pixels": frame.info["first_pass_pixels"]} if settings.pattern == "two_pass" else {}),
+        "nonfinite_samples": frame.info["nonfinite_samples"],
+        "timings": timings,
+    }
+    if reference is not None:
+        say("computing metrics against the reference")
+        record["reference"] = str(Path(args.reference).resolve())
+        record["metrics"] = all_metrics(result.image, reference)
+    record.update(extra or {})
+    timings["total_s"] = time.perf_counter() - started
+    make_folder(args.out)
+    written = write_outputs(args.out, frame, result.image, record, committed)
+    say("wrote " + ", ".join(str(p) for p in written))
+    return record
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``gmcpt render``; returns the exit status."""
+    def work(args) -> int:
+        say = stamped_say("gmcpt", args.quiet)
+        record = run(args, say, committed=interrupts.settle)
+        if "metrics" in record:
+            m = record["metrics"]
+            say(f"PSNR {m['psnr']:.2f} dB  SSIM {m['ssim']:.4f}  MSE {m['mse']:.3e}  relMSE {m['relmse']:.3e}  "
+                f"FLIP {m['flip']:.4f}")
+        return 0
+    return mitsuba_command(sys.argv[1:] if argv is None else list(argv), build_parser, work)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
