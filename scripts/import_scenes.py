@@ -572,7 +572,8 @@ def main(argv: list[str] | None = None) -> int:
                         f"also: {' '.join(n for n in SCENES if n not in DEFAULT_NAMES)})")
     parser.add_argument("--source", type=Path,
                         help="a checkout of dppm-scenes (default: clone it into data/dppm-scenes)")
-    parser.add_argument("--out", type=Path, default=ROOT / "data" / "real-scenes")
+    parser.add_argument("--out", type=Path, default=ROOT / "data" / "real-scenes",
+                        help="folder of the imported scenes (default: data/real-scenes, where the evaluation looks)")
     parser.add_argument("--variants", action="store_true", help="also import the *_rand_sceneN.xml variants")
     args = parser.parse_args(argv)
     names = args.names or list(DEFAULT_NAMES)
