@@ -40,7 +40,8 @@ def test_every_example_runs_or_says_why_not():
     infos = [(language, info) for language, info, _ in examples()]
     assert all(info in ("", "slow") or re.fullmatch(r"no-test: \w.+", info) for _, info in infos), infos
     skipped = [info for language, info in infos if language in RUNNERS and info.startswith("no-test:")]
-    assert len(skipped) <= 3, skipped  # set-up, the hour-long dataset build, the two-node cluster
+    # set-up, the real scenes' download, the hour-long dataset build, the two-node cluster
+    assert len(skipped) <= 4, skipped
     assert {language for language, _ in infos} <= set(RUNNERS) | {"xml"}
 
 
