@@ -9,6 +9,7 @@ methods; features, render and OIDN for the baselines.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
@@ -36,7 +37,6 @@ class LoadedScene:
     features: dict
     features_s: float
     images: dict = field(default_factory=dict)  # label -> image at the grid rate, for the image grid
-    sensor: object = None  # default: the scene's first
 
 
 def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
@@ -80,7 +80,7 @@ def adaptive_oidn(loaded: LoadedScene, budget: float, config: EvalConfig, featur
     from ..adaptive import AdaptiveSettings, render_adaptive
 
     settings = AdaptiveSettings(budget=budget, seed=config.seed + 17, feature_spp=config.feature_spp)
-    return render_adaptive(loaded.scene, loaded.integrator, settings, loaded.sensor, features)
+    return render_adaptive(loaded.scene, loaded.integrator, settings, features=features)
 
 
 def run_variant(frame, variant: Variant, reference: np.ndarray) -> tuple[np.ndarray, dict, dict]:
@@ -119,13 +119,11 @@ def quality(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
 
 def _path_oidn(loaded: LoadedScene, spp: int, seed: int, feature_spp: int) -> tuple[np.ndarray, np.ndarray, dict]:
     """(noisy, denoised, timings) of path tracing + OIDN, its own feature pass for the guides included."""
-    import time
-
     from ..render import render_features
 
     timings = {}
     start = time.perf_counter()
-    features = render_features(loaded.scene, loaded.sensor or loaded.scene.sensors()[0], feature_spp)
+    features = render_features(loaded.scene, loaded.scene.sensors()[0], feature_spp)
     timings["features_s"] = time.perf_counter() - start
     start = time.perf_counter()
     noisy = render_full(loaded.scene, loaded.integrator, spp, seed)
@@ -219,7 +217,6 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     """The equal-time comparison (:func:`equal_time`) at ``config.full_size`` on one scene: the default at
     ``config.full_rate`` x ``config.full_spp`` against both baselines at ``config.full_path_spp`` and
     ``config.full_adaptive_budgets``. The reference is cached under ``data/references``."""
-    from ..render import render_features
     from .config import DEFAULT_VARIANT
     from .reference import render_reference
 
@@ -230,8 +227,7 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     scene = eval_scene.load(config.full_size)
     integrator = scene.integrator()
     integrator = getattr(integrator, "integrator", integrator)
-    features = render_features(scene, scene.sensors()[0], config.feature_spp)
-    loaded = LoadedScene(eval_scene.name, scene, integrator, reference, features, 0.0)
+    loaded = LoadedScene(eval_scene.name, scene, integrator, reference, {}, 0.0)  # each contender has its features
     full = replace(config, path_spp=config.full_path_spp, adaptive_budgets=config.full_adaptive_budgets,
                    budget_variants=(DEFAULT_VARIANT,))
     size = "x".join(map(str, config.full_size))
