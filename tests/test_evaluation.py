@@ -168,3 +168,17 @@ def test_group_means_split_real_and_synthetic_scenes():
     table = variant_table(rows, ["v"], ["psnr"], [0.3])
     assert "| **mean of 2 real** | 30% | 31.00 |" in table and "| **mean of 1 synthetic** | 30% | 20.00 |" in table
     assert "| **mean of 3** | 30% | 27.33 |" in table
+
+
+def test_readme_means_are_groups_not_scenes():
+    """Without real scenes (a fresh clone) the README's table has the overall mean only, never single scenes."""
+    from gmcpt.evaluation.document import readme_placement, verdict
+
+    placement = [{"scene": s, "real": False, "variant": v, "rate": 0.3, "psnr": p}
+                 for s in ("a", "b", "c") for v, p in (("path+oidn", 30.0), ("adaptive+oidn", 31.0), ("two_pass", 30.5))]
+    run = {"config": {"rates": [0.3], "spp": 16, "mask": "two_pass", "placement_variant": "gan_oidn"},
+           "placement": placement, "equal_time": []}
+    table = [line for line in readme_placement(run) if line.startswith("|")]
+    rows = [line for line in "\n".join(table).splitlines()[2:]]
+    assert len(rows) == 1 and rows[0].startswith("| mean of 3 | 0.3 x 16 = 4.8 | 30.00 | 31.00 | 30.50 | -0.50 |")
+    assert "behind the better baseline on a (-0.50 dB), b (-0.50 dB), c (-0.50 dB)" in verdict(run)[0]

@@ -61,6 +61,11 @@ def placement_section(run: dict) -> list[str]:
     ]
 
 
+def _means(rows: list[dict]) -> list[tuple[str, dict]]:
+    """The groups of :func:`report.groups` that are means, not single scenes."""
+    return [(label, where) for label, where in report.groups(rows) if "scene" not in where]
+
+
 def _lead(rows: list[dict], default: str, rate: float, **where) -> float | None:
     """The default's mean PSNR over the better of the two baselines' (at equal samples, placement rows)."""
     mine = report._mean(rows, "psnr", variant=default, rate=rate, **where)
@@ -78,7 +83,7 @@ def readme_placement(run: dict) -> list[str]:
     default = c.get("mask", "two_pass")
     columns = [v for v in [*report.BASELINES, default] if any(r["variant"] == v for r in rows)]
     table = []
-    for label, where in report.groups(rows)[-3:] if len(report.groups(rows)) > 2 else report.groups(rows)[-1:]:
+    for label, where in _means(rows):
         for rate in c["rates"]:
             lead = _lead(rows, default, rate, **where)
             table.append([label.strip("*"), f"{rate:g} x {c['spp']} = {rate * c['spp']:g}",
@@ -103,7 +108,7 @@ def verdict(run: dict) -> list[str]:
              + (", ".join(behind) if behind else "no scene") + "."]
     timed = run.get("equal_time", [])
     counts = []
-    for label, where in (report.groups(timed)[-3:-1] if len(report.groups(timed)) > 2 else []):
+    for label, where in _means(timed):
         ahead = total = 0
         for scene in report._in_group(timed, where):
             scene_rows = [r for r in timed if r["scene"] == scene]
@@ -112,10 +117,11 @@ def verdict(run: dict) -> list[str]:
                 rivals = [r["psnr"] for r in rivals if r is not None]
                 total += 1
                 ahead += not rivals or setting["psnr"] > max(rivals)
-        counts.append(f"{ahead} of its {total} settings on the {label.strip('*').split(' ', 3)[-1]} scenes")
+        kind = label.strip("*").split(" ", 3)[-1] if where else "all"
+        counts.append(f"{ahead} of its {total} settings on {kind} scenes")
     if counts:
         lines.append("At equal time (warm, every stage counted) it is ahead of both baselines at "
-                     + " and ".join(counts) + ".")
+                     + (", ".join(counts[:-1]) + " and " if len(counts) > 1 else "") + counts[-1] + ".")
     return [" ".join(lines), ""]
 
 
