@@ -6,8 +6,9 @@ samples proportional to a power of its estimated relative error, at most ``max_e
 normal, the same guides the completion methods' last stage gets. The passes are the masked integrator's own
 (:func:`gmcpt.render.trace_pixels`), so its time is real.
 
-Rounds that re-estimate each pixel's error from its own samples (as Cycles does) did worse than one step from
-the first pass (docs/experiments.md).
+Rounds that re-estimate each pixel's error from its own samples (as Cycles does) did worse than uniform
+sampling when this baseline was specified (issue 40); one step from the first pass did better. The recipe's
+alternatives measured here are in docs/experiments.md.
 """
 from __future__ import annotations
 
