@@ -8,7 +8,7 @@ pixel), uniform path tracing at ``round(budget)`` spp + OIDN beside adaptive pat
 PSNR dB per scene and the mean of the real and the synthetic scenes.
 
     python benchmarks/adaptive_baseline.py [--budgets 3.2 4.8 6.4] [--scenes NAME ...] [--procedural 2] [--seeds 0 1]
-                                           [--alternatives exponent1 first2 dark1e-3 cap8]
+                                           [--alternatives first1spp first0.4 first0.8 exponent1 cap8]
 """
 from __future__ import annotations
 
@@ -22,15 +22,14 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-#: name -> (settings changes, module constant changes)
+#: name -> changes to the shipped :class:`gmcpt.adaptive.AdaptiveSettings`
 ALTERNATIVES = {
-    "shipped": ({}, {}),
-    "exponent1": ({"exponent": 1.0}, {}),
-    "exponent0.75": ({"exponent": 0.75}, {}),
-    "first2": ({"first_spp": 2}, {}),
-    "dark1e-3": ({}, {"DARK_LEVEL": 1e-3}),
-    "dark1e-1": ({}, {"DARK_LEVEL": 1e-1}),
-    "cap8": ({"max_extra": 8}, {}),
+    "shipped": {},
+    "first1spp": {"first_share": 0.0},
+    "first0.4": {"first_share": 0.4},
+    "first0.8": {"first_share": 0.8},
+    "exponent1": {"exponent": 1.0},
+    "cap8": {"max_extra": 8},
 }
 
 
@@ -69,16 +68,8 @@ def main(argv=None) -> int:
                 noisy = render_full(scene, integrator, max(1, round(budget)), seed + 17)
                 scores["path+oidn"].append(psnr(denoise_oidn(noisy, features["albedo"], features["normal"]), reference))
                 for name in names[1:]:
-                    changes, constants = ALTERNATIVES[name]
-                    saved = {key: getattr(adaptive, key) for key in constants}
-                    for key, value in constants.items():
-                        setattr(adaptive, key, value)
-                    try:
-                        settings = replace(adaptive.AdaptiveSettings(budget=budget, seed=seed), **changes)
-                        image, _, _ = adaptive.render_adaptive(scene, integrator, settings, sensor, features)
-                    finally:
-                        for key, value in saved.items():
-                            setattr(adaptive, key, value)
+                    settings = replace(adaptive.AdaptiveSettings(budget=budget, seed=seed), **ALTERNATIVES[name])
+                    image, _, _ = adaptive.render_adaptive(scene, integrator, settings, sensor, features)
                     scores[name].append(psnr(image, reference))
             for name in names:
                 results[eval_scene.name, budget, name] = float(np.mean(scores[name]))

@@ -1,14 +1,16 @@
 """Adaptive path tracing + OIDN: what a Blender Cycles user has, and the strongest baseline of the evaluation.
 
-Every pixel is traced at ``first_spp`` samples; the rest of the budget goes out in one step, each pixel's extra
-samples proportional to a power of its estimated relative error, at most ``max_extra`` a pixel, the total exact
-(``round(budget * W * H)`` path samples); Intel OIDN then denoises the frame with the feature pass's albedo and
-normal, the same guides the completion methods' last stage gets. The passes are the masked integrator's own
-(:func:`gmcpt.render.trace_pixels`), so its time is real.
+A first pass traces every pixel at ``first_share`` of the budget (at least 1 spp); the rest goes out in one
+step, each pixel's extra samples proportional to a power of its estimated error in the displayed image, at
+most ``max_extra`` a pixel, the total exact (``round(budget * W * H)`` path samples); Intel OIDN then denoises
+the frame with the feature pass's albedo and normal, the same guides the completion methods' last stage gets.
+The passes are the masked integrator's own (:func:`gmcpt.render.trace_pixels`), so its time is real.
 
-Rounds that re-estimate each pixel's error from its own samples (as Cycles does) did worse than uniform
-sampling when this baseline was specified (issue 40); one step from the first pass did better. The recipe's
-alternatives measured here are in docs/experiments.md.
+A first pass of 1 spp with the rest placed by relative error (the recipe issue 40 started from) beat uniform
+sampling on the synthetic scenes but lost 1-3 dB on the real interiors, where OIDN gets most pixels at 1 spp
+of fireflies and dim indirect light; a larger uniform first pass and the error of the tonemapped image fixed
+that (docs/experiments.md). Rounds that re-estimate each pixel's error from its own samples (as Cycles
+does) did worse than uniform sampling when the baseline was specified.
 """
 from __future__ import annotations
 
@@ -22,10 +24,11 @@ from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP
 from .limits import SEED_LIMIT, check_feature_spp, check_seed, check_spp
 
+#: the largest budget (mean samples a pixel) of the baseline: the evaluation's largest is 32
+MAX_BUDGET = 64
+
 #: the second pass's sampler seeds differ from the first's
 EXTRA_SEED_OFFSET = 0xADA97
-#: relative error = local variance / (local mean^2 + this): keeps near-black pixels from taking the budget
-DARK_LEVEL = 1e-2
 
 
 @dataclass(frozen=True)
@@ -34,9 +37,9 @@ class AdaptiveSettings:
 
     Attributes
     ----------
-    budget : mean path samples per pixel, in [first_spp, first_spp + max_extra].
+    budget : mean path samples per pixel, in [1, :data:`MAX_BUDGET`].
     seed : sampler seed (the second pass uses ``seed + EXTRA_SEED_OFFSET``).
-    first_spp : samples of every pixel in the first pass.
+    first_share : the first pass traces every pixel at ``max(1, floor(first_share * budget))`` spp.
     max_extra : most extra samples one pixel gets.
     exponent : extra samples follow ``error ** exponent``.
     feature_spp : primary samples per pixel of the feature pass (OIDN's guides).
@@ -44,22 +47,30 @@ class AdaptiveSettings:
 
     budget: float
     seed: int = 0
-    first_spp: int = 1
+    first_share: float = 0.625
     max_extra: int = 32
     exponent: float = 0.5
     feature_spp: int = DEFAULT_FEATURE_SPP
 
     def __post_init__(self):
         check_seed(self.seed)
-        check_spp(self.first_spp, "first_spp")
         check_spp(self.max_extra, "max_extra")
         check_feature_spp(self.feature_spp)
         budget = float(self.budget)
-        if not math.isfinite(budget) or not self.first_spp <= budget <= self.first_spp + self.max_extra:
-            raise GmcptError(f"adaptive budget must be in [{self.first_spp}, {self.first_spp + self.max_extra}] "
-                             f"samples per pixel, got {self.budget}")
+        if not math.isfinite(budget) or not 1 <= budget <= MAX_BUDGET:
+            raise GmcptError(f"adaptive budget must be in [1, {MAX_BUDGET}] samples per pixel, got {self.budget}")
+        if not 0 <= self.first_share <= 1:
+            raise GmcptError(f"adaptive first_share must be in [0, 1], got {self.first_share}")
         if not math.isfinite(self.exponent) or self.exponent < 0:
             raise GmcptError(f"adaptive exponent must be >= 0, got {self.exponent}")
+        if budget - self.first_spp > self.max_extra:
+            raise GmcptError(f"adaptive budget {budget} leaves more than max_extra {self.max_extra} extra samples "
+                             "a pixel after the first pass")
+
+    @property
+    def first_spp(self) -> int:
+        """Samples of every pixel in the first pass."""
+        return max(1, int(self.first_share * self.budget))
 
 
 def _box3(plane: np.ndarray) -> np.ndarray:
@@ -73,17 +84,20 @@ def _box3(plane: np.ndarray) -> np.ndarray:
     return total / 9
 
 
-def relative_error(image: np.ndarray) -> np.ndarray:
-    """(H, W) estimate of each pixel's relative squared error from a noisy (H, W, 3) image: the variance of the
-    luminance over its 3x3 neighbourhood over the squared local mean, smoothed over 3x3 again.
+def display_error(image: np.ndarray) -> np.ndarray:
+    """(H, W) estimate of each pixel's squared error in the displayed image, from a noisy (H, W, 3) one: the
+    variance of the tonemapped luminance (:func:`gmcpt.metrics.tonemap`) over its 3x3 neighbourhood, smoothed
+    over 3x3 again.
 
-    One sample a pixel has no variance of its own; its neighbours' spread stands in for it (and also counts
-    edges, where a denoiser needs samples too).
+    A pixel's own few samples say little of its variance; its neighbours' spread stands in for it (and also
+    counts edges, where a denoiser needs samples too). Measured in the displayed image, a firefly counts for
+    no more than a white pixel, so it does not draw the budget as it does in linear radiance.
     """
-    luminance = np.asarray(image, np.float64).mean(axis=-1)
+    from .metrics import tonemap
+
+    luminance = tonemap(image).mean(axis=-1, dtype=np.float64)
     mean = _box3(luminance)
-    variance = np.maximum(_box3(luminance * luminance) - mean * mean, 0.0)
-    return _box3(variance / (mean * mean + DARK_LEVEL))
+    return _box3(np.maximum(_box3(luminance * luminance) - mean * mean, 0.0))
 
 
 def allocate(weights: np.ndarray, total: int, cap: int) -> np.ndarray:
@@ -173,7 +187,7 @@ def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
     start = time.perf_counter()
     image = (total / np.maximum(finite, 1)[:, None]).reshape(height, width, 3)
     extra_total = int(round(settings.budget * pixels)) - int(first.sum())
-    extra = allocate(relative_error(image) ** settings.exponent, extra_total, settings.max_extra)
+    extra = allocate(display_error(image) ** settings.exponent, extra_total, settings.max_extra)
     timings["placement_s"] = time.perf_counter() - start
 
     start = time.perf_counter()

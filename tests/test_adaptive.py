@@ -39,14 +39,17 @@ def test_allocation_refuses_more_samples_than_the_cap_allows():
         allocate(np.ones(10), 41, 4)
 
 
-def test_relative_error_is_high_where_the_image_is_noisy():
-    from gmcpt.adaptive import relative_error
+def test_display_error_is_high_where_the_image_is_noisy_and_fireflies_count_as_white():
+    from gmcpt.adaptive import display_error
 
     rng = np.random.default_rng(0)
-    image = np.full((32, 32, 3), 0.5, np.float32)
+    image = np.full((32, 32, 3), 0.3, np.float32)
     image[:, 16:] *= rng.exponential(size=(32, 16, 1)).astype(np.float32)
-    error = relative_error(image)
+    error = display_error(image)
     assert error[:, :14].max() < 1e-6 < error[:, 18:].min()
+    firefly, white = image.copy(), image.copy()
+    firefly[8, 5], white[8, 5] = 1000.0, 1.0
+    np.testing.assert_array_equal(display_error(firefly), display_error(white))
 
 
 @pytest.mark.parametrize("budget", [1.0, 2.5, 4.8])
@@ -56,7 +59,8 @@ def test_render_traces_exactly_the_budget_and_repeats_itself(mi, cornell, path_t
     settings = AdaptiveSettings(budget=budget, seed=5)
     image, info, timings = render_adaptive(cornell, path_tracer, settings)
     assert info["path_samples"] == round(budget * 40 * 32) == info["samples"].sum()
-    assert info["samples"].min() >= 1 and info["samples"].max() <= 1 + settings.max_extra
+    assert info["samples"].min() >= settings.first_spp >= 1
+    assert info["samples"].max() <= settings.first_spp + settings.max_extra
     assert image.shape == (32, 40, 3) and np.isfinite(image).all() and image.mean() > 0.01
     assert {"features_s", "render_s", "placement_s", "denoise_s"} <= timings.keys()
     again, info_again, _ = render_adaptive(cornell, path_tracer, settings)
@@ -69,15 +73,24 @@ def test_more_samples_land_where_the_first_pass_is_noisy(mi, cornell, path_trace
     samples must not be spread evenly."""
     from gmcpt.adaptive import AdaptiveSettings, render_adaptive
 
-    _, info, _ = render_adaptive(cornell, path_tracer, AdaptiveSettings(budget=6.0, seed=1))
-    samples = info["samples"]
-    assert samples.max() >= 3 * np.median(samples)
+    settings = AdaptiveSettings(budget=6.0, seed=1)
+    _, info, _ = render_adaptive(cornell, path_tracer, settings)
+    extra = info["samples"] - settings.first_spp
+    assert extra.max() >= 3 * np.median(extra) and np.percentile(extra, 90) >= 2 * np.percentile(extra, 10) + 2
+
+
+def test_the_first_pass_takes_its_share_of_the_budget():
+    from gmcpt.adaptive import AdaptiveSettings
+
+    assert [AdaptiveSettings(budget=b).first_spp for b in (1, 1.5, 3.2, 4.8, 6.4, 32)] == [1, 1, 2, 3, 4, 20]
+    assert AdaptiveSettings(budget=4.8, first_share=0).first_spp == 1
 
 
 @pytest.mark.parametrize("options,message", [
-    ({"budget": 0.5}, "budget must be in"), ({"budget": 40.0}, "budget must be in"),
+    ({"budget": 0.5}, "budget must be in"), ({"budget": 65.0}, "budget must be in"),
     ({"budget": float("nan")}, "budget must be in"), ({"budget": 4, "seed": -1}, "seed"),
-    ({"budget": 4, "exponent": -1}, "exponent"), ({"budget": 4, "max_extra": 0}, "max_extra")])
+    ({"budget": 4, "exponent": -1}, "exponent"), ({"budget": 4, "max_extra": 0}, "max_extra"),
+    ({"budget": 4, "first_share": 1.5}, "first_share"), ({"budget": 40, "first_share": 0}, "more than max_extra")])
 def test_bad_settings_get_one_line(options, message):
     from gmcpt.adaptive import AdaptiveSettings
     from gmcpt.errors import GmcptError
