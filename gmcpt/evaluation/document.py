@@ -16,22 +16,6 @@ def _settings_line(run: dict) -> str:
             "except relMSE (linear); FLIP is `flip-evaluator`'s LDR mean (0 = identical).")
 
 
-def headline_table(run: dict) -> str:
-    rows, rates = run["quality"], run["config"]["rates"]
-    variants = [v for v in ("pawnnm", "gan", "gan_pawnnm", "gan_oidn", "gan_pawnnm_oidn")
-                if any(r["variant"] == v for r in rows)]
-    header = ["rate"] + [f"{v}" for v in variants]
-    table = []
-    for rate in rates:
-        cells = []
-        for variant in variants:
-            psnr = report._mean(rows, "psnr", variant=variant, rate=rate)
-            ssim = report._mean(rows, "ssim", variant=variant, rate=rate)
-            cells.append(f"{psnr:.2f} dB / {ssim:.3f}")
-        table.append([f"{rate:.0%}", *cells])
-    return report._table(header, table)
-
-
 def placement_table(run: dict) -> str:
     """PSNR / FLIP of each placement beside both baselines at equal samples, per scene and the means."""
     c = run["config"]
