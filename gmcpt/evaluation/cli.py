@@ -25,7 +25,7 @@ from ..command import Parser
 from ..errors import GmcptError
 from ..exr import atomic_output, check_writable
 from .config import CONFIGS, SECOND_REFERENCE_SEED
-from .scenes import by_name, procedural_scenes
+from .scenes import evaluation_scenes
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -84,7 +84,7 @@ def evaluate(config, scenes, out: Path, say, quiet: bool = False) -> dict:
     record = {"config": asdict(config), "second_reference_seed": SECOND_REFERENCE_SEED, "references": [],
               "quality": [], "placement": [], "equal_time": [], "full_resolution": [], "stage_timings": [],
               "grids": {}, "real_scenes": [scene.name for scene in scenes if scene.real],
-              "credits": {scene.name: scene.credit for scene in scenes if getattr(scene, "credit", "")}}
+              "credits": {scene.name: scene.credit for scene in scenes if scene.credit}}
     with Progress(len(scenes), "eval", unit="scene", say=say, quiet=quiet) as bar:
         say = bar.write
         for index, eval_scene in enumerate(scenes, 1):
@@ -128,9 +128,8 @@ def main(argv: list[str] | None = None) -> int:
             if args.procedural < 0:
                 raise GmcptError("--procedural must be >= 0")
             config = replace(config, procedural=args.procedural)
-        chosen = by_name(args.scenes)
-        missing = [scene for scene in chosen if not scene.available()]
-        scenes = [scene for scene in chosen if scene.available()] + procedural_scenes(config.procedural)
+        skipped = []  # said after every check, so that a refusal stays one line
+        scenes = evaluation_scenes(args.scenes, config.procedural, skipped.append)
         if not scenes:
             raise GmcptError("no evaluation scene is available")
         out = Path(args.out)
@@ -146,8 +145,8 @@ def main(argv: list[str] | None = None) -> int:
             import pyoidn  # noqa: F401
         except ImportError:
             raise GmcptError("the evaluation's denoiser baseline needs pyoidn: pip install -e '.[dev]'") from None
-        for scene in missing:  # after every check, so that a refusal stays one line
-            say(scene.missing_line())
+        for line in skipped:
+            say(line)
 
         import gmcpt  # noqa: F401  (LLVM, variant)
         import mitsuba as mi

@@ -34,8 +34,8 @@ def placement_section(run: dict) -> list[str]:
         f"`{c['placement_variant']}` at each rate x {c['spp']} spp with each mask, beside two baselines denoised by "
         "Intel Open Image Denoise (albedo and normal from the same feature pass): full-frame path tracing with the "
         f"same total samples (round(rate x {c['spp']}) spp a pixel) and adaptive path tracing with exactly "
-        f"rate x {c['spp']} samples a pixel on average (`gmcpt/adaptive.py`: 1 spp everywhere, the rest where "
-        "the first pass's local relative error is high). `random` is the paper's mask; `adaptive` places the "
+        f"rate x {c['spp']} samples a pixel on average (`gmcpt/adaptive.py`: 5/8 of the samples everywhere, "
+        "the rest where the first pass's error in the displayed image is high). `random` is the paper's mask; `adaptive` places the "
         "samples by a density from the feature buffers' edges; `two_pass` (the default) spends half the budget "
         "so, then the rest where the first half's samples disagree with their neighbours "
         "(`gmcpt/placement.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline.",
@@ -92,7 +92,7 @@ def verdict(run: dict) -> list[str]:
              + (", ".join(behind) if behind else "no scene") + "."]
     timed = run.get("equal_time", [])
     counts = []
-    for label, where in _means(timed):
+    for _, where in _means(timed):
         ahead = total = 0
         for scene in report._in_group(timed, where):
             scene_rows = [r for r in timed if r["scene"] == scene]
@@ -101,7 +101,7 @@ def verdict(run: dict) -> list[str]:
                 rivals = [r["psnr"] for r in rivals if r is not None]
                 total += 1
                 ahead += not rivals or setting["psnr"] > max(rivals)
-        kind = label.strip("*").split(" ", 3)[-1] if where else "all"
+        kind = {True: "real", False: "synthetic"}.get(where.get("real"), "all")
         counts.append(f"{ahead} of its {total} settings on {kind} scenes")
     if counts:
         lines.append("At equal time (warm, every stage counted) it is ahead of both baselines at "
@@ -168,12 +168,12 @@ def results_markdown(run: dict) -> str:
         "",
         "## Table 2: NNM against PAWNNM (paper Table 2)",
         "",
-        report.variant_table(quality, ["nnm", "pawnnm"], ["psnr", "ssim", "mse"], rates, delta=("pawnnm", "nnm")),
+        report.variant_table(quality, ["nnm", "pawnnm"], ["psnr", "ssim", "mse"], rates, deltas=[("pawnnm", "nnm")]),
         "",
         "## With and without GAN pre-completion (paper Fig. 10)",
         "",
         report.variant_table(quality, ["interp", "gan", "pawnnm", "gan_pawnnm"], ["psnr", "ssim"], rates,
-                             delta=("gan_pawnnm", "pawnnm")),
+                             deltas=[("gan_pawnnm", "pawnnm")]),
         "",
         "## Beyond the paper: the fill, the traced samples, then OIDN",
         "",
@@ -183,7 +183,7 @@ def results_markdown(run: dict) -> str:
         "the paper's method.",
         "",
         report.variant_table(quality, ["gan", "gan_pawnnm", "gan_oidn", "gan_pawnnm_oidn"], ["psnr", "flip"], rates,
-                             delta=("gan_oidn", "gan_pawnnm")),
+                             deltas=[("gan_oidn", "gan_pawnnm")]),
         "",
         "## PSNR against patch size (paper Fig. 12)",
         "",

@@ -173,11 +173,15 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, rates=None, sp
         for spp in spps or config.budget_spp:
             for label in config.budget_variants:
                 def pipeline():
-                    frame, render_timings = sparse_frame(loaded, rate, spp, replace(config, repeats=1))
-                    image, metrics, timings = run_variant(frame, VARIANTS[label], loaded.reference)
-                    return image, metrics, {**render_timings, "completion_s": timings["completion_s"]}
+                    from ..completion import complete
 
-                (_, metrics, _), seconds = _warm(pipeline, config.repeats)
+                    variant = VARIANTS[label]
+                    frame, render_timings = sparse_frame(loaded, rate, spp, replace(config, repeats=1))
+                    result = complete(frame, variant.method, **variant.options())
+                    return result.image, {**render_timings, "completion_s": result.timings["completion_s"]}
+
+                (image, _), seconds = _warm(pipeline, config.repeats)
+                metrics = all_metrics(image, loaded.reference)
                 rows.append({**base, "contender": label, "rate": rate, "spp": spp,
                              "samples_per_pixel": rate * spp, "seconds": seconds, **metrics})
                 say(f"  {loaded.name} {label} rate {rate:.3f} x {spp:>2} spp: {metrics['psnr']:6.2f} dB "

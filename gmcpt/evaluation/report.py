@@ -67,13 +67,10 @@ def _cells(rows, variants, metrics, where, rate):
     return out
 
 
-def variant_table(rows: list[dict], variants: list[str], metrics: list[str], rates, delta: tuple | None = None,
-                  deltas: tuple = ()) -> str:
-    """Per scene and rate, ``metrics`` of each variant; ``delta=(a, b)`` adds PSNR(a) - PSNR(b), ``deltas``
-    several such pairs."""
+def variant_table(rows: list[dict], variants: list[str], metrics: list[str], rates, deltas=()) -> str:
+    """Per scene and rate, ``metrics`` of each variant; each pair ``(a, b)`` of ``deltas`` adds PSNR(a) - PSNR(b)."""
     variants = [v for v in variants if any(row["variant"] == v for row in rows)]
-    pairs = [pair for pair in ([delta] if delta else []) + list(deltas)
-             if all(any(row["variant"] == v for row in rows) for v in pair)]
+    pairs = [pair for pair in deltas if all(any(row["variant"] == v for row in rows) for v in pair)]
     header = ["scene", "rate"] + [f"{v} {m.upper() if m != 'psnr' else 'PSNR dB'}" for v in variants for m in metrics]
     header += [f"{a} - {b} dB" for a, b in pairs]
 

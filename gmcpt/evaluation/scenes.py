@@ -81,6 +81,7 @@ class ProceduralScene:
 
     seed: int
     real = False
+    credit = ""  # the project's own
 
     @property
     def name(self) -> str:
