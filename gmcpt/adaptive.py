@@ -4,7 +4,7 @@ A first pass traces every pixel at ``first_share`` of the budget (at least 1 spp
 step, each pixel's extra samples proportional to a power of its estimated error in the displayed image, at
 most ``max_extra`` a pixel, the total exact (``round(budget * W * H)`` path samples); Intel OIDN then denoises
 the frame with the feature pass's albedo and normal, the same guides the completion methods' last stage gets.
-The passes are the masked integrator's own (:func:`gmcpt.render.trace_pixels`), so its time is real.
+The passes are the masked integrator's own (:func:`gmcpt.render.trace_counts`), so its time is real.
 
 A first pass of 1 spp with the rest placed by relative error (the recipe issue 40 started from) beat uniform
 sampling on the synthetic scenes but lost 1-3 dB on the real interiors, where OIDN gets most pixels at 1 spp
@@ -29,6 +29,10 @@ MAX_BUDGET = 64
 
 #: the second pass's sampler seeds differ from the first's
 EXTRA_SEED_OFFSET = 0xADA97
+#: the recipe (docs/experiments.md): a uniform first pass of 5/8 of the budget, extra samples ~ error^0.5, 32 at most
+FIRST_SHARE = 0.625
+MAX_EXTRA = 32
+EXPONENT = 0.5
 
 
 @dataclass(frozen=True)
@@ -47,9 +51,9 @@ class AdaptiveSettings:
 
     budget: float
     seed: int = 0
-    first_share: float = 0.625
-    max_extra: int = 32
-    exponent: float = 0.5
+    first_share: float = FIRST_SHARE
+    max_extra: int = MAX_EXTRA
+    exponent: float = EXPONENT
     feature_spp: int = DEFAULT_FEATURE_SPP
 
     def __post_init__(self):
@@ -136,27 +140,6 @@ def allocate(weights: np.ndarray, total: int, cap: int) -> np.ndarray:
     return counts
 
 
-def _trace_counts(scene, sensor, integrator, counts: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Trace ``counts[p]`` samples of each flat pixel ``p``: (sum (N, 3), finite sample count (N,)).
-
-    Each sample is one lane of a 1-spp pass over the pixel list with repeats, split like the masked
-    render's passes (:data:`gmcpt.render.MAX_LANES`) with a seed of its own per part.
-    """
-    from .render import MAX_LANES, pass_seed, trace_pixels
-
-    pixels = np.repeat(np.arange(counts.size), counts)
-    total, finite = np.zeros((counts.size, 3)), np.zeros(counts.size)
-    parts = max(1, -(-pixels.size // MAX_LANES))
-    for index, chunk in enumerate(np.array_split(pixels, parts)):
-        if chunk.size == 0:
-            continue
-        sums, _, count = trace_pixels(scene, sensor, integrator, chunk, 1, pass_seed(seed, index, parts))
-        for channel in range(3):
-            total[:, channel] += np.bincount(chunk, weights=sums[:, channel], minlength=counts.size)
-        finite += np.bincount(chunk, weights=count, minlength=counts.size)
-    return total, finite
-
-
 def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
                     features: dict | None = None) -> tuple[np.ndarray, dict, dict]:
     """Adaptive path tracing + OIDN.
@@ -167,7 +150,7 @@ def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
     ``denoise_s``.
     """
     from .denoise import denoise_oidn
-    from .render import _sensor_film_size, render_features
+    from .render import _sensor_film_size, render_features, trace_counts
     from .scene import scene_sensor
 
     sensor = sensor if sensor is not None else scene_sensor(scene)
@@ -181,7 +164,7 @@ def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
 
     start = time.perf_counter()
     first = np.full(pixels, settings.first_spp, np.int64)
-    total, finite = _trace_counts(scene, sensor, integrator, first, settings.seed)
+    total, _, finite = trace_counts(scene, sensor, integrator, first, settings.seed)
     timings["render_s"] = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -192,7 +175,7 @@ def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
 
     start = time.perf_counter()
     if extra_total > 0:
-        more, more_finite = _trace_counts(scene, sensor, integrator, extra,
+        more, _, more_finite = trace_counts(scene, sensor, integrator, extra,
                                           (settings.seed + EXTRA_SEED_OFFSET) % SEED_LIMIT)
         total, finite = total + more, finite + more_finite
     timings["render_s"] += time.perf_counter() - start

@@ -21,14 +21,18 @@ from __future__ import annotations
 import hashlib
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from .adaptive import EXTRA_SEED_OFFSET
+from .budget import (PROBE_SPP, SPARSE, SPARSE_SPP, check_budget, choose, dense_extra, dense_first_spp, plan_budget,
+                     relative_variance)
 from .domain import ALBEDO_MIN
+from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame  # noqa: F401  (DEFAULT_FEATURE_SPP re-exported)
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seed, check_spp
 from .masks import (DEFAULT_PATTERN, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
@@ -39,6 +43,7 @@ from .scene import scene_sensor
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
 FEATURE_SEED_OFFSET = 0x5EED_F00D
 SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` draws other samples
+TOP_UP_SEED_OFFSET = 0x70B0F  # and a budget's first-pass pixels their samples after the choice
 # samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
 SCATTER_MODE = dr.ReduceMode.Local
 # the features need UVs (textured albedo) and the shading frame, no surface derivatives
@@ -91,7 +96,8 @@ def _let_go_of_released_scenes() -> None:
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """What to trace. ``spp=0`` keeps the sensor's sample count.
+    """What to trace. ``spp=0`` keeps the sensor's sample count. A ``budget`` (mean path samples a pixel, 0: none)
+    replaces ``rate`` and ``spp``: :mod:`gmcpt.budget` chooses them per frame, with the ``two_pass`` mask.
 
     Checked when made (:mod:`gmcpt.limits`): a bad value raises a one-line :class:`~gmcpt.errors.GmcptError`.
     """
@@ -101,6 +107,7 @@ class RenderSettings:
     seed: int = 0
     spp: int = 0
     feature_spp: int = DEFAULT_FEATURE_SPP
+    budget: float = 0.0
 
     def __post_init__(self):
         check_rate(self.rate)
@@ -109,6 +116,12 @@ class RenderSettings:
         if self.spp != 0:
             check_spp(self.spp)
         check_feature_spp(self.feature_spp)
+        if self.budget:
+            check_budget(self.budget)
+            if self.spp:
+                raise GmcptError("a budget sets the samples per pixel itself: give a budget or spp, not both")
+            if self.pattern != "two_pass":
+                raise GmcptError(f"a budget places its samples with the two_pass mask, not {self.pattern!r}")
 
 
 def pass_seed(seed: int, index: int, passes: int) -> int:
@@ -287,9 +300,10 @@ def _trace_mean(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
                 spp: int, seed: int, say: Callable[[str], None]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Box estimate of each pixel in ``pixels``: (mean (n, 3), variance of the mean (n,), finite sample count (n,)).
 
-    Split into several kernel launches of at most :data:`MAX_LANES` lanes. The variance is the
-    channel-averaged unbiased sample variance over n, in float64 (sum of squares minus n mean^2 cancels).
+    Split into several kernel launches of at most :data:`MAX_LANES` lanes (:func:`_mean_and_variance`).
     """
+    if pixels.size == 0:
+        return np.zeros((0, 3)), np.zeros(0), np.zeros(0)
     passes = max(1, -(-pixels.size * spp // MAX_LANES))
     pass_spp = -(-spp // passes)
     total, squares, count, done = 0.0, 0.0, 0.0, 0
@@ -301,11 +315,8 @@ def _trace_mean(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
             + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
         s, q, n = trace_pixels(scene, sensor, integrator, pixels, this_spp, pass_seed(seed, index, passes))
         total, squares, count, done = total + s, squares + q, count + n, done + this_spp
-    inverse_count = 1.0 / np.maximum(count, 1)
-    mean = total * inverse_count[:, None]
-    sample_variance = (squares - count * np.einsum("ij,ij->i", mean, mean, dtype=np.float64)) \
-        / (3 * np.maximum(count - 1, 1))
-    return mean, np.maximum(sample_variance, 0.0) * inverse_count, count
+    mean, variance_of_mean = _mean_and_variance(total, squares, count)
+    return mean, variance_of_mean, count
 
 
 def _first_mask(settings: RenderSettings, features: dict, height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
@@ -321,6 +332,187 @@ def _first_mask(settings: RenderSettings, features: dict, height: int, width: in
         return make_mask(height, width, settings.rate, "adaptive", settings.seed, density), density
     first = max(1, int(round(count * FIRST_PASS_SHARE)))
     return sample_by_density(density, first, mask_rng(settings.seed)), density
+
+
+def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, counts: np.ndarray,
+                 seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Trace ``counts[p]`` samples of each flat pixel ``p``: (sum (N, 3), sum of squared norms (N,), finite sample
+    count (N,)), float64.
+
+    Each sample is one lane of a 1-spp pass over the pixel list with repeats, split into parts of at most
+    :data:`MAX_LANES` lanes with a seed of its own per part.
+    """
+    pixels = np.repeat(np.arange(counts.size), counts)
+    total, squares, finite = np.zeros((counts.size, 3)), np.zeros(counts.size), np.zeros(counts.size)
+    parts = max(1, -(-pixels.size // MAX_LANES))
+    for index, chunk in enumerate(np.array_split(pixels, parts)):
+        if chunk.size == 0:
+            continue
+        sums, chunk_squares, count = trace_pixels(scene, sensor, integrator, chunk, 1, pass_seed(seed, index, parts))
+        for channel in range(3):
+            total[:, channel] += np.bincount(chunk, weights=sums[:, channel], minlength=counts.size)
+        squares += np.bincount(chunk, weights=chunk_squares, minlength=counts.size)
+        finite += np.bincount(chunk, weights=count, minlength=counts.size)
+    return total, squares, finite
+
+
+def _mean_and_variance(total: np.ndarray, squares: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Box estimate (n, 3) and the variance of that mean (n,), channel-averaged unbiased, in float64 (sum of
+    squares minus n mean^2 cancels)."""
+    inverse_count = 1.0 / np.maximum(count, 1)
+    mean = total * inverse_count[:, None]
+    sample_variance = (squares - count * np.einsum("ij,ij->i", mean, mean, dtype=np.float64)) \
+        / (3 * np.maximum(count - 1, 1))
+    return mean, np.maximum(sample_variance, 0.0) * inverse_count
+
+
+@dataclass
+class _Passes:
+    """What the radiance passes left: flat (H*W) buffers and counts."""
+
+    radiance: np.ndarray  # (N, 3) float32, 0 where untraced
+    variance: np.ndarray  # (N,) float32 variance of each mean
+    traced: np.ndarray  # (N,) bool, before the pixels without a finite sample are dropped
+    finite: np.ndarray  # (N,) finite samples a pixel
+    path_samples: int
+    first_pass_pixels: int
+    info: dict
+
+
+def _mask_passes(scene, sensor, integrator, settings: RenderSettings, features: dict, mask: np.ndarray | None,
+                 spp: int, say, timings: dict) -> _Passes:
+    """The passes at a fixed rate: the mask's pixels at ``spp``, and for ``two_pass`` a second pass."""
+    height, width = features["depth"].shape
+    start = time.perf_counter()
+    density = None
+    if mask is None:
+        mask, density = _first_mask(settings, features, height, width)
+    timings["mask_s"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    pixels = np.flatnonzero(mask)
+    mean, variance_of_mean, count = _trace_mean(scene, sensor, integrator, pixels, spp, settings.seed, say)
+    timings["render_s"] = time.perf_counter() - start
+    passes = _Passes(np.zeros((height * width, 3), np.float32), np.zeros(height * width, np.float32),
+                     mask.ravel().copy(), np.zeros(height * width), pixels.size * spp, pixels.size, {})
+    _store(passes, pixels, mean, variance_of_mean, count)
+    rest = sample_count(settings.rate, height * width) - pixels.size
+    if settings.pattern == "two_pass" and density is not None and rest > 0:
+        _second_pass(scene, sensor, integrator, settings, features, density, rest, spp, passes, say, timings)
+    return passes
+
+
+def _store(passes: _Passes, pixels: np.ndarray, mean: np.ndarray, variance_of_mean: np.ndarray,
+           count: np.ndarray) -> None:
+    """Write the estimates of ``pixels`` into ``passes`` (a pixel without a finite sample keeps zeros)."""
+    valid = count > 0
+    passes.radiance[pixels] = np.where(valid[:, None], mean, 0.0)
+    passes.variance[pixels] = np.where(valid, variance_of_mean, 0.0)
+    passes.finite[pixels] = count
+    passes.traced[pixels] = True
+
+
+def _second_pass(scene, sensor, integrator, settings: RenderSettings, features: dict, density: np.ndarray,
+                 rest: int, spp: int, passes: _Passes, say, timings: dict) -> None:
+    """The second pass of ``two_pass``: ``rest`` more pixels where the first pass's samples disagree."""
+    height, width = features["depth"].shape
+    start = time.perf_counter()
+    first = passes.traced.reshape(height, width)
+    errors = error_density(passes.radiance.reshape(height, width, 3), passes.variance.reshape(height, width), first,
+                           features["albedo"], features["coverage"], density)
+    second = np.flatnonzero(second_pass_mask(errors, rest, first, settings.seed))
+    timings["mask_s"] += time.perf_counter() - start
+    start = time.perf_counter()
+    mean, variance_of_mean, count = _trace_mean(scene, sensor, integrator, second, spp,
+                                                (settings.seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT, say)
+    timings["render_s"] += time.perf_counter() - start
+    _store(passes, second, mean, variance_of_mean, count)
+    passes.path_samples += second.size * spp
+
+
+def _budget_passes(scene, sensor, integrator, settings: RenderSettings, features: dict, plan, say,
+                   timings: dict) -> _Passes:
+    """The passes of a budget (:mod:`gmcpt.budget`): a first pass at ``PROBE_SPP``, then the sparse way (its
+    pixels topped up to ``SPARSE_SPP``, the second pass of ``two_pass``) or the dense one (every pixel, as
+    adaptive path tracing places its samples)."""
+    height, width = features["depth"].shape
+    pixels = height * width
+    seed = settings.seed
+    start = time.perf_counter()
+    density = feature_density(features["albedo"], features["normal"], features["depth"], features["visibility"],
+                              features["coverage"])
+    first = np.zeros(pixels, bool)
+    if not plan.dense_only:
+        first = sample_by_density(density, max(1, int(round(plan.sparse_pixels * FIRST_PASS_SHARE))),
+                                  mask_rng(seed)).ravel()
+    timings["mask_s"] = time.perf_counter() - start
+
+    sums = _Sums(pixels)
+    start = time.perf_counter()
+    say(f"path tracing: {int(first.sum())} px x {PROBE_SPP} spp (first pass)")
+    sums.trace(scene, sensor, integrator, first * PROBE_SPP, seed)
+    timings["render_s"] = time.perf_counter() - start
+    mean, variance_of_mean = sums.estimate(first)
+    statistic = relative_variance(mean, variance_of_mean, PROBE_SPP) if first.any() else None
+    untraced = pixels - int(first.sum())
+    choice = choose(plan, statistic or 0.0, untraced, int(first.sum()) * PROBE_SPP)
+    info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": statistic}
+    say(f"budget {plan.budget:g} spp: {choice}" + ("" if statistic is None else f" (relative variance {statistic:.3f})"))
+
+    if choice == SPARSE:
+        start = time.perf_counter()
+        say(f"path tracing: {int(first.sum())} px x {SPARSE_SPP - PROBE_SPP} spp (first pass, the rest)")
+        sums.trace(scene, sensor, integrator, first * (SPARSE_SPP - PROBE_SPP), (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)
+        timings["render_s"] += time.perf_counter() - start
+        passes = sums.passes(first, int(first.sum()), info)
+        sparse = replace(settings, rate=plan.sparse_rate, spp=SPARSE_SPP, budget=0.0)
+        _second_pass(scene, sensor, integrator, sparse, features, density, plan.sparse_pixels - int(first.sum()),
+                     SPARSE_SPP, passes, say, timings)
+        return passes
+
+    start = time.perf_counter()
+    left = plan.samples - int(first.sum()) * PROBE_SPP
+    uniform = np.where(first, 0, dense_first_spp(plan, untraced, left))
+    say(f"path tracing: {untraced} px x {int(uniform.max())} spp (dense)")
+    sums.trace(scene, sensor, integrator, uniform, (seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT)
+    timings["render_s"] += time.perf_counter() - start
+    start = time.perf_counter()
+    everything = np.ones(pixels, bool)
+    image, _ = sums.estimate(everything)
+    extra = dense_extra(image.reshape(height, width, 3), left - int(uniform.sum()))
+    timings["mask_s"] += time.perf_counter() - start
+    start = time.perf_counter()
+    say(f"path tracing: {int(extra.sum())} samples where the error is high (dense)")
+    sums.trace(scene, sensor, integrator, extra, (seed + EXTRA_SEED_OFFSET) % SEED_LIMIT)
+    timings["render_s"] += time.perf_counter() - start
+    return sums.passes(everything, int(first.sum()), info)
+
+
+class _Sums:
+    """Per-pixel sums of samples over several passes (:func:`trace_counts`)."""
+
+    def __init__(self, pixels: int):
+        self.total, self.squares, self.finite = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels)
+        self.samples = 0
+
+    def trace(self, scene, sensor, integrator, counts: np.ndarray, seed: int) -> None:
+        """Trace ``counts[p]`` more samples of each flat pixel ``p`` and add them."""
+        total, squares, finite = trace_counts(scene, sensor, integrator, counts, seed)
+        self.total += total
+        self.squares += squares
+        self.finite += finite
+        self.samples += int(counts.sum())
+
+    def estimate(self, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(mean (n, 3), variance of the mean (n,)) of the flat pixels where bool ``pixels``."""
+        return _mean_and_variance(self.total[pixels], self.squares[pixels], self.finite[pixels])
+
+    def passes(self, traced: np.ndarray, first_pass_pixels: int, info: dict) -> _Passes:
+        mean, variance_of_mean = _mean_and_variance(self.total, self.squares, self.finite)
+        valid = traced & (self.finite > 0)
+        radiance = np.where(valid[:, None], mean, 0.0).astype(np.float32)
+        variance = np.where(valid, variance_of_mean, 0.0).astype(np.float32)
+        return _Passes(radiance, variance, traced.copy(), self.finite.copy(), self.samples, first_pass_pixels, info)
 
 
 def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,
@@ -344,13 +536,16 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
 
     With the ``two_pass`` pattern, a first radiance pass traces ``FIRST_PASS_SHARE`` of the pixel budget
     (``adaptive``), :func:`gmcpt.placement.error_density` reads its samples, and a second pass traces the
-    rest of the budget on other pixels, with other sampler seeds.
+    rest of the budget on other pixels, with other sampler seeds. With a ``budget``, the first pass's samples
+    choose (:mod:`gmcpt.budget`) between that second pass and a dense one over every untraced pixel; ``info``
+    records the choice (``budget_choice``) and its signal (``relative_variance``).
     """
     say = progress or (lambda message: None)
     sensor = sensor if sensor is not None else scene_sensor(scene)
     height, width = _sensor_film_size(sensor)
     check_resolution(width, height, settings.feature_spp)
-    spp = check_spp(settings.spp or sensor.sampler().sample_count())
+    plan = plan_budget(settings.budget, height * width) if settings.budget and mask is None else None
+    spp = SPARSE_SPP if plan is not None else check_spp(settings.spp or sensor.sampler().sample_count())
     timings = {}
 
     start = time.perf_counter()
@@ -358,49 +553,18 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     features = render_features(scene, sensor, settings.feature_spp, settings.seed)
     timings["features_s"] = time.perf_counter() - start
 
-    start = time.perf_counter()
-    density = None
-    if mask is None:
-        mask, density = _first_mask(settings, features, height, width)
-    timings["mask_s"] = time.perf_counter() - start
-
-    start = time.perf_counter()
-    pixels = np.flatnonzero(mask)
-    mean, variance_of_mean, count = _trace_mean(scene, sensor, integrator, pixels, spp, settings.seed, say)
-    timings["render_s"] = time.perf_counter() - start
-    first_pass_pixels = pixels.size
-
-    radiance = np.zeros((height * width, 3), np.float32)
-    variance = np.zeros(height * width, np.float32)
-    valid = count > 0
-    radiance[pixels] = np.where(valid[:, None], mean, 0.0)
-    variance[pixels] = np.where(valid, variance_of_mean, 0.0)
-    rest = sample_count(settings.rate, height * width) - pixels.size
-    if settings.pattern == "two_pass" and density is not None and rest > 0:
-        start = time.perf_counter()
-        errors = error_density(radiance.reshape(height, width, 3), variance.reshape(height, width), mask,
-                               features["albedo"], features["coverage"], density)
-        second = second_pass_mask(errors, rest, mask, settings.seed)
-        timings["mask_s"] += time.perf_counter() - start
-        start = time.perf_counter()
-        second_pixels = np.flatnonzero(second)
-        mean, variance_of_mean, second_count = _trace_mean(
-            scene, sensor, integrator, second_pixels, spp, (settings.seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT, say)
-        timings["render_s"] += time.perf_counter() - start
-        second_valid = second_count > 0
-        radiance[second_pixels] = np.where(second_valid[:, None], mean, 0.0)
-        variance[second_pixels] = np.where(second_valid, variance_of_mean, 0.0)
-        mask = mask | second
-        pixels = np.concatenate([pixels, second_pixels])
-        count = np.concatenate([count, second_count])
-        valid = count > 0
+    if plan is not None:
+        passes = _budget_passes(scene, sensor, integrator, settings, features, plan, say, timings)
+    else:
+        passes = _mask_passes(scene, sensor, integrator, settings, features, mask, spp, say, timings)
 
     # pixels whose every sample was NaN/Inf count as untraced
-    traced = mask.ravel().copy()
-    traced[pixels[~valid]] = False
+    traced = passes.traced & (passes.finite > 0)
+    path_samples = passes.path_samples
     info = {"mask": settings.pattern, "seed": settings.seed, "feature_spp": settings.feature_spp,
-            "traced_pixels": int(traced.sum()), "path_samples": int(pixels.size * spp),
-            "nonfinite_samples": int(pixels.size * spp - np.sum(count)), "first_pass_pixels": int(first_pass_pixels)}
-    frame = SparseFrame(radiance=radiance.reshape(height, width, 3), mask=traced.reshape(height, width),
-                        variance=variance.reshape(height, width), spp=spp, info=info, **features)
+            "traced_pixels": int(traced.sum()), "path_samples": int(path_samples),
+            "nonfinite_samples": int(path_samples - np.sum(passes.finite)),
+            "first_pass_pixels": int(passes.first_pass_pixels), **passes.info}
+    frame = SparseFrame(radiance=passes.radiance.reshape(height, width, 3), mask=traced.reshape(height, width),
+                        variance=passes.variance.reshape(height, width), spp=spp, info=info, **features)
     return frame, timings

@@ -28,6 +28,9 @@ def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
     parser.add_argument("--rate", type=float, help="fraction of pixels to path trace, in (0, 1] "
                         "(default: the scene's, else 0.3)")
     parser.add_argument("--spp", type=int, help="samples per traced pixel (default: the scene's sampler)")
+    parser.add_argument("--budget", type=float, metavar="B", help="mean path samples a pixel instead of --rate and "
+                        "--spp: each frame's first pass chooses between B/16 of the pixels at 16 spp and all of "
+                        "them (default: the scene's, else none)")
     parser.add_argument("--seed", type=int, help="seed of the mask and the samplers (default: the scene's, else 0)")
     parser.add_argument("--mask", help="sample placement: two_pass, adaptive, random, stratified, blue_noise "
                         "(default: the scene's, else two_pass)")
@@ -60,6 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def validate(args) -> None:
     """Every check on the command line's own values, before any work (the scene's are checked once loaded)."""
+    from .budget import check_budget
     from .completion import check_options
     from .files import check_not_inputs, check_output
     from .gan.weights import weights_path
@@ -74,6 +78,10 @@ def validate(args) -> None:
         check_output(path)
     if args.rate is not None:
         check_rate(args.rate)
+    if args.budget is not None:
+        check_budget(args.budget, "--budget")
+        if args.rate is not None or args.spp is not None:
+            raise GmcptError("--budget sets the rate and the spp itself: give --budget or --rate/--spp, not both")
     if args.tile is not None:
         check_tile(args.tile)
     if args.spp is not None:
@@ -145,7 +153,9 @@ def run(args, say=lambda message: None, extra: dict | None = None,
     reference = _reference(args.reference) if args.reference else None
     parameters = dict(define.split("=", 1) for define in args.defines)
     scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
-    integrator = masked_integrator(scene, rate=args.rate, mask=args.mask, seed=args.seed,
+    # --rate/--spp drop a budget the scene sets
+    budget = args.budget if args.budget is not None else (0.0 if args.rate or args.spp else None)
+    integrator = masked_integrator(scene, rate=args.rate, budget=budget, mask=args.mask, seed=args.seed,
                                    feature_spp=args.feature_spp, completion=args.method, weights=args.weights,
                                    tile=args.tile)
     # every check on the input happens before the first progress line (render_sparse_frame checks the
@@ -175,7 +185,9 @@ def run(args, say=lambda message: None, extra: dict | None = None,
     record = {
         "scene": str(Path(args.scene).resolve()),
         "output": str(Path(args.out).resolve()),
-        "parameters": {"rate": settings.rate, "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
+        # with a budget the frame's rate is the chooser's: rendered_fraction below
+        "parameters": {"rate": None if settings.budget else settings.rate, "budget": settings.budget or None,
+                       "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
                        "feature_spp": settings.feature_spp, "method": integrator.completion,
                        "tile": integrator.tile, **_weights_record(integrator),
                        # completion imports torch only for the methods that run on it
@@ -186,6 +198,7 @@ def run(args, say=lambda message: None, extra: dict | None = None,
         "rendered_fraction": frame.rendered_fraction,
         "traced_pixels": frame.info["traced_pixels"],
         "path_samples": frame.info["path_samples"],
+        **{key: frame.info[key] for key in ("budget_choice", "relative_variance") if key in frame.info},
         **({"first_pass_pixels": frame.info["first_pass_pixels"]} if settings.pattern == "two_pass" else {}),
         "nonfinite_samples": frame.info["nonfinite_samples"],
         "timings": timings,

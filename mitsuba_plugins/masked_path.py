@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import mitsuba as mi
 
+from gmcpt.budget import check_budget
 from gmcpt.completion import DEFAULT_METHOD, check_options, complete
 from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
 from gmcpt.errors import GmcptError
@@ -26,6 +27,11 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
      * - rate
        - |float|
        - Fraction of pixels that are path traced, in (0, 1]. (Default: 0.3)
+     * - budget
+       - |float|
+       - Mean path samples a pixel, instead of ``rate`` and the sampler's spp: the first pass of ``two_pass``
+         chooses per frame between tracing ``budget / 16`` of the pixels at 16 spp (completed by the
+         ``completion`` method) and tracing every pixel (see ``gmcpt.budget``); 0: none. (Default: 0)
      * - mask
        - |string|
        - Sample placement: ``two_pass`` (half the budget where the feature buffers have edges, the rest
@@ -81,8 +87,13 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
     def __init__(self, props: mi.Properties):
         super().__init__(props)
         self.rate = check_rate(props.get("rate", 0.3))
+        self.budget = float(props.get("budget", 0.0))
+        if self.budget:
+            check_budget(self.budget)
         self.mask_pattern = check_pattern(props.get("mask", DEFAULT_PATTERN))
         self.seed = check_seed(props.get("seed", 0))
+        if self.budget and self.mask_pattern != "two_pass":
+            raise GmcptError(f"a budget places its samples with the two_pass mask, not {self.mask_pattern!r}")
         self.feature_spp = check_feature_spp(props.get("feature_spp", DEFAULT_FEATURE_SPP))
         self.completion = props.get("completion", DEFAULT_METHOD)
         self.weights = props.get("weights", "") or None
@@ -104,7 +115,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
     def plugin_properties(self) -> dict:
         """The plugin's own properties as set (``rate``, ``mask``, ...), for a copy with some changed."""
-        return {"rate": self.rate, "mask": self.mask_pattern, "seed": self.seed, "feature_spp": self.feature_spp,
+        return {"rate": self.rate, "budget": self.budget, "mask": self.mask_pattern, "seed": self.seed,
+                "feature_spp": self.feature_spp,
                 "completion": self.completion, "weights": self.weights, "tile": self.tile}
 
     def completion_options(self) -> dict:
@@ -112,8 +124,11 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         return {"tile": self.tile, **({} if self.weights is None else {"weights": self.weights})}
 
     def settings(self, seed: int = 0, spp: int = 0) -> RenderSettings:
+        """What :func:`render_sparse_frame` traces; ``spp`` (0: the sensor's) is refused beside a budget."""
+        if self.budget and spp:
+            raise GmcptError(f"masked_path has a budget of {self.budget:g} samples a pixel: give no spp as well")
         return RenderSettings(rate=self.rate, pattern=self.mask_pattern, seed=self.seed + int(seed),
-                              spp=int(spp), feature_spp=self.feature_spp)
+                              spp=int(spp), feature_spp=self.feature_spp, budget=self.budget)
 
     def render(self, scene: mi.Scene, sensor: int | mi.Sensor = 0, seed: int = 0, spp: int = 0,
                develop: bool = True, evaluate: bool = True) -> mi.TensorXf:
@@ -133,7 +148,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         return channel_names()[3:]
 
     def to_string(self) -> str:
-        return (f"MaskedPathIntegrator[rate={self.rate}, mask={self.mask_pattern!r}, seed={self.seed}, "
+        return (f"MaskedPathIntegrator[rate={self.rate}, budget={self.budget}, mask={self.mask_pattern!r}, seed={self.seed}, "
                 f"feature_spp={self.feature_spp}, completion={self.completion!r}, weights={self.weights!r},\n"
                 f"  integrator={self.integrator}]")
 

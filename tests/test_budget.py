@@ -1,0 +1,146 @@
+"""A sample budget instead of a rate: the plan, the chooser's signal and choice, exact totals, the front doors."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from conftest import CORNELL, run_cli
+
+SIZE = (40, 32)
+
+
+@pytest.mark.parametrize("bad", [0, -1, math.nan, math.inf, 4097, "lots", None])
+def test_bad_budgets_get_one_line(bad):
+    from gmcpt.budget import check_budget
+    from gmcpt.errors import GmcptError
+
+    with pytest.raises(GmcptError) as error:
+        check_budget(bad)
+    assert "\n" not in str(error.value) and "budget" in str(error.value)
+
+
+def test_plan_counts_the_samples_and_the_sparse_pixels():
+    from gmcpt.budget import SPARSE_SPP, plan_budget
+    from gmcpt.errors import GmcptError
+
+    plan = plan_budget(4.8, 1000)
+    assert plan.samples == 4800 and plan.sparse_pixels == 4800 // SPARSE_SPP and not plan.dense_only
+    assert plan.sparse_rate == pytest.approx(0.3)
+    assert plan_budget(16, 1000).dense_only and plan_budget(40, 1000).sparse_pixels == 1000
+    with pytest.raises(GmcptError, match="less than one pixel"):
+        plan_budget(0.01, 100)
+
+
+def test_relative_variance_is_the_median_over_lit_pixels_scaled_to_16_spp():
+    from gmcpt.budget import relative_variance
+
+    mean = np.array([[1.0, 1.0, 1.0], [2.0, 2.0, 2.0], [0.5, 0.5, 0.5], [0.0, 0.0, 0.0]])
+    variance = np.array([0.1, 0.8, 0.5, 7.0])  # relative 0.1, 0.2, 2.0; the black pixel is left out
+    assert relative_variance(mean, variance) == pytest.approx(0.2)
+    assert relative_variance(mean, variance, samples=4) == pytest.approx(0.05)  # a 4-spp mean is 4x as noisy
+    assert relative_variance(np.zeros((3, 3)), np.ones(3)) == 0.0
+
+
+def test_choice_follows_the_signal_and_needs_a_sample_for_every_pixel():
+    from gmcpt.budget import DENSE, DENSE_ABOVE, SPARSE, choose, plan_budget
+
+    plan = plan_budget(4.8, 1000)
+    assert choose(plan, DENSE_ABOVE * 2, untraced=850, first_samples=600) == DENSE
+    assert choose(plan, DENSE_ABOVE / 2, untraced=850, first_samples=600) == SPARSE
+    assert choose(plan_budget(0.9, 1000), DENSE_ABOVE * 2, untraced=970, first_samples=120) == SPARSE
+    assert choose(plan_budget(20, 1000), 0.0, untraced=1000, first_samples=0) == DENSE
+
+
+def test_dense_passes_keep_the_total_and_put_extras_where_the_image_is_noisy():
+    from gmcpt.budget import dense_extra, dense_first_spp, plan_budget
+
+    plan = plan_budget(4.8, 64 * 64)
+    assert dense_first_spp(plan, 4096 - 600, 4800 * 4096 // 1000) == 3  # 5/8 of 4.8, as adaptive sampling
+    assert dense_first_spp(plan, 4000, 4100) == 1
+    image = np.full((64, 64, 3), 0.5)
+    image[:, 32:] += np.random.default_rng(1).normal(0, 0.3, (64, 32, 3))
+    extra = dense_extra(image, 5000)
+    assert extra.sum() == 5000 and extra.reshape(64, 64)[:, 34:].sum() > 4 * extra.reshape(64, 64)[:, :30].sum()
+
+
+@pytest.fixture(scope="module")
+def cornell(mi):
+    from gmcpt.scene import load_scene
+    return load_scene(CORNELL, resolution=SIZE)
+
+
+def _render(scene, budget, seed=0):
+    from gmcpt.render import RenderSettings, render_sparse_frame
+
+    integrator = scene.integrator()
+    return render_sparse_frame(scene, getattr(integrator, "integrator", integrator),
+                               settings=RenderSettings(budget=budget, seed=seed))[0]
+
+
+@pytest.mark.parametrize("threshold,way", [(-1.0, "dense"), (math.inf, "sparse")])
+def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way):
+    from gmcpt import budget
+    from gmcpt.budget import SPARSE_SPP, plan_budget
+
+    monkeypatch.setattr(budget, "DENSE_ABOVE", threshold)
+    pixels = SIZE[0] * SIZE[1]
+    frame = _render(cornell, 4.8)
+    plan = plan_budget(4.8, pixels)
+    assert frame.info["budget_choice"] == way and frame.info["relative_variance"] >= 0
+    if way == "dense":
+        assert frame.info["path_samples"] == round(4.8 * pixels) and frame.mask.all()
+    else:
+        assert frame.info["path_samples"] == plan.sparse_pixels * SPARSE_SPP <= round(4.8 * pixels)
+        assert frame.info["traced_pixels"] == plan.sparse_pixels
+        assert frame.info["first_pass_pixels"] == round(plan.sparse_pixels / 2)
+    assert np.isfinite(frame.radiance).all() and (frame.variance[frame.mask] >= 0).all()
+    again = _render(cornell, 4.8)
+    np.testing.assert_array_equal(frame.radiance, again.radiance)  # same seed, same frame
+    assert not np.array_equal(frame.radiance, _render(cornell, 4.8, seed=1).radiance)
+
+
+def test_a_budget_of_16_or_more_traces_every_pixel(cornell):
+    frame = _render(cornell, 17.5)
+    assert frame.info["budget_choice"] == "dense" and frame.info["relative_variance"] is None
+    assert frame.mask.all() and frame.info["path_samples"] == round(17.5 * SIZE[0] * SIZE[1])
+
+
+def test_a_budget_refuses_an_spp_and_other_masks(mi):
+    from gmcpt.errors import GmcptError
+    from gmcpt.render import RenderSettings
+
+    with pytest.raises(GmcptError, match="not both"):
+        RenderSettings(budget=4.8, spp=16)
+    with pytest.raises(GmcptError, match="two_pass"):
+        RenderSettings(budget=4.8, pattern="random")
+    with pytest.raises(Exception, match="two_pass"):  # Mitsuba wraps a plugin's error
+        mi.load_dict({"type": "masked_path", "budget": 4.8, "mask": "random"})
+    with pytest.raises(Exception, match="budget"):
+        mi.load_dict({"type": "masked_path", "budget": -2.0})
+
+
+def test_the_integrator_renders_a_budget(mi, cornell):
+    from gmcpt.errors import GmcptError
+    from gmcpt.scene import masked_integrator
+
+    integrator = masked_integrator(cornell, budget=4.8, completion="interp")
+    image = np.asarray(mi.render(cornell, integrator=integrator))
+    assert image.shape[:2] == (SIZE[1], SIZE[0]) and np.isfinite(image).all()
+    assert integrator.last_frame.info["path_samples"] <= round(4.8 * SIZE[0] * SIZE[1])
+    with pytest.raises(GmcptError, match="no spp"):  # (mi.render wraps the error in its own)
+        integrator.render(cornell, spp=8)
+
+
+def test_cli_budget_records_its_choice_and_refuses_a_rate_beside_it(tmp_path):
+    out = tmp_path / "budget.exr"
+    result = run_cli(CORNELL, "--res", *SIZE, "--budget", "4.8", "--method", "interp", "--out", out, "-q")
+    assert result.returncode == 0, result.stderr
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["parameters"]["budget"] == 4.8 and record["parameters"]["rate"] is None
+    assert record["budget_choice"] in ("sparse", "dense") and record["path_samples"] <= round(4.8 * 40 * 32)
+    for extra in (["--rate", "0.3"], ["--spp", "8"]):
+        result = run_cli(CORNELL, "--budget", "4.8", *extra, "--out", tmp_path / "x.exr", "-q")
+        assert result.returncode == 2 and "not both" in result.stderr and len(result.stderr.strip().splitlines()) == 1
+    result = run_cli(CORNELL, "--budget", "0", "--out", tmp_path / "x.exr", "-q")
+    assert result.returncode == 2 and "--budget" in result.stderr and not (tmp_path / "x.exr").exists()
