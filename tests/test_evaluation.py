@@ -82,7 +82,8 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
                         adaptive_budgets=(1.5, 3), budget_rates=(0.5,), budget_spp=(1, 2),
                         budget_variants=("interp", "gan_oidn"), timing_resolutions=(32,), timing_scene="cornell-box",
                         repeats=1, full_scene="cornell-box", full_size=(48, 32), full_reference_spp=16,
-                        full_spp=(2, 4), full_path_spp=(1, 2), full_adaptive_budgets=(1.5, 2))
+                        full_budgets=(1, 2), full_path_spp=(1, 2), full_adaptive_budgets=(1.5, 2),
+                        default_budgets=(1, 4))
     out = tmp_path / "docs"
     out.mkdir()
     record = evaluate(config, [replace(CORNELL, real=True), ProceduralScene(2_000_003)], out, lambda message: None)
@@ -103,15 +104,20 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
     pawnnm = {r["rate"]: r["psnr"] for r in record["quality"] if r["variant"] == "pawnnm" and r["scene"] == "cornell-box"}
     assert pawnnm[0.5] > pawnnm[0.3]
     placements = {r["variant"] for r in record["placement"]}
-    assert placements == {"path+oidn", "adaptive+oidn", "random", "stratified", "adaptive", "two_pass"}
+    assert placements == {"path+oidn", "adaptive+oidn", "random", "stratified", "adaptive", "two_pass", "budget"}
     for row in record["placement"]:  # equal samples: the masks spend round(rate * pixels) x spp, path tracing
-        # round(rate * spp) a pixel, adaptive path tracing round(rate * spp * pixels) in all
+        # round(rate * spp) a pixel, adaptive path tracing round(rate * spp * pixels) in all, the budget at most that
         expected = {"path+oidn": round(row["rate"] * 16), "adaptive+oidn": round(row["rate"] * 16 * 32 * 32) / 1024}
-        assert row["samples_per_pixel"] == pytest.approx(expected.get(row["variant"],
-                                                                      round(row["rate"] * 32 * 32) * 16 / 1024))
+        if row["variant"] == "budget":
+            assert row["rate"] * 16 - 16 / 1024 <= row["samples_per_pixel"] <= round(row["rate"] * 16 * 1024) / 1024
+        else:
+            assert row["samples_per_pixel"] == pytest.approx(expected.get(row["variant"],
+                                                                          round(row["rate"] * 32 * 32) * 16 / 1024))
+    chosen = [r for r in record["equal_time"] if r["contender"] == "gan_oidn"]
+    assert len(chosen) == 2 * 2 and {r["budget_choice"] for r in chosen} <= {"sparse", "dense"}
     markdown = results_markdown(record)
-    assert "Sample placement at equal samples" in markdown and "two_pass - path+oidn dB" in markdown
-    assert "two_pass - adaptive+oidn dB" in markdown
+    assert "Sample placement at equal samples" in markdown and "budget - path+oidn dB" in markdown
+    assert "budget - adaptive+oidn dB" in markdown and "budget 4" in markdown
     assert "**mean of 1 real**" in markdown and "**mean of 1 synthetic**" in markdown
     assert "Speed-up at equal quality" in markdown and "Full resolution: cornell-box at 48x32" in markdown
     section = readme_section(record)

@@ -20,7 +20,9 @@ class EvalConfig:
         OIDN's albedo and normal (the product's default, :data:`gmcpt.frame.DEFAULT_FEATURE_SPP`).
     mask : sample placement of every table but the placement table (the product's default).
     placements, placement_variant : the placement table: ``placement_variant`` with each mask pattern at
-        ``rates`` x ``spp``, beside path tracing at ``round(rate * spp)`` spp + OIDN.
+        ``rates`` x ``spp``, beside path tracing at ``round(rate * spp)`` spp + OIDN; ``budget`` is not a mask
+        but the budget chooser (:mod:`gmcpt.budget`) at ``rate * spp`` samples a pixel.
+    default_placement : the placement of the default, the one the baselines are held against.
     variants : completion variants of the quality tables (keys of :data:`VARIANTS`).
     patch_sizes, patch_rates : the PSNR-against-patch-size sweep of PAWNNM (paper Fig. 12).
     grid_rate : rate of the image grids.
@@ -28,13 +30,14 @@ class EvalConfig:
     adaptive_budgets : mean samples per pixel of adaptive path tracing + OIDN in the equal-time comparison (at
         equal samples it runs at each rate x spp of the placement table).
     budget_rates, budget_spp : (rate, spp) grid of the completion methods in the equal-time comparison.
-    budget_variants : the completion variants that enter the equal-time comparison.
+    budget_variants : the completion variants that enter the equal-time comparison (the default,
+        :data:`DEFAULT_VARIANT`, at ``default_budgets`` samples a pixel, the others at the rate x spp grid).
     timing_resolutions : resolutions of the stage-timing table.
     timing_scene : scene of the stage-timing table.
-    full_scene, full_size, full_reference_spp, full_rate, full_spp, full_path_spp, full_adaptive_budgets: the
-        full-resolution check: on ``full_scene`` at ``full_size`` (W, H), the default at ``full_rate`` x each
-        of ``full_spp``, whose times are the budgets, against both baselines at their settings (reference
-        cached under ``data/references``).
+    full_scene, full_size, full_reference_spp, full_budgets, full_path_spp, full_adaptive_budgets: the
+        full-resolution check: on ``full_scene`` at ``full_size`` (W, H), the default at each of
+        ``full_budgets`` samples a pixel, whose times are the budgets, against both baselines at their
+        settings (reference cached under ``data/references``).
     repeats : timed runs of each render (the fastest counts: the first may trace kernels).
     """
 
@@ -47,7 +50,8 @@ class EvalConfig:
     seed: int = 0
     feature_spp: int = DEFAULT_FEATURE_SPP
     mask: str = DEFAULT_PATTERN
-    placements: tuple[str, ...] = ("random", "stratified", "adaptive", "two_pass")
+    placements: tuple[str, ...] = ("random", "stratified", "adaptive", "two_pass", "budget")
+    default_placement: str = "budget"
     placement_variant: str = "gan_oidn"
     variants: tuple[str, ...] = ("interp", "liu", "nnm", "pawnnm", "gan", "gan_pawnnm", "gan_oidn", "gan_pawnnm_oidn")
     patch_sizes: tuple[int, ...] = (5, 6, 7, 8)
@@ -58,13 +62,13 @@ class EvalConfig:
     budget_rates: tuple[float, ...] = (0.25, 0.5)
     budget_spp: tuple[int, ...] = (1, 4, 16, 32)
     budget_variants: tuple[str, ...] = ("pawnnm", "gan_pawnnm", "gan_oidn")
+    default_budgets: tuple[float, ...] = (1, 2, 4, 8, 16)
     timing_resolutions: tuple[int, ...] = (128, 256)
     timing_scene: str = "still-life"
     full_scene: str = "sponza"
     full_size: tuple[int, int] = (1920, 1080)
     full_reference_spp: int = 512
-    full_rate: float = 0.3
-    full_spp: tuple[int, ...] = (8, 16)
+    full_budgets: tuple[float, ...] = (2.4, 4.8)
     full_path_spp: tuple[int, ...] = (1, 2, 3, 4, 6, 8)
     full_adaptive_budgets: tuple[float, ...] = (1.5, 2, 3, 4, 6, 8)
     repeats: int = 2

@@ -16,10 +16,15 @@ def _settings_line(run: dict) -> str:
             "except relMSE (linear); FLIP is `flip-evaluator`'s LDR mean (0 = identical).")
 
 
+def _default_placement(c: dict) -> str:
+    """The placement-table row of the default (runs before the budget chooser had ``mask``)."""
+    return c.get("default_placement", c.get("mask", "two_pass"))
+
+
 def placement_table(run: dict) -> str:
     """PSNR / FLIP of each placement beside both baselines at equal samples, per scene and the means."""
     c = run["config"]
-    default = c.get("mask", "two_pass")
+    default = _default_placement(c)
     return report.variant_table(run.get("placement", []), [*report.BASELINES, *c.get("placements", ())],
                                 ["psnr", "flip"], c["rates"], deltas=[(default, baseline) for baseline in report.BASELINES])
 
@@ -36,9 +41,11 @@ def placement_section(run: dict) -> list[str]:
         f"same total samples (round(rate x {c['spp']}) spp a pixel) and adaptive path tracing with exactly "
         f"rate x {c['spp']} samples a pixel on average (`gmcpt/adaptive.py`: 5/8 of the samples everywhere, "
         "the rest where the first pass's error in the displayed image is high). `random` is the paper's mask; `adaptive` places the "
-        "samples by a density from the feature buffers' edges; `two_pass` (the default) spends half the budget "
+        "samples by a density from the feature buffers' edges; `two_pass` spends half the budget "
         "so, then the rest where the first half's samples disagree with their neighbours "
-        "(`gmcpt/placement.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline.",
+        "(`gmcpt/placement.py`); `budget` (the default) is `--budget rate x spp`: a 4-spp first pass of `two_pass` "
+        "chooses between `two_pass` at rate x 16 spp and tracing every pixel as adaptive path tracing does "
+        "(`gmcpt/budget.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline.",
         "",
         placement_table(run),
         "",
@@ -64,7 +71,7 @@ def readme_placement(run: dict) -> list[str]:
     if not rows:
         return []
     c = run["config"]
-    default = c.get("mask", "two_pass")
+    default = _default_placement(c)
     columns = [v for v in [*report.BASELINES, default] if any(r["variant"] == v for r in rows)]
     table = []
     for label, where in _means(rows):
@@ -84,7 +91,7 @@ def verdict(run: dict) -> list[str]:
     rows, c = run.get("placement", []), run["config"]
     if not rows:
         return []
-    default = c.get("mask", "two_pass")
+    default = _default_placement(c)
     middle = c["rates"][len(c["rates"]) // 2]
     behind = [(s, _lead(rows, default, middle, scene=s)) for s in report._scenes(rows)]
     behind = [f"{s} ({lead:+.2f} dB)" for s, lead in behind if lead is not None and lead < -0.005]
@@ -117,7 +124,7 @@ def full_resolution_section(run: dict) -> list[str]:
     return [
         f"## Full resolution: {rows[0]['scene']} at {rows[0]['size']}",
         "",
-        f"The default at rate {c['full_rate']:g} x {', '.join(map(str, c['full_spp']))} spp; its warm time is the "
+        f"The default at budgets of {', '.join(f'{b:g}' for b in c['full_budgets'])} samples a pixel; its warm time is the "
         f"budget. Within it, the best of path tracing + OIDN at {', '.join(map(str, c['full_path_spp']))} spp and "
         f"of adaptive path tracing + OIDN at {', '.join(f'{b:g}' for b in c['full_adaptive_budgets'])} samples a "
         f"pixel (timed as in Table 3), against a {c['full_reference_spp']}-spp reference. PSNR dB / FLIP.",

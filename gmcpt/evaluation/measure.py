@@ -19,7 +19,8 @@ import numpy as np
 from ..denoise import denoise_oidn
 from ..metrics import all_metrics
 from .baselines import fastest, render_full
-from .config import SECOND_REFERENCE_SEED, VARIANTS, EvalConfig, Variant, patch_variant
+from ..budget import SPARSE_SPP
+from .config import DEFAULT_VARIANT, SECOND_REFERENCE_SEED, VARIANTS, EvalConfig, Variant, patch_variant
 
 Say = Callable[[str], None]
 #: where the full-resolution check caches its reference (ignored by git: a 1920x1080 EXR is 20 MB)
@@ -59,13 +60,20 @@ def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     return loaded, noise
 
 
+#: the placement table's name for the budget chooser (:mod:`gmcpt.budget`), which is no mask pattern
+BUDGET = "budget"
+
+
 def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig, pattern: str | None = None):
     """(frame, render timings) of the fastest of ``config.repeats`` masked renders (``pattern``: default
-    ``config.mask``)."""
+    ``config.mask``; :data:`BUDGET`: the budget chooser at ``rate * spp`` samples a pixel)."""
     from ..render import RenderSettings, render_sparse_frame
 
-    settings = RenderSettings(rate=rate, pattern=pattern or config.mask, spp=spp, seed=config.seed,
-                              feature_spp=config.feature_spp)
+    if pattern == BUDGET:
+        settings = RenderSettings(budget=rate * spp, seed=config.seed, feature_spp=config.feature_spp)
+    else:
+        settings = RenderSettings(rate=rate, pattern=pattern or config.mask, spp=spp, seed=config.seed,
+                                  feature_spp=config.feature_spp)
     best = None
     for _ in range(max(1, config.repeats)):
         frame, timings = render_sparse_frame(loaded.scene, loaded.integrator, settings=settings)
@@ -146,13 +154,13 @@ def _warm(pipeline: Callable[[], tuple], repeats: int) -> tuple:
     return best
 
 
-def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, rates=None, spps=None) -> list[dict]:
+def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     """Quality and total wall time of every contender at every setting of the equal-time comparison.
 
     Path tracing: a full-frame render. Path tracing + OIDN: a feature pass for the guides, the same render
     and the denoiser. Adaptive path tracing + OIDN: the same with the samples placed adaptively. Completion
-    variants: feature pass, placement, masked render and completion. Each timed warm (:func:`_warm`).
-    ``rates``, ``spps``: the completion settings (default ``config.budget_rates``, ``config.budget_spp``).
+    variants: feature pass, placement, masked render and completion, the default at ``config.default_budgets``
+    samples a pixel, the others at ``config.budget_rates`` x ``config.budget_spp``. Each timed warm (:func:`_warm`).
     """
     rows = []
     base = {"scene": loaded.name}
@@ -169,23 +177,26 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, rates=None, sp
         rows.append({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
                      "samples_per_pixel": float(budget), "seconds": seconds, **all_metrics(image, loaded.reference)})
         say(f"  {loaded.name} adaptive {budget:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB ({seconds:.2f} s)")
-    for rate in rates or config.budget_rates:
-        for spp in spps or config.budget_spp:
-            for label in config.budget_variants:
-                def pipeline():
-                    from ..completion import complete
+    settings = [(label, rate, spp, None) for rate in config.budget_rates for spp in config.budget_spp
+                for label in config.budget_variants if label != DEFAULT_VARIANT]
+    if DEFAULT_VARIANT in config.budget_variants:
+        settings += [(DEFAULT_VARIANT, budget / SPARSE_SPP, SPARSE_SPP, BUDGET) for budget in config.default_budgets]
+    for label, rate, spp, pattern in settings:
+        def pipeline():
+            from ..completion import complete
 
-                    variant = VARIANTS[label]
-                    frame, render_timings = sparse_frame(loaded, rate, spp, replace(config, repeats=1))
-                    result = complete(frame, variant.method, **variant.options())
-                    return result.image, {**render_timings, "completion_s": result.timings["completion_s"]}
+            variant = VARIANTS[label]
+            frame, render_timings = sparse_frame(loaded, rate, spp, replace(config, repeats=1), pattern)
+            result = complete(frame, variant.method, **variant.options())
+            return result.image, frame.info, {**render_timings, "completion_s": result.timings["completion_s"]}
 
-                (image, _), seconds = _warm(pipeline, config.repeats)
-                metrics = all_metrics(image, loaded.reference)
-                rows.append({**base, "contender": label, "rate": rate, "spp": spp,
-                             "samples_per_pixel": rate * spp, "seconds": seconds, **metrics})
-                say(f"  {loaded.name} {label} rate {rate:.3f} x {spp:>2} spp: {metrics['psnr']:6.2f} dB "
-                    f"({seconds:.2f} s)")
+        (image, info, _), seconds = _warm(pipeline, config.repeats)
+        metrics = all_metrics(image, loaded.reference)
+        rows.append({**base, "contender": label, "rate": rate, "spp": spp,
+                     "samples_per_pixel": info["path_samples"] / image.shape[0] / image.shape[1],
+                     "seconds": seconds, **({"budget_choice": info["budget_choice"]} if pattern else {}), **metrics})
+        setting = f"budget {rate * spp:g} ({info['budget_choice']})" if pattern else f"rate {rate:.3f} x {spp:>2} spp"
+        say(f"  {loaded.name} {label} {setting}: {metrics['psnr']:6.2f} dB ({seconds:.2f} s)")
     return rows
 
 
@@ -219,9 +230,8 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
 
 def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     """The equal-time comparison (:func:`equal_time`) at ``config.full_size`` on one scene: the default at
-    ``config.full_rate`` x ``config.full_spp`` against both baselines at ``config.full_path_spp`` and
+    ``config.full_budgets`` samples a pixel against both baselines at ``config.full_path_spp`` and
     ``config.full_adaptive_budgets``. The reference is cached under ``data/references``."""
-    from .config import DEFAULT_VARIANT
     from .reference import render_reference
 
     progress = lambda message: say(f"  {message} (cached under data/references after the first run)")  # noqa: E731
@@ -233,9 +243,9 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     integrator = getattr(integrator, "integrator", integrator)
     loaded = LoadedScene(eval_scene.name, scene, integrator, reference, {}, 0.0)  # each contender has its features
     full = replace(config, path_spp=config.full_path_spp, adaptive_budgets=config.full_adaptive_budgets,
-                   budget_variants=(DEFAULT_VARIANT,))
+                   budget_variants=(DEFAULT_VARIANT,), default_budgets=config.full_budgets)
     size = "x".join(map(str, config.full_size))
-    return [dict(row, size=size) for row in equal_time(loaded, full, say, (config.full_rate,), config.full_spp)]
+    return [dict(row, size=size) for row in equal_time(loaded, full, say)]
 
 
 def stage_timings(eval_scene, config: EvalConfig, say: Say) -> list[dict]:

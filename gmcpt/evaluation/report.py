@@ -116,6 +116,8 @@ def one_spp_seconds(rows: list[dict], scene: str) -> float:
 
 
 def _setting(row: dict) -> str:
+    if "budget_choice" in row:  # the budget chooser: rate x spp is its budget, and it chose its own way
+        return f"budget {row['rate'] * row['spp']:g}, {row['budget_choice']}"
     return f"{row['spp']:g} spp" if row["rate"] == 1.0 else f"{row['rate']:g} x {row['spp']} spp"
 
 
@@ -273,7 +275,9 @@ def speedup_table(rows: list[dict], default: str) -> str:
     PSNR, as a multiple of the default's time (geometric means over scenes; ``<``/``>``: a bound)."""
     settings = list(dict.fromkeys((r["rate"], r["spp"]) for r in rows if r["contender"] == default))
     baselines = [b for b in BASELINES if any(r["contender"] == b for r in rows)]
-    header = ["scene", "baseline"] + [f"{rate:g} x {spp} spp" for rate, spp in settings]
+    budgets = {(r["rate"], r["spp"]) for r in rows if r["contender"] == default and "budget_choice" in r}
+    header = ["scene", "baseline"] + [f"budget {rate * spp:g}" if (rate, spp) in budgets else f"{rate:g} x {spp} spp"
+                                      for rate, spp in settings]
     table = []
     for label, where in groups(rows):
         scenes = _in_group(rows, where)
