@@ -7,8 +7,10 @@ traces half of those pixels where the feature buffers have edges. Its samples th
 - **sparse** (the paper's way, the default's at a fixed rate): the second pass of ``two_pass``; the
   completion fills the untraced pixels. It wins where the feature buffers predict the radiance, and a
   pixel's 16-spp mean is already close to converged: the synthetic scenes.
-- **dense**: every untraced pixel is traced too, as adaptive path tracing does (:mod:`gmcpt.adaptive`: a
-  uniform pass, then the rest where the displayed image's error is high); OIDN denoises the whole frame.
+- **dense**: every untraced pixel is traced too, the rest of the budget spread evenly over them (the
+  remainder one sample each where the displayed image looks noisiest); OIDN denoises the whole frame.
+  Placing a share of it as adaptive path tracing does (:mod:`gmcpt.adaptive`) was 0.06 dB worse on the real
+  scenes' mean (docs/experiments.md).
   It wins on real interiors, where indirect light leaves even the 16-spp means noisy and a filled pixel
   is worse than a few samples of its own.
 
@@ -27,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .adaptive import EXPONENT, FIRST_SHARE, MAX_EXTRA, allocate, display_error
+from .adaptive import allocate, display_error
 from .errors import GmcptError
 
 #: Samples of each traced pixel on the sparse side; 0.3 x 16 is the evaluation's 4.8-spp default.
@@ -113,16 +115,13 @@ def choose(plan: BudgetPlan, statistic: float, untraced: int, first_samples: int
     return DENSE if statistic > DENSE_ABOVE and plan.samples - first_samples >= untraced else SPARSE
 
 
-def dense_first_spp(plan: BudgetPlan, untraced: int, left: int) -> int:
-    """Samples of each untraced pixel in the dense way's uniform pass: the adaptive recipe's share of the budget
-    (:data:`gmcpt.adaptive.FIRST_SHARE`), at least 1, at most what the ``left`` samples allow."""
-    return max(1, min(int(FIRST_SHARE * plan.budget), left // max(untraced, 1)))
+def dense_spp(untraced: int, left: int) -> int:
+    """Samples of each untraced pixel in the dense way's even pass: all that the ``left`` samples allow."""
+    return max(1, left // max(untraced, 1))
 
 
 def dense_extra(image: np.ndarray, extra: int) -> np.ndarray:
-    """The dense way's last samples: ``extra`` of them over the pixels of the (H, W, 3) frame so far, as adaptive
-    path tracing places them (:func:`gmcpt.adaptive.display_error`, :func:`gmcpt.adaptive.allocate`); an int64
-    count a flat pixel."""
-    pixels = image.shape[0] * image.shape[1]
-    cap = max(MAX_EXTRA, -(-extra // pixels))
-    return allocate(display_error(image) ** EXPONENT, extra, cap)
+    """The dense way's last samples, fewer than its pixels: one each where the (H, W, 3) frame so far looks
+    noisiest, as adaptive path tracing ranks them (:func:`gmcpt.adaptive.display_error`); an int64 count a flat
+    pixel."""
+    return allocate(display_error(image), extra, 1)

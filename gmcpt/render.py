@@ -29,7 +29,7 @@ import mitsuba as mi
 import numpy as np
 
 from .adaptive import EXTRA_SEED_OFFSET
-from .budget import (PROBE_SPP, SPARSE, SPARSE_SPP, check_budget, choose, dense_extra, dense_first_spp, plan_budget,
+from .budget import (PROBE_SPP, SPARSE, SPARSE_SPP, check_budget, choose, dense_extra, dense_spp, plan_budget,
                      relative_variance)
 from .domain import ALBEDO_MIN
 from .errors import GmcptError
@@ -433,8 +433,8 @@ def _second_pass(scene, sensor, integrator, settings: RenderSettings, features: 
 def _budget_passes(scene, sensor, integrator, settings: RenderSettings, features: dict, plan, say,
                    timings: dict) -> _Passes:
     """The passes of a budget (:mod:`gmcpt.budget`): a first pass at ``PROBE_SPP``, then the sparse way (its
-    pixels topped up to ``SPARSE_SPP``, the second pass of ``two_pass``) or the dense one (every pixel, as
-    adaptive path tracing places its samples)."""
+    pixels topped up to ``SPARSE_SPP``, the second pass of ``two_pass``) or the dense one (every other pixel
+    evenly, the remainder where the frame looks noisiest)."""
     height, width = features["depth"].shape
     pixels = height * width
     seed = settings.seed
@@ -472,7 +472,7 @@ def _budget_passes(scene, sensor, integrator, settings: RenderSettings, features
 
     start = time.perf_counter()
     left = plan.samples - int(first.sum()) * PROBE_SPP
-    uniform = np.where(first, 0, dense_first_spp(plan, untraced, left))
+    uniform = np.where(first, 0, dense_spp(untraced, left))
     say(f"path tracing: {untraced} px x {int(uniform.max())} spp (dense)")
     sums.trace(scene, sensor, integrator, uniform, (seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT)
     timings["render_s"] += time.perf_counter() - start

@@ -52,16 +52,14 @@ def test_choice_follows_the_signal_and_needs_a_sample_for_every_pixel():
     assert choose(plan_budget(20, 1000), 0.0, untraced=1000, first_samples=0) == DENSE
 
 
-def test_dense_passes_keep_the_total_and_put_extras_where_the_image_is_noisy():
-    from gmcpt.budget import dense_extra, dense_first_spp, plan_budget
+def test_dense_passes_spread_the_rest_evenly_and_the_remainder_where_the_image_is_noisy():
+    from gmcpt.budget import dense_extra, dense_spp
 
-    plan = plan_budget(4.8, 64 * 64)
-    assert dense_first_spp(plan, 4096 - 600, 4800 * 4096 // 1000) == 3  # 5/8 of 4.8, as adaptive sampling
-    assert dense_first_spp(plan, 4000, 4100) == 1
+    assert dense_spp(3500, 17000) == 4 and dense_spp(4000, 4100) == 1
     image = np.full((64, 64, 3), 0.5)
     image[:, 32:] += np.random.default_rng(1).normal(0, 0.3, (64, 32, 3))
-    extra = dense_extra(image, 5000)
-    assert extra.sum() == 5000 and extra.reshape(64, 64)[:, 34:].sum() > 4 * extra.reshape(64, 64)[:, :30].sum()
+    extra = dense_extra(image, 1500).reshape(64, 64)
+    assert extra.sum() == 1500 and extra.max() == 1 and extra[:, 34:].sum() > 4 * extra[:, :30].sum()
 
 
 @pytest.fixture(scope="module")
