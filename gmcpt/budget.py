@@ -7,10 +7,10 @@ traces half of those pixels where the feature buffers have edges. Its samples th
 - **sparse** (the paper's way, the default's at a fixed rate): the second pass of ``two_pass``; the
   completion fills the untraced pixels. It wins where the feature buffers predict the radiance, and a
   pixel's 16-spp mean is already close to converged: the synthetic scenes.
-- **dense**: every untraced pixel is traced too, the rest of the budget spread evenly over them (the
-  remainder one sample each where the displayed image looks noisiest); OIDN denoises the whole frame.
-  Placing a share of it as adaptive path tracing does (:mod:`gmcpt.adaptive`) was 0.06 dB worse on the real
-  scenes' mean (docs/experiments.md).
+- **dense**: every pixel is traced, the rest of the budget spread so that each pixel's samples (the first
+  pass's included) are as even as integers allow: uniform path tracing at exactly the budget; OIDN denoises
+  the whole frame. Placing some of them as adaptive path tracing does (:mod:`gmcpt.adaptive`), or leaving
+  the first pass's pixels at their 4 samples, did worse on the real scenes (docs/experiments.md).
   It wins on real interiors, where indirect light leaves even the 16-spp means noisy and a filled pixel
   is worse than a few samples of its own.
 
@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .adaptive import allocate, display_error
 from .errors import GmcptError
+from .masks import mask_rng, sample_by_density
 
 #: Samples of each traced pixel on the sparse side; 0.3 x 16 is the evaluation's 4.8-spp default.
 SPARSE_SPP = 16
@@ -115,13 +115,25 @@ def choose(plan: BudgetPlan, statistic: float, untraced: int, first_samples: int
     return DENSE if statistic > DENSE_ABOVE and plan.samples - first_samples >= untraced else SPARSE
 
 
-def dense_spp(untraced: int, left: int) -> int:
-    """Samples of each untraced pixel in the dense way's even pass: all that the ``left`` samples allow."""
-    return max(1, left // max(untraced, 1))
+def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:
+    """More samples a pixel so that ``current`` (an (H, W) int count a pixel) plus them spends ``samples`` more
+    and is as even as integers allow: every pixel up to a level L (none taken away), then one more each on
+    ``samples`` left over pixels at L, spread as blue noise (:func:`gmcpt.masks.sample_by_density`, seeded).
+    Returns an int64 (H, W) array."""
+    current = np.asarray(current, np.int64)
+    if samples < 0:
+        raise GmcptError(f"cannot take {-samples} samples back")
 
+    def need(level: int) -> int:
+        return int(np.maximum(level - current, 0).sum())
 
-def dense_extra(image: np.ndarray, extra: int) -> np.ndarray:
-    """The dense way's last samples, fewer than its pixels: one each where the (H, W, 3) frame so far looks
-    noisiest, as adaptive path tracing ranks them (:func:`gmcpt.adaptive.display_error`); an int64 count a flat
-    pixel."""
-    return allocate(display_error(image), extra, 1)
+    low, high = 0, int(current.max()) + samples // current.size + 1  # need(low) <= samples < need(high)
+    while high - low > 1:
+        middle = (low + high) // 2
+        low, high = (middle, high) if need(middle) <= samples else (low, middle)
+    more = np.maximum(low - current, 0)
+    left = samples - int(more.sum())
+    if left:
+        at_level = (current + more) == low
+        more += sample_by_density(np.ones(current.shape, np.float32), left, mask_rng(seed), exclude=~at_level)
+    return more

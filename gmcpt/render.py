@@ -28,8 +28,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .adaptive import EXTRA_SEED_OFFSET
-from .budget import (PROBE_SPP, SPARSE, SPARSE_SPP, check_budget, choose, dense_extra, dense_spp, plan_budget,
+from .budget import (PROBE_SPP, SPARSE, SPARSE_SPP, check_budget, choose, even_fill, plan_budget,
                      relative_variance)
 from .domain import ALBEDO_MIN
 from .errors import GmcptError
@@ -44,6 +43,7 @@ MAX_LANES = 1 << 24  # split the radiance pass into several when larger
 FEATURE_SEED_OFFSET = 0x5EED_F00D
 SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` draws other samples
 TOP_UP_SEED_OFFSET = 0x70B0F  # and a budget's first-pass pixels their samples after the choice
+EVEN_SEED_OFFSET = 0xE7E4  # the dense way's blue-noise spread of the samples left over
 # samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
 SCATTER_MODE = dr.ReduceMode.Local
 # the features need UVs (textured albedo) and the shading frame, no surface derivatives
@@ -433,8 +433,8 @@ def _second_pass(scene, sensor, integrator, settings: RenderSettings, features: 
 def _budget_passes(scene, sensor, integrator, settings: RenderSettings, features: dict, plan, say,
                    timings: dict) -> _Passes:
     """The passes of a budget (:mod:`gmcpt.budget`): a first pass at ``PROBE_SPP``, then the sparse way (its
-    pixels topped up to ``SPARSE_SPP``, the second pass of ``two_pass``) or the dense one (every other pixel
-    evenly, the remainder where the frame looks noisiest)."""
+    pixels topped up to ``SPARSE_SPP``, the second pass of ``two_pass``) or the dense one (every pixel, as
+    evenly as integers allow)."""
     height, width = features["depth"].shape
     pixels = height * width
     seed = settings.seed
@@ -471,21 +471,14 @@ def _budget_passes(scene, sensor, integrator, settings: RenderSettings, features
         return passes
 
     start = time.perf_counter()
-    left = plan.samples - int(first.sum()) * PROBE_SPP
-    uniform = np.where(first, 0, dense_spp(untraced, left))
-    say(f"path tracing: {untraced} px x {int(uniform.max())} spp (dense)")
-    sums.trace(scene, sensor, integrator, uniform, (seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT)
-    timings["render_s"] += time.perf_counter() - start
-    start = time.perf_counter()
-    everything = np.ones(pixels, bool)
-    image, _ = sums.estimate(everything)
-    extra = dense_extra(image.reshape(height, width, 3), left - int(uniform.sum()))
+    more = even_fill((first * PROBE_SPP).reshape(height, width), plan.samples - int(first.sum()) * PROBE_SPP,
+                     (seed + EVEN_SEED_OFFSET) % SEED_LIMIT).ravel()
     timings["mask_s"] += time.perf_counter() - start
     start = time.perf_counter()
-    say(f"path tracing: {int(extra.sum())} samples where the error is high (dense)")
-    sums.trace(scene, sensor, integrator, extra, (seed + EXTRA_SEED_OFFSET) % SEED_LIMIT)
+    say(f"path tracing: {pixels} px, {int(more.sum())} samples (dense)")
+    sums.trace(scene, sensor, integrator, more, (seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT)
     timings["render_s"] += time.perf_counter() - start
-    return sums.passes(everything, int(first.sum()), info)
+    return sums.passes(np.ones(pixels, bool), int(first.sum()), info)
 
 
 class _Sums:

@@ -52,14 +52,22 @@ def test_choice_follows_the_signal_and_needs_a_sample_for_every_pixel():
     assert choose(plan_budget(20, 1000), 0.0, untraced=1000, first_samples=0) == DENSE
 
 
-def test_dense_passes_spread_the_rest_evenly_and_the_remainder_where_the_image_is_noisy():
-    from gmcpt.budget import dense_extra, dense_spp
+@pytest.mark.parametrize("probe,samples", [(4, 2000), (4, 4096 * 5 - 600 * 4), (4, 4096 * 3), (0, 4096 * 17 + 5)])
+def test_even_fill_levels_every_pixel_and_spreads_the_rest(probe, samples):
+    from gmcpt.budget import even_fill
 
-    assert dense_spp(3500, 17000) == 4 and dense_spp(4000, 4100) == 1
-    image = np.full((64, 64, 3), 0.5)
-    image[:, 32:] += np.random.default_rng(1).normal(0, 0.3, (64, 32, 3))
-    extra = dense_extra(image, 1500).reshape(64, 64)
-    assert extra.sum() == 1500 and extra.max() == 1 and extra[:, 34:].sum() > 4 * extra[:, :30].sum()
+    current = np.zeros((64, 64), np.int64)
+    current.ravel()[np.random.default_rng(2).choice(4096, 600, replace=False)] = probe
+    more = even_fill(current, samples, seed=3)
+    total = current + more
+    assert more.min() >= 0 and more.sum() == samples
+    level = total[current == 0].min()
+    assert total[current == 0].max() <= level + 1  # as even as integers allow
+    assert (total[current > 0] >= min(probe, level)).all() and more[current > level].sum() == 0
+    np.testing.assert_array_equal(more, even_fill(current, samples, seed=3))
+    if 0 < samples % 4096:  # the left-over samples are spread over the frame, not bunched in a corner
+        extra = (total > level).reshape(4, 16, 4, 16).sum(axis=(1, 3))
+        assert extra.min() > 0 or total.sum() - level * 4096 < 64
 
 
 @pytest.fixture(scope="module")
