@@ -80,9 +80,11 @@ else
 fi
 
 stage environment 120 "$PYTHON" - "$work/environment.json" <<'EOF'
-import json, platform, shutil, subprocess, sys
+import ctypes.util, json, platform, shutil, subprocess, sys
 
-record = {"python": platform.python_version()}
+# libcuda: Dr.Jit's CUDA backend; libnvoptix: Mitsuba's ray tracing on it (both come with the driver)
+record = {"python": platform.python_version(), "libcuda": ctypes.util.find_library("cuda"),
+          "libnvoptix": ctypes.util.find_library("nvoptix")}
 if shutil.which("nvidia-smi"):
     query = ["nvidia-smi", "--query-gpu=name,driver_version,memory.total", "--format=csv,noheader"]
     record["nvidia_smi"] = subprocess.run(query, capture_output=True, text=True).stdout.strip()

@@ -12,10 +12,11 @@ reading (:mod:`gmcpt.gan.retired`).
 Each step draws a batch of random crops with fresh masks, updates the WGAN-GP
 critic every ``critic_every`` steps (from ``critic_start``) and the generator
 with the hybrid loss. The run stops after ``steps`` steps, so the same config
-and seed give the same schedule; a wall-clock ``deadline`` (``gmcpt train --minutes``)
-stops it earlier, after the last step that fits, and a later run resumes there. ``OUT/checkpoint.pt`` is written every
-``checkpoint_every`` steps (models, optimisers, RNG states, history) and a
-run restarted on the same ``OUT`` resumes from it. ``OUT/curves.png`` plots
+and seed give the same schedule; a wall-clock deadline (``gmcpt train --minutes``)
+stops it earlier, after the last step that fits, and a later run resumes there.
+``OUT/checkpoint.pt`` is written every ``checkpoint_every`` steps (models,
+optimisers, RNG states, history) and a run restarted on the same ``OUT``
+resumes from it. ``OUT/curves.png`` plots
 the L1, L2 and Wasserstein distances (paper Fig. 4) and the validation PSNR.
 
 Under ``torchrun`` the ranks train data-parallel (:mod:`gmcpt.gan.distributed`):
@@ -225,7 +226,7 @@ class Trainer:
         self.sampler = PatchSampler(distributed.shard(train_paths, ranks), self.domain, cfg.crop, cfg.rate_range)
         self.val = [load_example(p) for folder in folders for p in list_examples(folder, "val")] if ranks.main else []
         self.rng = np.random.default_rng(distributed.seed_sequence(cfg.seed, ranks))
-        self.step, self.history, self.seconds = 0, [], 0.0
+        self.step, self.history, self.seconds, self.stopped_early = 0, [], 0.0, False
         self.say(f"generator {parameter_count(self.generator) / 1e6:.3f} M parameters, critic "
                  f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes, {len(self.val)} val"
                  + (f"; {ranks.world} processes, {cfg.batch} crops each a step" if ranks.distributed else ""))
@@ -329,9 +330,9 @@ class Trainer:
 
         cfg = self.config.train
         self.load_checkpoint()
-        self.stopped_early, started, first = False, time.monotonic(), self.step
         if not any("interp_psnr" in h for h in self.history) and self.val:
             self.history.append({"step": self.step, "interp_psnr": interp_baseline(self.val)})
+        started, first = time.monotonic(), self.step
         with Progress(cfg.steps, "train", unit="step", say=self.say, quiet=self.quiet or not self.ranks.main,
                       initial=self.step, log_every=0) as bar:  # log lines: the validation steps below
             while self.step < cfg.steps:
@@ -383,7 +384,7 @@ class Trainer:
         summary = {"steps": self.step, "train_seconds": round(self.seconds, 1),
                    "val_psnr": val[-1]["val_psnr"] if val else None, "val_interp_psnr": base[-1] if base else None,
                    "train_scenes": len(self.train_seeds), "val_scenes": len(self.val),
-                   "stopped_early": getattr(self, "stopped_early", False)}
+                   "stopped_early": self.stopped_early}
         if self.ranks.distributed:
             summary.update(processes=self.ranks.world, rank_weights_sha256=getattr(self, "rank_digests", None))
         return summary
