@@ -12,6 +12,16 @@ CORNELL = SCENES / "cornell-box" / "scene.xml"
 STILL_LIFE = SCENES / "still-life" / "scene.xml"
 
 
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``cuda`` skip, with one reason, where torch sees no CUDA device."""
+    marked = [item for item in items if item.get_closest_marker("cuda")]
+    if marked:
+        import torch
+        if not torch.cuda.is_available():
+            for item in marked:
+                item.add_marker(pytest.mark.skip(reason="torch sees no CUDA device"))
+
+
 @pytest.fixture(scope="session")
 def mi():
     import gmcpt  # noqa: F401  (variant + plugin registration)

@@ -93,7 +93,7 @@ def test_cli_refuses_an_unknown_generator_precision_before_rendering(tmp_path, m
     assert "features" not in result.stdout + result.stderr and not out.exists()
 
 
-@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
+@pytest.mark.cuda
 def test_generator_on_cuda_matches_the_cpu(monkeypatch):
     from conftest import synthetic_frame
     from gmcpt.completion import complete

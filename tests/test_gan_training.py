@@ -135,3 +135,58 @@ def test_presets_load():
     cpu, gpu = load_config("cpu"), load_config("gpu")
     assert cpu.train.device == "cpu" and gpu.train.device == "cuda"
     assert cpu.loss == gpu.loss == losses.LossWeights()
+
+
+TINY = {"train.max_train_scenes": 0, "train.batch": 2, "train.crop": 16, "train.eval_every": 1000,
+        "train.checkpoint_every": 1000, "critic.widths": [8, 8], "generator.widths": [8, 8, 8],
+        "generator.encoder_blocks": [1, 1, 1], "generator.condition_width": 4}
+
+
+def test_a_deadline_stops_after_the_last_step_that_fits_checkpoints_and_resumes(tmp_path):
+    import time
+
+    from gmcpt.gan.train import Trainer, load_config
+
+    tiny_dataset(tmp_path / "data")
+    config = load_config("cpu", {**TINY, "train.dataset": str(tmp_path / "data"), "train.steps": 100000})
+    out = tmp_path / "run"
+    assert Trainer(config, out, lambda m: None).run(time.monotonic() - 1)["steps"] == 0   # nothing fits
+    first = Trainer(config, out, lambda m: None).run(time.monotonic() + 1.0)
+    assert first["stopped_early"] and 0 < first["steps"] < 100000
+    history = json.loads((out / "history.json").read_text())
+    assert history[-1] == {"step": first["steps"], **{k: v for k, v in history[-1].items() if k != "step"}}
+    assert "val_psnr" in history[-1] and (out / "curves.png").is_file()
+    resumed = Trainer(config, out, lambda m: None)
+    assert resumed.load_checkpoint() and resumed.step == first["steps"]
+    assert resumed.run(time.monotonic() + 1.0)["steps"] > first["steps"]
+
+
+def test_train_cli_minutes_several_datasets_and_export_to_a_path(tmp_path, capsys):
+    from gmcpt.gan.cli import main
+    from gmcpt.gan.weights import load_generator
+
+    for name in ("a", "b"):
+        tiny_dataset(tmp_path / name)
+    sets = [f"--set={key}={json.dumps(value)}" for key, value in {**TINY, "train.steps": 100000}.items()]
+    argv = ["--config", "cpu", "--dataset", str(tmp_path / "a"), "--dataset", str(tmp_path / "b"), *sets,
+            "--out", str(tmp_path / "run"), "--export", str(tmp_path / "w" / "tiny.pt"), "--minutes", "0.05", "-q"]
+    assert main(argv) == 0
+    summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert summary["stopped_early"] and summary["train_scenes"] == 4 and summary["val_scenes"] == 4
+    generator, metadata = load_generator(tmp_path / "w" / "tiny.pt")
+    assert metadata["name"] == "tiny" and metadata["dataset"]["path"] == [str(tmp_path / "a"), str(tmp_path / "b")]
+    assert metadata["training"]["steps"] == summary["steps"] > 0
+    assert main([*argv[:-3], "--minutes", "0", "-q"]) == 2 and "--minutes must be positive" in capsys.readouterr().err
+
+
+@pytest.mark.cuda
+def test_training_steps_run_on_cuda(tmp_path):
+    from gmcpt.gan.train import Trainer, load_config
+
+    tiny_dataset(tmp_path / "data")
+    config = load_config("gpu", {**TINY, "train.dataset": str(tmp_path / "data"), "train.steps": 3,
+                                 "train.critic_start": 0})
+    trainer = Trainer(config, tmp_path / "run", lambda m: None)
+    assert trainer.run()["steps"] == 3
+    assert all(p.is_cuda and torch.isfinite(p).all() for p in trainer.generator.parameters())
+    assert all(np.isfinite(h["l1"]) and np.isfinite(h["wdist"]) for h in trainer.history if "l1" in h)

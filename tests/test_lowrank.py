@@ -195,7 +195,7 @@ def test_guide_features_and_single_channel(frame):
     assert grey.shape == pre.shape[:2]
 
 
-@pytest.mark.skipif(not torch.cuda.is_available(), reason="no CUDA device")
+@pytest.mark.cuda
 def test_cuda_matches_cpu(frame):
     ref, obs, mask, var, pre = frame
     a, _ = complete_low_rank(pre, obs, mask, variance=var, params=replace(FAST, device="cpu"))

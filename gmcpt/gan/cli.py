@@ -3,7 +3,9 @@
     gmcpt train --config cpu --out runs/gan-cpu --export gan-cpu
 
 Rerunning with the same ``--out`` resumes from its checkpoint; ``--export``
-writes ``gmcpt/gan/weights/NAME.pt`` and its metadata JSON when training ends.
+writes ``gmcpt/gan/weights/NAME.pt`` (or a ``.pt`` path) and its metadata JSON when
+training ends; ``--minutes M`` ends it once M minutes of the command are spent (the
+last step that fits is checkpointed and exported; rerunning resumes there).
 ``torchrun --nproc_per_node N -m gmcpt train ...`` trains on N processes
 (:mod:`gmcpt.gan.distributed`); rank 0 logs, checkpoints and exports.
 """
@@ -24,10 +26,14 @@ def build_parser() -> argparse.ArgumentParser:
                     "Rerunning with the same --out resumes from its checkpoint.")
     parser.add_argument("--config", default="cpu", help="preset (cpu, gpu) or a JSON file")
     parser.add_argument("--out", help="run folder: checkpoint, curves.png, history.json (default: runs/gan-CONFIG)")
-    parser.add_argument("--dataset", help="dataset folder (default: the config's train.dataset)")
+    parser.add_argument("--dataset", action="append", metavar="DIR",
+                        help="dataset folder; repeat to train on several as one (default: the config's train.dataset)")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=JSON",
                         help="override a config value, e.g. train.steps=100; repeatable (default: none)")
-    parser.add_argument("--export", metavar="NAME", help="write the trained generator to gmcpt/gan/weights/NAME.pt (default: none)")
+    parser.add_argument("--export", metavar="NAME", help="write the trained generator to gmcpt/gan/weights/NAME.pt, "
+                        "or to NAME if it is a .pt path (default: none)")
+    parser.add_argument("--minutes", type=float, metavar="M",
+                        help="stop after the last step that ends within M minutes of the start (default: no limit)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
     return parser
 
@@ -43,40 +49,48 @@ def _overrides(args) -> dict:
         except json.JSONDecodeError:
             overrides[key] = value
     if args.dataset:
-        overrides["train.dataset"] = args.dataset
+        overrides["train.dataset"] = args.dataset[0] if len(args.dataset) == 1 else args.dataset
     return overrides
 
 
 def export(trainer, name: str, command: str) -> dict:
-    """Save the trainer's generator as shipped weights ``name`` with full metadata."""
-    from .weights import WEIGHTS_DIR, save_weights
+    """Save the trainer's generator as shipped weights ``name`` (or to a ``.pt`` path) with full metadata."""
+    from .train import dataset_folders
+    from .weights import save_weights, weights_path
 
-    dataset, seeds = trainer.config.train.dataset, trainer.train_seeds
-    manifest_path = Path(dataset) / "manifest.json"
-    manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
-    metadata = {"name": name, "command": command, "config": trainer.config.to_dict(),
-                "dataset": {"path": str(dataset), "version": manifest.get("version"), "manifest": manifest,
+    folders, seeds = dataset_folders(trainer.config.train.dataset), trainer.train_seeds
+    manifests = [json.loads(path.read_text()) if path.is_file() else {}
+                 for path in (Path(folder) / "manifest.json" for folder in folders)]
+    one = len(folders) == 1  # one folder: its path, version and manifest; several: lists of them
+    path = weights_path(name)
+    metadata = {"name": path.stem, "command": command, "config": trainer.config.to_dict(),
+                "dataset": {"path": folders[0] if one else folders,
+                            "version": manifests[0].get("version") if one else [m.get("version") for m in manifests],
+                            "manifest": manifests[0] if one else manifests,
                             "train_seeds": [min(seeds), max(seeds)],
                             "train_scenes": len(seeds),
                             "val_seeds": [e["meta"]["seed"] for e in trainer.val]},
                 "training": trainer.summary(), "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-    return save_weights(WEIGHTS_DIR / f"{name}.pt", trainer.generator, metadata)
+    return save_weights(path, trainer.generator, metadata)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``gmcpt train``; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    started = time.monotonic()
     try:
         args = build_parser().parse_args(argv)
-        from .train import Trainer, load_config
+        if args.minutes is not None and not args.minutes > 0:
+            raise GmcptError(f"--minutes must be positive, got {args.minutes}")
+        from .train import Trainer, dataset_folders, load_config
         try:
             config = load_config(args.config, _overrides(args))
         except (OSError, ValueError, TypeError) as error:
             raise GmcptError(f"bad config {args.config}: {error}") from None
         out = Path(args.out or f"runs/gan-{Path(args.config).stem}")
-        if not (Path(config.train.dataset) / "train").is_dir():
-            raise GmcptError(f"no dataset at {config.train.dataset}; build it with `python -m gmcpt dataset "
-                             f"--out {config.train.dataset}`")
+        for folder in dataset_folders(config.train.dataset):
+            if not (Path(folder) / "train").is_dir():
+                raise GmcptError(f"no dataset at {folder}; build it with `python -m gmcpt dataset --out {folder}`")
         from .distributed import from_environment, stop
         try:
             ranks = from_environment()
@@ -86,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         say = stamped_say("train", args.quiet)
         try:
             trainer = Trainer(config, out, say, ranks=ranks, quiet=args.quiet)
-            summary = trainer.run()
+            summary = trainer.run(None if args.minutes is None else started + 60 * args.minutes)
         except ValueError as error:  # incomplete dataset, a checkpoint from another config
             raise GmcptError(str(error)) from None
         finally:

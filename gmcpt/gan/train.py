@@ -12,9 +12,11 @@ reading (:mod:`gmcpt.gan.retired`).
 Each step draws a batch of random crops with fresh masks, updates the WGAN-GP
 critic every ``critic_every`` steps (from ``critic_start``) and the generator
 with the hybrid loss. The run stops after ``steps`` steps, so the same config
-and seed give the same schedule. ``OUT/checkpoint.pt`` is written every
-``checkpoint_every`` steps (models, optimisers, RNG states, history) and a
-run restarted on the same ``OUT`` resumes from it. ``OUT/curves.png`` plots
+and seed give the same schedule; a wall-clock deadline (``gmcpt train --minutes``)
+stops it earlier, after the last step that fits, and a later run resumes there.
+``OUT/checkpoint.pt`` is written every ``checkpoint_every`` steps (models,
+optimisers, RNG states, history) and a run restarted on the same ``OUT``
+resumes from it. ``OUT/curves.png`` plots
 the L1, L2 and Wasserstein distances (paper Fig. 4) and the validation PSNR.
 
 Under ``torchrun`` the ranks train data-parallel (:mod:`gmcpt.gan.distributed`):
@@ -49,7 +51,7 @@ class TrainConfig:
 
     Attributes
     ----------
-    dataset : dataset folder (``train`` and ``val`` splits).
+    dataset : dataset folder (``train`` and ``val`` splits), or a list of them, read as one.
     steps : generator updates.
     batch, crop : crops per step and their side in pixels.
     rate_range : sampling rates drawn per crop.
@@ -63,7 +65,7 @@ class TrainConfig:
     device : torch device of the models and the batches.
     """
 
-    dataset: str = "data/procedural"
+    dataset: str | tuple[str, ...] = "data/procedural"
     steps: int = 4000
     batch: int = 8
     crop: int = 64
@@ -120,6 +122,11 @@ def config_from_dict(data: dict) -> FullConfig:
                       generator=_build(GeneratorConfig, "generator", data.get("generator", {})),
                       critic=_build(CriticConfig, "critic", data.get("critic", {})),
                       loss=_build(LossWeights, "loss", data.get("loss", {})))
+
+
+def dataset_folders(dataset: str | tuple[str, ...] | list[str]) -> list[str]:
+    """The folders of a ``train.dataset`` value: one folder or several."""
+    return [dataset] if isinstance(dataset, str) else list(dataset)
 
 
 def validate(generator: Generator, examples: list[dict], domain: WorkingDomain) -> dict:
@@ -208,17 +215,18 @@ class Trainer:
         self.extractor = FixedFeatureExtractor().to(self.device)
         self.opt_g = torch.optim.Adam(self.generator.parameters(), lr=cfg.lr_g, betas=(0.9, 0.99))
         self.opt_d = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_d, betas=(0.5, 0.9))
-        train_paths = list_examples(cfg.dataset, "train")
+        folders = dataset_folders(cfg.dataset)
+        train_paths = [path for folder in folders for path in list_examples(folder, "train")]
         if cfg.max_train_scenes:
             if len(train_paths) < cfg.max_train_scenes:
-                raise ValueError(f"{cfg.dataset} has {len(train_paths)} training scenes, the config asks for "
+                raise ValueError(f"{', '.join(folders)} hold {len(train_paths)} training scenes, the config asks for "
                                  f"{cfg.max_train_scenes}; finish the dataset build first")
             train_paths = train_paths[:cfg.max_train_scenes]
         self.train_seeds = [int(p.stem) for p in train_paths]
         self.sampler = PatchSampler(distributed.shard(train_paths, ranks), self.domain, cfg.crop, cfg.rate_range)
-        self.val = [load_example(p) for p in list_examples(cfg.dataset, "val")] if ranks.main else []
+        self.val = [load_example(p) for folder in folders for p in list_examples(folder, "val")] if ranks.main else []
         self.rng = np.random.default_rng(distributed.seed_sequence(cfg.seed, ranks))
-        self.step, self.history, self.seconds = 0, [], 0.0
+        self.step, self.history, self.seconds, self.stopped_early = 0, [], 0.0, False
         self.say(f"generator {parameter_count(self.generator) / 1e6:.3f} M parameters, critic "
                  f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes, {len(self.val)} val"
                  + (f"; {ranks.world} processes, {cfg.batch} crops each a step" if ranks.distributed else ""))
@@ -306,16 +314,32 @@ class Trainer:
         record.update(terms, loss=float(loss_g.detach()), l2=float(l2_loss(fake.detach(), target)))
         return record
 
-    def run(self) -> dict:
+    def _out_of_time(self, deadline: float | None, started: float, steps: int) -> bool:
+        """True if another step, as long as this run's steps have been on average, would end after
+        ``deadline`` (:func:`time.monotonic`); every rank takes rank 0's decision."""
+        if deadline is None:
+            return False
+        now = time.monotonic()
+        late = now + (now - started) / max(1, steps) * (steps > 0) > deadline
+        return bool(distributed.gather(late, self.ranks)[0])
+
+    def run(self, deadline: float | None = None) -> dict:
+        """Train to ``steps``, or until the next step would end after ``deadline`` (a
+        :func:`time.monotonic` time); either way the last step is validated and checkpointed."""
         from ..progress import Progress
 
         cfg = self.config.train
         self.load_checkpoint()
         if not any("interp_psnr" in h for h in self.history) and self.val:
             self.history.append({"step": self.step, "interp_psnr": interp_baseline(self.val)})
+        started, first = time.monotonic(), self.step
         with Progress(cfg.steps, "train", unit="step", say=self.say, quiet=self.quiet or not self.ranks.main,
                       initial=self.step, log_every=0) as bar:  # log lines: the validation steps below
             while self.step < cfg.steps:
+                if self._out_of_time(deadline, started, self.step - first):
+                    self.stopped_early = True
+                    self._finish_early(first)
+                    break
                 start = time.perf_counter()
                 record = self.train_step()
                 self.step += 1
@@ -343,12 +367,24 @@ class Trainer:
             (self.out / "history.json").write_text(json.dumps(self.history))
         return self.summary()
 
+    def _finish_early(self, first: int) -> None:
+        """Validate and checkpoint the last finished step of a run stopped by its deadline."""
+        self.say(f"time limit: stopped at step {self.step}/{self.config.train.steps}; rerun to resume")
+        if self.step == first:
+            return
+        if self.val and not any(h.get("step") == self.step and "val_psnr" in h for h in self.history):
+            self.history.append({"step": self.step, **validate(self.generator, self.val, self.domain)})
+        self.save_checkpoint()
+        if self.ranks.main:
+            plot_curves(self.history, self.out / "curves.png", f"{self.out.name}")
+
     def summary(self) -> dict:
         val = [h for h in self.history if "val_psnr" in h]
         base = [h["interp_psnr"] for h in self.history if "interp_psnr" in h]
         summary = {"steps": self.step, "train_seconds": round(self.seconds, 1),
                    "val_psnr": val[-1]["val_psnr"] if val else None, "val_interp_psnr": base[-1] if base else None,
-                   "train_scenes": len(self.train_seeds), "val_scenes": len(self.val)}
+                   "train_scenes": len(self.train_seeds), "val_scenes": len(self.val),
+                   "stopped_early": self.stopped_early}
         if self.ranks.distributed:
             summary.update(processes=self.ranks.world, rank_weights_sha256=getattr(self, "rank_digests", None))
         return summary
