@@ -179,6 +179,16 @@ def test_train_cli_minutes_several_datasets_and_export_to_a_path(tmp_path, capsy
     assert main([*argv[:-3], "--minutes", "0", "-q"]) == 2 and "--minutes must be positive" in capsys.readouterr().err
 
 
+@pytest.mark.skipif(torch.cuda.is_available(), reason="checks the message where torch sees no CUDA")
+def test_a_cuda_config_without_cuda_is_one_line(tmp_path, capsys):
+    from gmcpt.gan.cli import main
+
+    tiny_dataset(tmp_path / "data")
+    assert main(["--config", "gpu", "--dataset", str(tmp_path / "data"), "--out", str(tmp_path / "run"), "-q"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert "torch sees no CUDA" in error and len(error.splitlines()) == 1 and not (tmp_path / "run").exists()
+
+
 @pytest.mark.cuda
 def test_training_steps_run_on_cuda(tmp_path):
     from gmcpt.gan.train import Trainer, load_config

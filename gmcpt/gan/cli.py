@@ -91,6 +91,11 @@ def main(argv: list[str] | None = None) -> int:
         for folder in dataset_folders(config.train.dataset):
             if not (Path(folder) / "train").is_dir():
                 raise GmcptError(f"no dataset at {folder}; build it with `python -m gmcpt dataset --out {folder}`")
+        if config.train.device.startswith("cuda"):
+            import torch
+            if not torch.cuda.is_available():
+                raise GmcptError(f"the {config.train.device!r} device of config {args.config} is not here (torch sees "
+                                 "no CUDA); use --config cpu or --set 'train.device=\"cpu\"'")
         from .distributed import from_environment, stop
         try:
             ranks = from_environment()
