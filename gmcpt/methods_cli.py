@@ -24,6 +24,8 @@ def listing() -> str:
     lines += [f"  {name:<{width}}  {get_method(name).summary}" for name in methods()]
     lines += ["sample placements (--mask):"]
     lines += [f"  {name:<{width}}  {PLACEMENTS[name]}" for name in PATTERNS]
+    lines += ["or --budget B: B samples a pixel; a two_pass first pass chooses B/16 of the pixels at 16 spp "
+              "(sparse) or every pixel (dense)"]
     return "\n".join(lines)
 
 
