@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -113,7 +114,8 @@ def _remove_elements(root: ET.Element, ids: tuple[str, ...], path: Path) -> None
 
 
 def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
-               parameters: dict[str, str] | None = None, without: tuple[str, ...] = ()) -> mi.Scene:
+               parameters: dict[str, str] | None = None, without: tuple[str, ...] = (),
+               edit: Callable[[ET.Element], None] | None = None) -> mi.Scene:
     """Load a Mitsuba 3 XML scene, optionally at another resolution.
 
     Parameters
@@ -122,6 +124,8 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
     resolution : (width, height) replacing every sensor film's size.
     parameters : values for the scene's ``$name`` parameters (``<default>``).
     without : ids of top-level elements (shapes, emitters) to leave out.
+    edit : called with the parsed ``<scene>`` (includes inlined) last, to change it before loading
+        (e.g. the dataset's camera jitter, :mod:`gmcpt.dataset.real`).
     """
     path = Path(path)
     if not path.is_file():
@@ -132,7 +136,7 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         raise GmcptError(f"malformed scene XML {path}: {error}") from None
     if root.tag != "scene":
         raise GmcptError(f"{path} is not a Mitsuba scene (root element <{root.tag}>)")
-    if resolution is not None or without:
+    if resolution is not None or without or edit is not None:
         _inline_includes(root, (path.resolve().parent,))
         if not root.findall("./sensor"):
             raise _no_sensor(path)
@@ -140,6 +144,8 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         _set_film_size(root, *resolution)
     if without:
         _remove_elements(root, tuple(without), path)
+    if edit is not None:
+        edit(root)
     text = ET.tostring(root, encoding="unicode")
     try:
         with _resolving_from(path.resolve().parent), plugin_errors(f"cannot load scene {path}: "):

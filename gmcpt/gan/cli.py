@@ -24,7 +24,11 @@ def build_parser() -> argparse.ArgumentParser:
                     "Rerunning with the same --out resumes from its checkpoint.")
     parser.add_argument("--config", default="cpu", help="preset (cpu, gpu) or a JSON file")
     parser.add_argument("--out", help="run folder: checkpoint, curves.png, history.json (default: runs/gan-CONFIG)")
-    parser.add_argument("--dataset", help="dataset folder (default: the config's train.dataset)")
+    parser.add_argument("--dataset", action="append", metavar="DIR",
+                        help="dataset folder; repeat to pool several (default: the config's train.dataset)")
+    parser.add_argument("--init", metavar="WEIGHTS",
+                        help="start the generator from these weights (shipped name or .pt): fine-tune "
+                        "(default: the config's train.init, else random)")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=JSON",
                         help="override a config value, e.g. train.steps=100; repeatable (default: none)")
     parser.add_argument("--export", metavar="NAME", help="write the trained generator to gmcpt/gan/weights/NAME.pt (default: none)")
@@ -43,7 +47,9 @@ def _overrides(args) -> dict:
         except json.JSONDecodeError:
             overrides[key] = value
     if args.dataset:
-        overrides["train.dataset"] = args.dataset
+        overrides["train.dataset"] = args.dataset[0] if len(args.dataset) == 1 else args.dataset
+    if args.init:
+        overrides["train.init"] = args.init
     return overrides
 
 
@@ -51,14 +57,16 @@ def export(trainer, name: str, command: str) -> dict:
     """Save the trainer's generator as shipped weights ``name`` with full metadata."""
     from .weights import WEIGHTS_DIR, save_weights
 
-    dataset, seeds = trainer.config.train.dataset, trainer.train_seeds
-    manifest_path = Path(dataset) / "manifest.json"
-    manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
+    records = []
+    for dataset, seeds in zip(trainer.config.train.datasets, trainer.train_seeds):
+        manifest_path = Path(dataset) / "manifest.json"
+        manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
+        records.append({"path": str(dataset), "version": manifest.get("version"), "manifest": manifest,
+                        "train_seeds": [min(seeds), max(seeds)], "train_scenes": len(seeds)})
+    records[0]["val_seeds"] = [e["meta"]["seed"] for e in trainer.val]  # of all datasets, in order
     metadata = {"name": name, "command": command, "config": trainer.config.to_dict(),
-                "dataset": {"path": str(dataset), "version": manifest.get("version"), "manifest": manifest,
-                            "train_seeds": [min(seeds), max(seeds)],
-                            "train_scenes": len(seeds),
-                            "val_seeds": [e["meta"]["seed"] for e in trainer.val]},
+                # one dataset: its record, as before; several: a list of them
+                "dataset": records[0] if len(records) == 1 else records,
                 "training": trainer.summary(), "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
     return save_weights(WEIGHTS_DIR / f"{name}.pt", trainer.generator, metadata)
 
@@ -74,9 +82,9 @@ def main(argv: list[str] | None = None) -> int:
         except (OSError, ValueError, TypeError) as error:
             raise GmcptError(f"bad config {args.config}: {error}") from None
         out = Path(args.out or f"runs/gan-{Path(args.config).stem}")
-        if not (Path(config.train.dataset) / "train").is_dir():
-            raise GmcptError(f"no dataset at {config.train.dataset}; build it with `python -m gmcpt dataset "
-                             f"--out {config.train.dataset}`")
+        for dataset in config.train.datasets:
+            if not (Path(dataset) / "train").is_dir():
+                raise GmcptError(f"no dataset at {dataset}; build it with `python -m gmcpt dataset --out {dataset}`")
         from .distributed import from_environment, stop
         try:
             ranks = from_environment()
