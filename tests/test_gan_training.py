@@ -135,3 +135,69 @@ def test_presets_load():
     cpu, gpu = load_config("cpu"), load_config("gpu")
     assert cpu.train.device == "cpu" and gpu.train.device == "cuda"
     assert cpu.loss == gpu.loss == losses.LossWeights()
+
+
+TINY = {"train.steps": 1, "train.max_train_scenes": 0, "train.batch": 2, "train.crop": 16, "train.eval_every": 1,
+        "train.checkpoint_every": 1, "critic.widths": [8, 8], "generator.widths": [8, 8, 8],
+        "generator.encoder_blocks": [1, 1, 1], "generator.condition_width": 4}
+
+
+def test_several_datasets_pool_with_weights_and_export_each(tmp_path, monkeypatch):
+    from gmcpt.gan import cli, weights
+    from gmcpt.gan.train import Trainer, load_config
+
+    first, second = tmp_path / "procedural", tmp_path / "real"
+    tiny_dataset(first, count=2)
+    tiny_dataset(second, count=3)
+    both = [str(first), str(second)]
+    trainer = Trainer(load_config("cpu", {**TINY, "train.dataset": both}), tmp_path / "run", lambda m: None)
+    assert trainer.train_seeds == [[0, 1], [0, 1, 2]] and len(trainer.val) == 5
+    assert trainer.sampler.probabilities is None   # each scene equally likely, the one-dataset stream
+    weighted = Trainer(load_config("cpu", {**TINY, "train.dataset": both, "train.dataset_weights": [1, 3]}),
+                       tmp_path / "run2", lambda m: None)
+    np.testing.assert_allclose(weighted.sampler.probabilities, [1 / 8] * 2 + [1 / 4] * 3)
+    summary = weighted.run()
+    assert summary["train_scenes"] == 5
+    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    record = cli.export(weighted, "mix", "python -m gmcpt train ...")
+    assert [d["path"] for d in record["dataset"]] == both and [d["train_scenes"] for d in record["dataset"]] == [2, 3]
+    for bad in ([1], [1, -1], [0, 0]):
+        with pytest.raises(ValueError, match="train.dataset_weights must be 2 non-negative numbers"):
+            load_config("cpu", {**TINY, "train.dataset": both, "train.dataset_weights": bad})
+
+
+def test_init_starts_from_the_weights_and_refuses_another_architecture(tmp_path, monkeypatch):
+    from gmcpt.gan import cli, weights
+    from gmcpt.gan.train import Trainer, load_config
+
+    data = tmp_path / "data"
+    tiny_dataset(data)
+    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    source = Trainer(load_config("cpu", {**TINY, "train.dataset": str(data)}), tmp_path / "a", lambda m: None)
+    source.run()
+    cli.export(source, "start", "python -m gmcpt train ...")
+    tuned = Trainer(load_config("cpu", {**TINY, "train.dataset": str(data), "train.seed": 5,
+                                        "train.init": "start"}), tmp_path / "b", lambda m: None)
+    start, _ = weights.load_generator("start")
+    for name, tensor in start.state_dict().items():  # the stored (half-precision) weights, exactly
+        assert torch.equal(tuned.generator.state_dict()[name], tensor), name
+    with pytest.raises(ValueError, match="train.init: start has another generator config"):
+        Trainer(load_config("cpu", {**TINY, "train.dataset": str(data), "generator.condition_width": 8,
+                                    "train.init": "start"}), tmp_path / "c", lambda m: None)
+    with pytest.raises(ValueError, match="train.init: GAN weights not found"):
+        Trainer(load_config("cpu", {**TINY, "train.dataset": str(data), "train.init": "nothing"}),
+                tmp_path / "d", lambda m: None)
+
+
+def test_train_cli_pools_datasets_and_reports_a_missing_one(tmp_path, capsys):
+    from gmcpt.gan.cli import main
+
+    tiny_dataset(tmp_path / "one")
+    argv = ["--config", "cpu", "--dataset", str(tmp_path / "one"), "--dataset", str(tmp_path / "two"),
+            "--out", str(tmp_path / "r")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: no dataset at") and str(tmp_path / "two") in err and err.count("\n") == 1
+    assert main(argv[:2] + ["--dataset", str(tmp_path / "one"), "--init", "nothing", "--out", str(tmp_path / "r"),
+                            "--set", "train.max_train_scenes=0"]) == 2
+    assert "train.init: GAN weights not found" in capsys.readouterr().err
