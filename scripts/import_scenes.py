@@ -40,6 +40,7 @@ TRAINING_NAMES = ("bathroom", "bathroom2", "living-room-2", "spaceship")
 
 BITTERLI = "https://benedikt-bitterli.me/resources/"
 CC_BY = "CC BY 3.0, https://creativecommons.org/licenses/by/3.0/"
+CC0 = "CC0 1.0 (public domain), https://creativecommons.org/publicdomain/zero/1.0/"
 MITSUBA_SCENES = "https://www.mitsuba-renderer.org/download.html"
 
 
@@ -54,6 +55,15 @@ def _mitsuba_example(name: str) -> str:
 
 TRAINING_FRAMING = ("source camera and its rand_sceneN variants kept; the dataset builder (`gmcpt dataset --real`) "
                     "renders them square, jittered and cropped")
+
+def _bitterli_training(title: str, author: str, blend: int, licence: str, what: str) -> dict:
+    """A training-only scene from Bitterli's Rendering Resources, whose folder carries a LICENSE.txt."""
+    return dict(title=title, author=f"{author} (Blender scene, http://www.blendswap.com/blends/view/{blend})",
+                licence=licence, framing=TRAINING_FRAMING,
+                provenance=f"Benedikt Bitterli's Rendering Resources ({BITTERLI}), Mitsuba version; licence from "
+                           "the folder's LICENSE.txt (copied here).",
+                use=f"Training only (GAN data, never evaluated): {what}")
+
 
 #: what is known of each scene's origin, and how its camera frames a 256x256 and the native film
 SCENES = {
@@ -107,13 +117,8 @@ SCENES = {
         provenance="dppm-scenes folder `torus`; the scene file says 'Automatically converted from Rhino 5.0'.",
         notes="sun and sky on a floor, the torus inside a glass cube: mostly caustics and refraction",
         framing=_camera_kept("34.6 on x", "1024x768", "keeps its width and adds floor")),
-    "bathroom": dict(
-        title="Contemporary Bathroom", author="Mareck (Blender scene, http://www.blendswap.com/blends/view/75302)",
-        licence="CC0 1.0 (public domain), https://creativecommons.org/publicdomain/zero/1.0/",
-        provenance="Benedikt Bitterli's Rendering Resources (" + BITTERLI + "), Mitsuba version; licence from the "
-                   "folder's LICENSE.txt (copied here).",
-        use="Training only (GAN data, never evaluated): a small bathroom lit by one area light",
-        framing=TRAINING_FRAMING),
+    "bathroom": _bitterli_training("Contemporary Bathroom", "Mareck", 75302, CC0,
+                                   "a small bathroom lit by one area light"),
     "bathroom2": dict(
         title="Bathroom (tiles, mirror, glass)", author="not stated in the source",
         licence="not stated: no licence file in the source; used only to render training data here, "
@@ -122,20 +127,10 @@ SCENES = {
         use="Training only (GAN data, never evaluated): tiled bathroom lit by a window area light; its "
             "environment texture is missing from the snapshot, so a uniform grey takes its place",
         framing=TRAINING_FRAMING),
-    "living-room-2": dict(
-        title="The White Room", author="Jay-Artist (Blender scene, http://www.blendswap.com/blends/view/41683)",
-        licence=CC_BY,
-        provenance="Benedikt Bitterli's Rendering Resources (" + BITTERLI + "), Mitsuba version; licence from the "
-                   "folder's LICENSE.txt (copied here).",
-        use="Training only (GAN data, never evaluated): white living room lit through its windows",
-        framing=TRAINING_FRAMING),
-    "spaceship": dict(
-        title="4060.b Spaceship", author="thecali (Blender scene, http://www.blendswap.com/blends/view/75686)",
-        licence="CC0 1.0 (public domain), https://creativecommons.org/publicdomain/zero/1.0/",
-        provenance="Benedikt Bitterli's Rendering Resources (" + BITTERLI + "), Mitsuba version; licence from the "
-                   "folder's LICENSE.txt (copied here).",
-        use="Training only (GAN data, never evaluated): a studio model under area lights, not an interior",
-        framing=TRAINING_FRAMING),
+    "living-room-2": _bitterli_training("The White Room", "Jay-Artist", 41683, CC_BY,
+                                        "white living room lit through its windows"),
+    "spaceship": _bitterli_training("4060.b Spaceship", "thecali", 75686, CC0,
+                                    "a studio model under area lights, not an interior"),
 }
 
 
