@@ -63,6 +63,24 @@ def _inline_includes(root: ET.Element, folders: tuple[Path, ...], depth: int = 0
     return included_files
 
 
+@contextlib.contextmanager
+def _loading_threads():
+    """At least two Dr.Jit threads while Mitsuba loads a scene: with one (``dr.set_thread_count(1)``, as
+    ``--threads 1`` sets), reading an EXR file (an environment map, a texture) never returns: OpenEXR's
+    reader waits on work the single pool thread cannot take (Mitsuba 3.9.1, living-room's envmap)."""
+    import drjit as dr
+
+    count = dr.thread_count()
+    if count >= 2:
+        yield
+        return
+    dr.set_thread_count(2)
+    try:
+        yield
+    finally:
+        dr.set_thread_count(count)
+
+
 def _set_film_size(root: ET.Element, width: int, height: int) -> None:
     for sensor in root.findall("./sensor"):
         film = sensor.find("film")
@@ -148,7 +166,7 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         edit(root)
     text = ET.tostring(root, encoding="unicode")
     try:
-        with _resolving_from(path.resolve().parent), plugin_errors(f"cannot load scene {path}: "):
+        with _resolving_from(path.resolve().parent), plugin_errors(f"cannot load scene {path}: "), _loading_threads():
             scene = mi.load_string(text, **(parameters or {}))
     except GmcptError:
         raise
