@@ -218,6 +218,7 @@ def real_root(tmp_path):
 def test_real_scene_files_refuse_held_out_and_evaluation_scenes(tmp_path, real_root):
     from gmcpt.dataset.real import real_scene_files
     from gmcpt.errors import GmcptError
+    from gmcpt.evaluation.scenes import evaluation_folder_names
 
     assert real_scene_files(real_root) == ("room-a/scene.xml", "room-a/rand_scene0.xml", "room-b/scene.xml")
     for bad, words in ((tmp_path / "nowhere", "not found"), (tmp_path, "no scene files")):
@@ -227,7 +228,7 @@ def test_real_scene_files_refuse_held_out_and_evaluation_scenes(tmp_path, real_r
         (real_root / name).mkdir()
         (real_root / name / "scene.xml").write_text("<scene/>")
         with pytest.raises(GmcptError, match=f"holds {name}: held-out and evaluation scenes are never trained on"):
-            real_scene_files(real_root)
+            real_scene_files(real_root, evaluation_folder_names())
         (real_root / name / "scene.xml").unlink()
         (real_root / name).rmdir()
 

@@ -176,11 +176,27 @@ def example_meta(seed: int, split: SplitSpec, spec: DatasetSpec, rate: float, fu
             "seconds": time.perf_counter() - start}
 
 
+def _render_real_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
+    """One example of the ``real`` layout: a view (:func:`gmcpt.dataset.real.draw_view`) of one of the scene files,
+    its light scaled to a drawn level."""
+    from ..scene import load_scene
+    from .real import draw_view
+
+    start = time.perf_counter()
+    view = draw_view(seed, spec.real_files, split.resolution, spec.exposure_range)
+    scene = load_scene(Path(spec.real_root) / view.file, (view.side, view.side), edit=view.edit(split.resolution))
+    reference, rate, frame, full = render_frames(scene, seed, split, spec)
+    level = float(np.percentile(reference.mean(axis=-1), 95))
+    scale = float(np.clip(view.target / max(level, 1e-6), 1e-3, 1e4))
+    meta = example_meta(seed, split, spec, rate, full, start, scene=view.file, light_scale=scale, yaw=view.yaw,
+                        pitch=view.pitch, film_side=view.side, crop_offset=list(view.offset))
+    return {"arrays": example_arrays(reference, frame, full, scale), "meta": meta}
+
+
 def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
     """Render one scene's arrays and metadata (see the module docstring)."""
     if spec.layout == "real":
-        from .real import render_real_example
-        return render_real_example(seed, split, spec)
+        return _render_real_example(seed, split, spec)
     from .scenes import build_scene
 
     start = time.perf_counter()

@@ -57,10 +57,11 @@ def spec_from_args(args) -> "DatasetSpec":  # noqa: F821
     if args.real is not None:
         from pathlib import Path
 
+        from ..evaluation.scenes import evaluation_folder_names
         from .real import real_scene_files
         if args.test:
             raise GmcptError("--real builds train and val splits only (--test 0): evaluation scenes are never trained on")
-        real = dict(layout="real", real_root=str(Path(args.real).resolve()), real_files=real_scene_files(args.real))
+        real = dict(layout="real", real_root=str(Path(args.real).resolve()), real_files=real_scene_files(args.real, evaluation_folder_names()))
     return DatasetSpec(splits=tuple(s for s in splits if s.count > 0), spp=args.spp,
                        rate_range=tuple(args.rate), **real)
 

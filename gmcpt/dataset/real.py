@@ -23,7 +23,6 @@ The scenes used by the evaluation (:mod:`gmcpt.evaluation.scenes`) and the held-
 """
 from __future__ import annotations
 
-import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,24 +38,17 @@ YAW, PITCH, ZOOM = 12.0, 6.0, 2.0
 VIEW_STREAM = 0x5CE4E
 
 
-def evaluation_names() -> set[str]:
-    """Folder names of the scenes the evaluation measures (real ones and the breakfast room)."""
-    from ..evaluation.scenes import ALL_SCENES
-
-    return {scene.path.parent.name for scene in ALL_SCENES if scene.real} | {scene.name for scene in ALL_SCENES}
-
-
-def real_scene_files(root: str | Path) -> tuple[str, ...]:
+def real_scene_files(root: str | Path, refused: frozenset[str] = frozenset()) -> tuple[str, ...]:
     """The sorted scene files under ``root`` (``FOLDER/scene.xml``, ``FOLDER/rand_sceneN.xml``), relative to it.
 
-    Raises :class:`~gmcpt.errors.GmcptError` for a missing folder, no scene file, or a held-out or
-    evaluation scene among them.
+    Raises :class:`~gmcpt.errors.GmcptError` for a missing folder, no scene file, or a held-out scene or one
+    of ``refused`` (folder names: the evaluation's scenes, which the dataset CLI passes) among them.
     """
     root = Path(root)
     if not root.is_dir():
         raise GmcptError(f"real scene folder not found: {root}")
     folders = sorted(path for path in root.iterdir() if path.is_dir() and (path / "scene.xml").is_file())
-    refused = [f.name for f in folders if f.name in HELD_OUT or f.name in evaluation_names()]
+    refused = [f.name for f in folders if f.name in HELD_OUT or f.name in refused]
     if refused:
         raise GmcptError(f"{root} holds {', '.join(refused)}: held-out and evaluation scenes are never trained on")
     files = [path.relative_to(root).as_posix() for folder in folders
@@ -105,19 +97,3 @@ def draw_view(seed: int, files: tuple[str, ...], resolution: int, exposure_range
     side = int(rng.integers(resolution, int(resolution * ZOOM) + 1))
     offset = (int(rng.integers(side - resolution + 1)), int(rng.integers(side - resolution + 1)))
     return View(file, yaw, pitch, side, offset, float(rng.uniform(*exposure_range)))
-
-
-def render_real_example(seed: int, split, spec) -> dict:
-    """One example's arrays and metadata (the module docstring; ``spec.layout`` is ``real``)."""
-    from ..scene import load_scene
-    from .build import example_arrays, example_meta, render_frames
-
-    start = time.perf_counter()
-    view = draw_view(seed, spec.real_files, split.resolution, spec.exposure_range)
-    scene = load_scene(Path(spec.real_root) / view.file, (view.side, view.side), edit=view.edit(split.resolution))
-    reference, rate, frame, full = render_frames(scene, seed, split, spec)
-    level = float(np.percentile(reference.mean(axis=-1), 95))
-    scale = float(np.clip(view.target / max(level, 1e-6), 1e-3, 1e4))
-    meta = example_meta(seed, split, spec, rate, full, start, scene=view.file, light_scale=scale, yaw=view.yaw,
-                        pitch=view.pitch, film_side=view.side, crop_offset=list(view.offset))
-    return {"arrays": example_arrays(reference, frame, full, scale), "meta": meta}
