@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -62,6 +63,24 @@ def _inline_includes(root: ET.Element, folders: tuple[Path, ...], depth: int = 0
     return included_files
 
 
+@contextlib.contextmanager
+def _loading_threads():
+    """At least two Dr.Jit threads while Mitsuba loads a scene: with one (``dr.set_thread_count(1)``, as
+    ``--threads 1`` sets), reading an EXR file (an environment map, a texture) never returns: OpenEXR's
+    reader waits on work the single pool thread cannot take (Mitsuba 3.9.1, living-room's envmap)."""
+    import drjit as dr
+
+    count = dr.thread_count()
+    if count >= 2:
+        yield
+        return
+    dr.set_thread_count(2)
+    try:
+        yield
+    finally:
+        dr.set_thread_count(count)
+
+
 def _set_film_size(root: ET.Element, width: int, height: int) -> None:
     for sensor in root.findall("./sensor"):
         film = sensor.find("film")
@@ -113,7 +132,8 @@ def _remove_elements(root: ET.Element, ids: tuple[str, ...], path: Path) -> None
 
 
 def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
-               parameters: dict[str, str] | None = None, without: tuple[str, ...] = ()) -> mi.Scene:
+               parameters: dict[str, str] | None = None, without: tuple[str, ...] = (),
+               edit: Callable[[ET.Element], None] | None = None) -> mi.Scene:
     """Load a Mitsuba 3 XML scene, optionally at another resolution.
 
     Parameters
@@ -122,6 +142,8 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
     resolution : (width, height) replacing every sensor film's size.
     parameters : values for the scene's ``$name`` parameters (``<default>``).
     without : ids of top-level elements (shapes, emitters) to leave out.
+    edit : called with the parsed ``<scene>`` (includes inlined) last, to change it before loading
+        (e.g. the dataset's camera jitter, :mod:`gmcpt.dataset.real`).
     """
     path = Path(path)
     if not path.is_file():
@@ -132,7 +154,7 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         raise GmcptError(f"malformed scene XML {path}: {error}") from None
     if root.tag != "scene":
         raise GmcptError(f"{path} is not a Mitsuba scene (root element <{root.tag}>)")
-    if resolution is not None or without:
+    if resolution is not None or without or edit is not None:
         _inline_includes(root, (path.resolve().parent,))
         if not root.findall("./sensor"):
             raise _no_sensor(path)
@@ -140,9 +162,11 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         _set_film_size(root, *resolution)
     if without:
         _remove_elements(root, tuple(without), path)
+    if edit is not None:
+        edit(root)
     text = ET.tostring(root, encoding="unicode")
     try:
-        with _resolving_from(path.resolve().parent), plugin_errors(f"cannot load scene {path}: "):
+        with _resolving_from(path.resolve().parent), plugin_errors(f"cannot load scene {path}: "), _loading_threads():
             scene = mi.load_string(text, **(parameters or {}))
     except GmcptError:
         raise

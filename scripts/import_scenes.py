@@ -9,6 +9,8 @@ source, author and licence. The README contract: **every change the importer mak
 one line of its README** (a renamed, translated or dropped plugin or parameter, a substituted
 ``$variable``), identical changes counted on one line. ``--variants`` also writes
 the source's ``NAME_rand_sceneN.xml`` as ``OUT/NAME/rand_sceneN.xml``, translated the same way.
+``--drop-missing`` drops a shape whose mesh file is absent from the source (a partial snapshot) instead
+of failing: meant for the training-only scenes (``TRAINING_NAMES``), never for evaluation ones.
 
 Without ``--source`` the repository is cloned sparsely into ``data/dppm-scenes`` (only the named
 folders). The folders ``classroom`` and ``staircase`` are held out for independent checks and are
@@ -33,9 +35,12 @@ ROOT = Path(__file__).resolve().parents[1]
 REPOSITORY = "https://github.com/hchoi405/dppm-scenes"
 DEFAULT_NAMES = ("dining-room", "living-room", "sponza", "veach-lamp")
 HELD_OUT = ("classroom", "staircase")
+#: scenes imported only for the GAN's training data (``gmcpt dataset --real``): none is an evaluation scene
+TRAINING_NAMES = ("bathroom", "bathroom2", "living-room-2", "spaceship")
 
 BITTERLI = "https://benedikt-bitterli.me/resources/"
 CC_BY = "CC BY 3.0, https://creativecommons.org/licenses/by/3.0/"
+CC0 = "CC0 1.0 (public domain), https://creativecommons.org/publicdomain/zero/1.0/"
 MITSUBA_SCENES = "https://www.mitsuba-renderer.org/download.html"
 
 
@@ -46,6 +51,18 @@ def _camera_kept(fov: str, native: str, square: str) -> str:
 def _mitsuba_example(name: str) -> str:
     return (f"not stated: no licence file in the source; it appears to be the Mitsuba 0.6 example scene `{name}` "
             f"({MITSUBA_SCENES}), published for use with Mitsuba")
+
+
+TRAINING_FRAMING = ("source camera and its rand_sceneN variants kept; the dataset builder (`gmcpt dataset --real`) "
+                    "renders them square, jittered and cropped")
+
+def _bitterli_training(title: str, author: str, blend: int, licence: str, what: str) -> dict:
+    """A training-only scene from Bitterli's Rendering Resources, whose folder carries a LICENSE.txt."""
+    return dict(title=title, author=f"{author} (Blender scene, http://www.blendswap.com/blends/view/{blend})",
+                licence=licence, framing=TRAINING_FRAMING,
+                provenance=f"Benedikt Bitterli's Rendering Resources ({BITTERLI}), Mitsuba version; licence from "
+                           "the folder's LICENSE.txt (copied here).",
+                use=f"Training only (GAN data, never evaluated): {what}")
 
 
 #: what is known of each scene's origin, and how its camera frames a 256x256 and the native film
@@ -100,6 +117,20 @@ SCENES = {
         provenance="dppm-scenes folder `torus`; the scene file says 'Automatically converted from Rhino 5.0'.",
         notes="sun and sky on a floor, the torus inside a glass cube: mostly caustics and refraction",
         framing=_camera_kept("34.6 on x", "1024x768", "keeps its width and adds floor")),
+    "bathroom": _bitterli_training("Contemporary Bathroom", "Mareck", 75302, CC0,
+                                   "a small bathroom lit by one area light"),
+    "bathroom2": dict(
+        title="Bathroom (tiles, mirror, glass)", author="not stated in the source",
+        licence="not stated: no licence file in the source; used only to render training data here, "
+                "never published as images",
+        provenance="dppm-scenes folder `bathroom2` (its meshes are Mitsuba `.serialized` files).",
+        use="Training only (GAN data, never evaluated): tiled bathroom lit by a window area light; its "
+            "environment texture is missing from the snapshot, so a uniform grey takes its place",
+        framing=TRAINING_FRAMING),
+    "living-room-2": _bitterli_training("The White Room", "Jay-Artist", 41683, CC_BY,
+                                        "white living room lit through its windows"),
+    "spaceship": _bitterli_training("4060.b Spaceship", "thecali", 75686, CC0,
+                                    "a studio model under area lights, not an interior"),
 }
 
 
@@ -328,10 +359,21 @@ def conductor_ext_eta(element: ET.Element, changes: Changes) -> None:
     changes.add(f"folded `ext_eta` = {value} into `eta` and `k` of {element.get('type')} (Mitsuba 3 has no ext_eta)")
 
 
+def rough_distribution(element: ET.Element, changes: Changes) -> None:
+    """Mitsuba 3 microfacets are ``beckmann`` or ``ggx``: 0.6's ``phong`` (its alpha is a Beckmann-equivalent
+    roughness, converted to an exponent inside 0.6) becomes ``beckmann`` with the same alpha."""
+    node = _param(element, "distribution")
+    if node is not None and node.get("value") not in ("beckmann", "ggx"):
+        changes.add(f"{element.get('type')} distribution `{node.get('value')}` became `beckmann` (same alpha)")
+        node.set("value", "beckmann")
+
+
 def smooth_alpha(element: ET.Element, changes: Changes) -> None:
-    """A smooth ``conductor``/``dielectric`` has no roughness: Mitsuba 0.6 ignored ``alpha`` there, 3 refuses it."""
-    if _pop(element, "alpha") is not None:
-        changes.add(f"dropped `alpha` on the smooth {element.get('type')} (ignored by Mitsuba 0.6 as well)")
+    """A smooth ``conductor``/``dielectric`` has no roughness: Mitsuba 0.6 ignored ``alpha`` and ``distribution``
+    there, 3 refuses them."""
+    for name in ("alpha", "distribution"):
+        if _pop(element, name) is not None:
+            changes.add(f"dropped `{name}` on the smooth {element.get('type')} (ignored by Mitsuba 0.6 as well)")
 
 
 def bitmap_filter(element: ET.Element, changes: Changes) -> None:
@@ -340,6 +382,24 @@ def bitmap_filter(element: ET.Element, changes: Changes) -> None:
     if node is not None and node.get("value") not in ("bilinear", "nearest"):
         changes.add(f"bitmap `filter_type` `{node.get('value')}` became `bilinear` (Mitsuba 3 has no mip-mapping)")
         node.set("value", "bilinear")
+
+
+def bitmap_gamma(element: ET.Element, changes: Changes) -> None:
+    """Mitsuba 3 bitmaps have no ``gamma``: 1 (linear data) becomes ``raw``; any other value is dropped and the
+    file read as Mitsuba 3 reads it (sRGB for 8-bit images, linear for EXR), the nearest it offers."""
+    node = _pop(element, "gamma")
+    if node is None:
+        return
+    if abs(float(node.get("value")) - 1) < 1e-6:
+        element.append(ET.Element("boolean", name="raw", value="true"))
+        changes.add("bitmap `gamma` 1 became `raw` true (linear values)")
+    else:
+        changes.add(f"bitmap `gamma` {node.get('value')} dropped (Mitsuba 3 has no gamma; its file's own encoding is used)")
+
+
+def bitmap_texture(element: ET.Element, changes: Changes) -> None:
+    bitmap_filter(element, changes)
+    bitmap_gamma(element, changes)
 
 
 def sunsky_emitter(element: ET.Element, changes: Changes) -> None:
@@ -373,6 +433,16 @@ def ldsampler_sampler(element: ET.Element, changes: Changes) -> None:
     changes.add("sampler `ldsampler` became `independent`")
 
 
+def hex_colours(root: ET.Element, changes: Changes) -> None:
+    """Mitsuba 3 reads no ``#rrggbb``: each becomes three floats (channel / 255) in the same tag, as 0.6
+    read it, so an ``<srgb>`` is still linearised after this and an ``<rgb>`` stays linear."""
+    for node in root.iter():
+        value = node.get("value", "").strip() if node.tag in ("rgb", "srgb") else ""
+        if re.fullmatch(r"#[0-9a-fA-F]{6}", value):
+            node.set("value", " ".join(f"{int(value[i:i + 2], 16) / 255:.6g}" for i in (1, 3, 5)))
+            changes.add(f"`<{node.tag}>` hexadecimal colour became three floats (channel / 255)")
+
+
 def srgb_colour(root: ET.Element, changes: Changes) -> None:
     """Mitsuba 3 has no ``<srgb>``: gamma-encoded sRGB values are linearised into ``<rgb>``."""
     for node in root.iter("srgb"):
@@ -390,9 +460,11 @@ PLUGIN_RULES = {
     ("bsdf", "roughdiffuse"): roughdiffuse_bsdf,
     ("bsdf", "diffuse"): diffuse_alias,
     ("bsdf", "conductor"): lambda e, c: (conductor_ext_eta(e, c), smooth_alpha(e, c)),
-    ("bsdf", "roughconductor"): conductor_ext_eta,
+    ("bsdf", "roughconductor"): lambda e, c: (conductor_ext_eta(e, c), rough_distribution(e, c)),
+    ("bsdf", "roughdielectric"): rough_distribution,
+    ("bsdf", "roughplastic"): rough_distribution,
     ("bsdf", "dielectric"): smooth_alpha,
-    ("texture", "bitmap"): bitmap_filter,
+    ("texture", "bitmap"): bitmap_texture,
     ("emitter", "sunsky"): sunsky_emitter,
     ("film", "ldrfilm"): ldrfilm_film,
     ("sampler", "ldsampler"): ldsampler_sampler,
@@ -429,6 +501,7 @@ def translate(root: ET.Element, changes: Changes) -> None:
     substitute_variables(root, changes)
     if not version.startswith(("2.", "3.")):
         rename_parameters(root, changes)
+    hex_colours(root, changes)
     srgb_colour(root, changes)
     spectrum_triples(root, changes)
     coatings(root, changes)
@@ -440,10 +513,12 @@ def translate(root: ET.Element, changes: Changes) -> None:
 # ---------------------------------------------------------------- files
 
 
-def referenced_files(root: ET.Element, source: Path, changes: Changes) -> list[str]:
+def referenced_files(root: ET.Element, source: Path, changes: Changes, drop_missing: bool = False) -> list[str]:
     """The relative file names the scene reads; a texture outside the scene's folder becomes mid grey.
 
     The repository's shared texture pool is not used: it mixes in files of the held-out scenes.
+    ``drop_missing``: a shape whose file is missing is removed (the mirror of the repository lacks
+    its largest blobs) instead of failing the import.
     """
     names = []
     for parent in list(root.iter()):
@@ -462,9 +537,16 @@ def referenced_files(root: ET.Element, source: Path, changes: Changes) -> list[s
                 parent.attrib.update(kept, type="uniform")
                 parent.append(ET.Element("float", name="value", value="0.5"))
                 changes.add(f"texture `{name}` is not in the scene's folder: replaced by a uniform 0.5")
+            elif drop_missing and parent.tag == "shape" and (holder := _parents(root).get(parent)) is not None:
+                holder.remove(parent)
+                changes.add(f"shape file `{name}` is missing from the source snapshot: the shape was dropped")
             else:
                 raise SceneImportError(f"{source} references {name}, which is missing")
     return names
+
+
+def _parents(root: ET.Element) -> dict[ET.Element, ET.Element]:
+    return {child: parent for parent in root.iter() for child in parent}
 
 
 def link_or_copy(source: Path, target: Path) -> None:
@@ -482,14 +564,14 @@ def write_readme(folder: Path, name: str, lines: dict[str, list[str]]) -> None:
             f"- Licence: {info['licence']}",
             f"- Source: {REPOSITORY} (folder `scenes/{name}`), {info['provenance']}",
             f"- Framing: {info['framing']}.",
-            f"- As an evaluation scene: {info['notes']}.",
+            f"- As an evaluation scene: {info['notes']}." if "notes" in info else f"- {info['use']}.",
             "- Imported into Mitsuba 3 by gmcpt's `scripts/import_scenes.py`.", ""]
     for file, changes in lines.items():
         text += [f"## Changes in `{file}` (one line each)", ""] + [f"- {line}" for line in changes] + [""]
     (folder / "README.md").write_text("\n".join(text))
 
 
-def import_scene(source_root: Path, out: Path, name: str, variants: bool) -> Path:
+def import_scene(source_root: Path, out: Path, name: str, variants: bool, drop_missing: bool = False) -> Path:
     """Build ``out/name`` in a temporary folder beside it and rename it into place."""
     source = source_root / "scenes" / name
     if not (source / "scene.xml").is_file():
@@ -517,7 +599,7 @@ def import_scene(source_root: Path, out: Path, name: str, variants: bool) -> Pat
                 translate(root, changes)
             except (ValueError, AttributeError) as error:  # a malformed value in the source
                 raise SceneImportError(f"cannot translate {path}: {error}") from None
-            assets.update(referenced_files(root, source, changes))
+            assets.update(referenced_files(root, source, changes, drop_missing))
             ET.indent(root, space="\t")
             ET.ElementTree(root).write(build / target, encoding="utf-8", xml_declaration=True)
             readme[target] = changes.lines()
@@ -575,6 +657,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "data" / "real-scenes",
                         help="folder of the imported scenes (default: data/real-scenes, where the evaluation looks)")
     parser.add_argument("--variants", action="store_true", help="also import the *_rand_sceneN.xml variants")
+    parser.add_argument("--drop-missing", action="store_true",
+                        help="drop a shape whose mesh file the source lacks, not fail (training scenes only)")
     args = parser.parse_args(argv)
     names = args.names or list(DEFAULT_NAMES)
     try:
@@ -587,7 +671,7 @@ def main(argv: list[str] | None = None) -> int:
         if not source.is_dir():
             raise SceneImportError(f"source folder not found: {source}")
         for name in names:
-            print(import_scene(source, args.out, name, args.variants) / "scene.xml")
+            print(import_scene(source, args.out, name, args.variants, args.drop_missing) / "scene.xml")
     except SceneImportError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2

@@ -198,3 +198,93 @@ def test_dataset_on_ray_writes_the_bits_of_a_one_process_build(tmp_path):
         assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a if k != "meta")
         assert {k: v for k, v in a["meta"].items() if k != "seconds"} == \
             {k: v for k, v in b["meta"].items() if k != "seconds"}
+
+
+@pytest.fixture
+def real_root(tmp_path):
+    """Two 'real' scene folders as scripts/import_scenes.py lays them out (the bundled Cornell box, twice)."""
+    import shutil
+
+    from conftest import ROOT
+
+    root = tmp_path / "scenes"
+    for folder in ("room-a", "room-b"):
+        (root / folder).mkdir(parents=True)
+        shutil.copy(ROOT / "scenes" / "cornell-box" / "scene.xml", root / folder / "scene.xml")
+    shutil.copy(ROOT / "scenes" / "cornell-box" / "scene.xml", root / "room-a" / "rand_scene0.xml")
+    return root
+
+
+def test_real_scene_files_refuse_held_out_and_evaluation_scenes(tmp_path, real_root):
+    from gmcpt.dataset.real import real_scene_files
+    from gmcpt.errors import GmcptError
+    from gmcpt.evaluation.scenes import evaluation_folder_names
+
+    assert real_scene_files(real_root) == ("room-a/scene.xml", "room-a/rand_scene0.xml", "room-b/scene.xml")
+    for bad, words in ((tmp_path / "nowhere", "not found"), (tmp_path, "no scene files")):
+        with pytest.raises(GmcptError, match=words):
+            real_scene_files(bad)
+    for name in ("classroom", "staircase", "living-room", "sponza", "breakfast-room"):
+        (real_root / name).mkdir()
+        (real_root / name / "scene.xml").write_text("<scene/>")
+        with pytest.raises(GmcptError, match=f"holds {name}: held-out and evaluation scenes are never trained on"):
+            real_scene_files(real_root, evaluation_folder_names())
+        (real_root / name / "scene.xml").unlink()
+        (real_root / name).rmdir()
+
+
+def test_real_views_are_seeded_and_in_range():
+    from gmcpt.dataset.real import PITCH, YAW, ZOOM, draw_view
+
+    files = ("a/scene.xml", "a/rand_scene0.xml", "b/scene.xml")
+    views = [draw_view(seed, files, 16, (0.4, 1.2)) for seed in range(200)]
+    assert views[7] == draw_view(7, files, 16, (0.4, 1.2))
+    assert {v.file for v in views} == set(files)
+    for view in views:
+        assert abs(view.yaw) <= YAW and abs(view.pitch) <= PITCH and 16 <= view.side <= 16 * ZOOM
+        assert all(0 <= o <= view.side - 16 for o in view.offset) and 0.4 <= view.target <= 1.2
+    assert len({v.side for v in views}) > 5 and len({v.offset for v in views}) > 50
+
+
+def test_real_build_is_a_crop_of_the_view_scaled_to_its_target(mi, tmp_path, real_root):
+    from gmcpt.dataset import DatasetSpec, SplitSpec, build, list_examples, load_example
+    import dataclasses
+
+    from gmcpt.dataset.real import draw_view, real_scene_files
+    from gmcpt.render import render_features
+    from gmcpt.scene import load_scene
+
+    files = real_scene_files(real_root)
+    spec = DatasetSpec(splits=(SplitSpec("train", 2, 16, 16),), pass_spp=8, layout="real",
+                       real_root=str(real_root), real_files=files)
+    build(tmp_path / "a", spec, workers=0, say=lambda m: None)
+    build(tmp_path / "b", spec, workers=0, say=lambda m: None)
+    for path in list_examples(tmp_path / "a", "train"):
+        example, again = load_example(path), load_example(tmp_path / "b" / "train" / path.name)
+        for key in ("reference", "radiance", "full_radiance", "variance", "albedo", "depth"):
+            np.testing.assert_array_equal(example[key], again[key])  # a pure function of the seed
+        meta, view = example["meta"], draw_view(example["meta"]["seed"], files, 16, spec.exposure_range)
+        assert (meta["scene"], meta["film_side"], tuple(meta["crop_offset"])) == (view.file, view.side, view.offset)
+        assert example["reference"].shape == example["albedo"].shape == (16, 16, 3)
+        # the light scale puts the reference's 95th luminance percentile at the view's target
+        assert np.percentile(example["reference"].mean(-1), 95) == pytest.approx(view.target, rel=1e-4)
+        # the crop is the view's window: the same turned camera, uncropped, holds it at the offset
+        whole = dataclasses.replace(view, offset=(0, 0))
+        scene = load_scene(real_root / view.file, (view.side, view.side), edit=whole.edit(view.side))
+        albedo = render_features(scene, scene.sensors()[0], 16, 0)["albedo"]
+        x, y = view.offset
+        assert np.abs(albedo[y:y + 16, x:x + 16] - example["albedo"]).mean() < 0.03
+        assert np.abs(albedo[y:y + 16, x:x + 16][:, ::-1] - example["albedo"]).mean() > 0.03 or view.yaw == 0
+    with pytest.raises(ValueError, match="built with the scene layout real; this build renders mixed"):
+        build(tmp_path / "a", DatasetSpec(splits=(SplitSpec("train", 1, 16, 16),)), workers=0, say=lambda m: None)
+
+
+def test_cli_real_bad_values_are_one_line(tmp_path, capsys, real_root):
+    from gmcpt.dataset.cli import main
+
+    for argv, words in ((["--real", str(tmp_path / "none")], "real scene folder not found"),
+                        (["--real", str(real_root), "--test", "2"], "--real builds train and val splits only")):
+        assert main(["--out", str(tmp_path / "d"), *argv]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("error: ") and words in err and err.count("\n") == 1
+    assert not (tmp_path / "d").exists()

@@ -137,9 +137,74 @@ def test_presets_load():
     assert cpu.loss == gpu.loss == losses.LossWeights()
 
 
-TINY = {"train.max_train_scenes": 0, "train.batch": 2, "train.crop": 16, "train.eval_every": 1000,
-        "train.checkpoint_every": 1000, "critic.widths": [8, 8], "generator.widths": [8, 8, 8],
+TINY = {"train.steps": 1, "train.max_train_scenes": 0, "train.batch": 2, "train.crop": 16, "train.eval_every": 1,
+        "train.checkpoint_every": 1, "critic.widths": [8, 8], "generator.widths": [8, 8, 8],
         "generator.encoder_blocks": [1, 1, 1], "generator.condition_width": 4}
+
+
+#: a run that stops on a deadline, not on a step count
+LONG = {"train.steps": 100000, "train.eval_every": 1000, "train.checkpoint_every": 1000}
+
+
+def test_several_datasets_pool_with_weights_and_export_each(tmp_path, monkeypatch):
+    from gmcpt.gan import cli, weights
+    from gmcpt.gan.train import Trainer, load_config
+
+    first, second = tmp_path / "procedural", tmp_path / "real"
+    tiny_dataset(first, count=2)
+    tiny_dataset(second, count=3)
+    both = [str(first), str(second)]
+    trainer = Trainer(load_config("cpu", {**TINY, "train.dataset": both}), tmp_path / "run", lambda m: None)
+    assert trainer.train_seeds == [[0, 1], [0, 1, 2]] and len(trainer.val) == 5
+    assert trainer.sampler.probabilities is None   # each scene equally likely, the one-dataset stream
+    weighted = Trainer(load_config("cpu", {**TINY, "train.dataset": both, "train.dataset_weights": [1, 3]}),
+                       tmp_path / "run2", lambda m: None)
+    np.testing.assert_allclose(weighted.sampler.probabilities, [1 / 8] * 2 + [1 / 4] * 3)
+    summary = weighted.run()
+    assert summary["train_scenes"] == 5
+    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    record = cli.export(weighted, "mix", "python -m gmcpt train ...")
+    assert [d["path"] for d in record["dataset"]] == both and [d["train_scenes"] for d in record["dataset"]] == [2, 3]
+    for bad in ([1], [1, -1], [0, 0]):
+        with pytest.raises(ValueError, match="train.dataset_weights must be 2 non-negative numbers"):
+            load_config("cpu", {**TINY, "train.dataset": both, "train.dataset_weights": bad})
+
+
+def test_init_starts_from_the_weights_and_refuses_another_architecture(tmp_path, monkeypatch):
+    from gmcpt.gan import cli, weights
+    from gmcpt.gan.train import Trainer, load_config
+
+    data = tmp_path / "data"
+    tiny_dataset(data)
+    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    source = Trainer(load_config("cpu", {**TINY, "train.dataset": str(data)}), tmp_path / "a", lambda m: None)
+    source.run()
+    cli.export(source, "start", "python -m gmcpt train ...")
+    tuned = Trainer(load_config("cpu", {**TINY, "train.dataset": str(data), "train.seed": 5,
+                                        "train.init": "start"}), tmp_path / "b", lambda m: None)
+    start, _ = weights.load_generator("start")
+    for name, tensor in start.state_dict().items():  # the stored (half-precision) weights, exactly
+        assert torch.equal(tuned.generator.state_dict()[name], tensor), name
+    with pytest.raises(ValueError, match="train.init: start has another generator config"):
+        Trainer(load_config("cpu", {**TINY, "train.dataset": str(data), "generator.condition_width": 8,
+                                    "train.init": "start"}), tmp_path / "c", lambda m: None)
+    with pytest.raises(ValueError, match="train.init: GAN weights not found"):
+        Trainer(load_config("cpu", {**TINY, "train.dataset": str(data), "train.init": "nothing"}),
+                tmp_path / "d", lambda m: None)
+
+
+def test_train_cli_pools_datasets_and_reports_a_missing_one(tmp_path, capsys):
+    from gmcpt.gan.cli import main
+
+    tiny_dataset(tmp_path / "one")
+    argv = ["--config", "cpu", "--dataset", str(tmp_path / "one"), "--dataset", str(tmp_path / "two"),
+            "--out", str(tmp_path / "r")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: no dataset at") and str(tmp_path / "two") in err and err.count("\n") == 1
+    assert main(argv[:2] + ["--dataset", str(tmp_path / "one"), "--init", "nothing", "--out", str(tmp_path / "r"),
+                            "--set", "train.max_train_scenes=0"]) == 2
+    assert "train.init: GAN weights not found" in capsys.readouterr().err
 
 
 def test_a_deadline_stops_after_the_last_step_that_fits_checkpoints_and_resumes(tmp_path):
@@ -148,7 +213,7 @@ def test_a_deadline_stops_after_the_last_step_that_fits_checkpoints_and_resumes(
     from gmcpt.gan.train import Trainer, load_config
 
     tiny_dataset(tmp_path / "data")
-    config = load_config("cpu", {**TINY, "train.dataset": str(tmp_path / "data"), "train.steps": 100000})
+    config = load_config("cpu", {**TINY, **LONG, "train.dataset": str(tmp_path / "data")})
     out = tmp_path / "run"
     assert Trainer(config, out, lambda m: None).run(time.monotonic() - 1)["steps"] == 0   # nothing fits
     first = Trainer(config, out, lambda m: None).run(time.monotonic() + 1.0)
@@ -167,14 +232,14 @@ def test_train_cli_minutes_several_datasets_and_export_to_a_path(tmp_path, capsy
 
     for name in ("a", "b"):
         tiny_dataset(tmp_path / name)
-    sets = [f"--set={key}={json.dumps(value)}" for key, value in {**TINY, "train.steps": 100000}.items()]
+    sets = [f"--set={key}={json.dumps(value)}" for key, value in {**TINY, **LONG}.items()]
     argv = ["--config", "cpu", "--dataset", str(tmp_path / "a"), "--dataset", str(tmp_path / "b"), *sets,
             "--out", str(tmp_path / "run"), "--export", str(tmp_path / "w" / "tiny.pt"), "--minutes", "0.05", "-q"]
     assert main(argv) == 0
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["stopped_early"] and summary["train_scenes"] == 4 and summary["val_scenes"] == 4
     generator, metadata = load_generator(tmp_path / "w" / "tiny.pt")
-    assert metadata["name"] == "tiny" and metadata["dataset"]["path"] == [str(tmp_path / "a"), str(tmp_path / "b")]
+    assert metadata["name"] == "tiny" and [d["path"] for d in metadata["dataset"]] == [str(tmp_path / "a"), str(tmp_path / "b")]
     assert metadata["training"]["steps"] == summary["steps"] > 0
     assert main([*argv[:-3], "--minutes", "0", "-q"]) == 2 and "--minutes must be positive" in capsys.readouterr().err
 

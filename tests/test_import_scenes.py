@@ -187,3 +187,56 @@ def test_the_cli_writes_the_scene_and_prints_its_path(tmp_path, source):
     assert result.stdout.strip() == str(tmp_path / "out" / "box" / "scene.xml")
     assert not (tmp_path / "out" / "box" / "rand_scene0.xml").exists()  # variants only when asked
     assert [p.name for p in (tmp_path / "out").iterdir()] == ["box"]
+
+
+#: 0.6 constructs of the training-only scenes (bathroom, bathroom2): each has a rule of its own
+EXTRAS_06 = """
+	<bsdf type="diffuse" id="painted"><rgb name="diffuseReflectance" value="#ff8000"/></bsdf>
+	<bsdf type="diffuse" id="linear"><texture name="reflectance" type="bitmap">
+		<string name="filename" value="textures/tiles.exr"/><float name="gamma" value="1"/></texture></bsdf>
+	<bsdf type="diffuse" id="curved"><texture name="reflectance" type="bitmap">
+		<string name="filename" value="textures/tiles.exr"/><float name="gamma" value="3.2"/></texture></bsdf>
+	<bsdf type="roughdielectric" id="frosted"><string name="distribution" value="phong"/>
+		<float name="alpha" value="0.2"/></bsdf>
+	<bsdf type="conductor" id="chrome"><string name="distribution" value="phong"/></bsdf>
+	<shape type="obj"><string name="filename" value="models/gone.obj"/><ref id="chrome"/></shape>
+	<shape type="sphere"><point name="center" x="0" y="1.3" z="1"/><float name="radius" value="0.2"/>
+		<ref id="frosted"/></shape>
+</scene>
+"""
+
+
+def test_training_scene_rules_and_dropped_missing_shapes(source, tmp_path, mi):
+    from gmcpt.scene import load_scene
+
+    scene = source / "scenes" / "box" / "scene.xml"
+    scene.write_text(scene.read_text().replace("</scene>", EXTRAS_06))
+    module = _module()
+    with pytest.raises(module.SceneImportError, match="models/gone.obj"):  # missing files fail unless asked
+        module.import_scene(source, tmp_path / "out", "box", variants=False)
+    folder = module.import_scene(source, tmp_path / "out", "box", variants=False, drop_missing=True)
+    root = ET.parse(folder / "scene.xml").getroot()
+    assert root.find("bsdf[@id='painted']/rgb").get("value") == "1 0.501961 0"
+    linear = root.find("bsdf[@id='linear']/texture")
+    assert linear.find("boolean[@name='raw']").get("value") == "true" and linear.find("float") is None
+    assert root.find("bsdf[@id='curved']/texture/float") is None
+    assert root.find("bsdf[@id='frosted']/string[@name='distribution']").get("value") == "beckmann"
+    assert root.find("bsdf[@id='chrome']/string") is None
+    assert not any(s.find("string[@name='filename']") is not None and "gone" in s.find("string").get("value")
+                   for s in root.iter("shape"))
+    readme = (folder / "README.md").read_text()
+    for line in ("`<rgb>` hexadecimal colour became three floats", "bitmap `gamma` 1 became `raw` true",
+                 "bitmap `gamma` 3.2 dropped", "roughdielectric distribution `phong` became `beckmann`",
+                 "dropped `distribution` on the smooth conductor",
+                 "shape file `models/gone.obj` is missing from the source snapshot: the shape was dropped"):
+        assert any(row.startswith("- ") and line in row for row in readme.splitlines()), line
+    image = np.array(mi.render(load_scene(folder / "scene.xml", (8, 6)), spp=2))
+    assert np.isfinite(image).all() and image.mean() > 0
+
+
+def test_training_scenes_have_metadata_and_are_never_evaluation_ones():
+    module = _module()
+    for name in module.TRAINING_NAMES:
+        info = module.SCENES[name]
+        assert info["licence"] and info["author"] and info["use"].startswith("Training only")
+        assert name not in module.DEFAULT_NAMES and name not in module.HELD_OUT

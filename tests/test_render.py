@@ -224,3 +224,23 @@ def test_coverage_is_the_fraction_of_rays_on_the_diffuse_surface(mi):
     assert silhouette.sum() > 20  # the sphere's rim: partly sphere, partly background
     # the albedo buffer averages over all rays (0 on a miss), so on the rim it is coverage x 0.5
     np.testing.assert_allclose(albedo[silhouette], 0.5 * coverage[silhouette], rtol=1e-5)
+
+
+def test_a_scene_with_an_exr_loads_with_one_drjit_thread(mi, tmp_path):
+    """With one Dr.Jit thread Mitsuba's EXR reader never returned (an environment map): load_scene lends it
+    a second thread while loading, and gives the count back."""
+    import subprocess
+    import sys
+
+    from conftest import ROOT
+
+    mi.Bitmap(np.full((8, 16, 3), 0.5, np.float32)).write(str(tmp_path / "sky.exr"))
+    scene = CORNELL.read_text().replace("</scene>", '<emitter type="envmap"><string name="filename" '
+                                                     'value="sky.exr"/></emitter></scene>')
+    (tmp_path / "scene.xml").write_text(scene)
+    code = ("import sys, gmcpt, drjit as dr; from gmcpt.scene import load_scene; dr.set_thread_count(1); "
+            "load_scene(sys.argv[1], (8, 8)); print('threads', dr.thread_count())")
+    result = subprocess.run([sys.executable, "-c", code, str(tmp_path / "scene.xml")], capture_output=True,
+                            text=True, timeout=120, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "threads 1"

@@ -95,6 +95,11 @@ class DatasetSpec:
     exposure_range: tuple[float, float] = (0.4, 1.2)
     feature_spp: int = DEFAULT_FEATURE_SPP
     version: int = DATASET_VERSION
+    #: ``mixed``: procedural scenes (:mod:`gmcpt.dataset.scenes`); ``real``: views of the scene files
+    #: ``real_files`` under ``real_root`` (:mod:`gmcpt.dataset.real`)
+    layout: str = "mixed"
+    real_root: str = ""
+    real_files: tuple[str, ...] = ()
 
     def to_json(self) -> dict:
         return asdict(self)
@@ -140,28 +145,66 @@ def render_reference(scene, spp: int, pass_spp: int, seed: int) -> np.ndarray:
     return (total / passes).astype(np.float32)
 
 
-def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
-    """Render one scene's arrays and metadata (see the module docstring)."""
+def render_frames(scene, seed: int, split: SplitSpec, spec: DatasetSpec):
+    """``(reference, rate, frame, full)`` of a loaded scene: the reference, the product's sparse frame at a
+    seeded rate and the same call at rate 1 (see the module docstring)."""
     from ..render import RenderSettings, render_sparse_frame
-    from .scenes import build_scene
 
-    start = time.perf_counter()
-    exposure = pick_exposure(seed, split.resolution, spec)
-    scene = build_scene(seed, split.resolution, exposure, spec.spp)
     reference = render_reference(scene, split.reference_spp, spec.pass_spp, seed)
     rate = float(np.random.default_rng([seed, 0x4A7E]).uniform(*spec.rate_range))
     settings = RenderSettings(rate=rate, pattern="random", spp=spec.spp, seed=seed, feature_spp=spec.feature_spp)
     frame, _ = render_sparse_frame(scene, scene.integrator(), settings=settings)
     full, _ = render_sparse_frame(scene, scene.integrator(), settings=replace(settings, rate=1.0))
-    arrays = {"reference": reference, "radiance": frame.radiance, "mask": frame.mask, "variance": frame.variance,
-              "albedo": frame.albedo, "normal": frame.normal, "depth": frame.depth, "visibility": frame.visibility,
-              "full_radiance": np.where(full.mask[..., None], full.radiance, 0.0).astype(np.float32),
-              "full_variance": full.variance, "coverage": frame.coverage}
-    meta = {"version": spec.version, "seed": seed, "split": split.name, "exposure": exposure, "rate": rate,
+    return reference, rate, frame, full
+
+
+def example_arrays(reference: np.ndarray, frame, full, scale: float = 1.0) -> dict:
+    """The stored arrays of one example; ``scale`` multiplies every radiance (its variance by ``scale**2``),
+    exactly what scaling every emitter by it would render, since radiance is linear in the emitters."""
+    gain, gain2 = np.float32(scale), np.float32(scale * scale)
+    return {"reference": reference * gain, "radiance": frame.radiance * gain, "mask": frame.mask,
+            "variance": frame.variance * gain2, "albedo": frame.albedo, "normal": frame.normal,
+            "depth": frame.depth, "visibility": frame.visibility,
+            "full_radiance": np.where(full.mask[..., None], full.radiance * gain, 0.0).astype(np.float32),
+            "full_variance": full.variance * gain2, "coverage": frame.coverage}
+
+
+def example_meta(seed: int, split: SplitSpec, spec: DatasetSpec, rate: float, full, start: float, **extra) -> dict:
+    return {"version": spec.version, "seed": seed, "split": split.name, **extra, "rate": rate,
             "resolution": split.resolution, "spp": spec.spp, "feature_spp": spec.feature_spp,
-            "reference_spp": split.reference_spp,
-            "full_mask_fraction": full.rendered_fraction, "seconds": time.perf_counter() - start}
-    return {"arrays": arrays, "meta": meta}
+            "reference_spp": split.reference_spp, "full_mask_fraction": full.rendered_fraction,
+            "seconds": time.perf_counter() - start}
+
+
+def _render_real_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
+    """One example of the ``real`` layout: a view (:func:`gmcpt.dataset.real.draw_view`) of one of the scene files,
+    its light scaled to a drawn level."""
+    from ..scene import load_scene
+    from .real import draw_view
+
+    start = time.perf_counter()
+    view = draw_view(seed, spec.real_files, split.resolution, spec.exposure_range)
+    scene = load_scene(Path(spec.real_root) / view.file, (view.side, view.side), edit=view.edit(split.resolution))
+    reference, rate, frame, full = render_frames(scene, seed, split, spec)
+    level = float(np.percentile(reference.mean(axis=-1), 95))
+    scale = float(np.clip(view.target / max(level, 1e-6), 1e-3, 1e4))
+    meta = example_meta(seed, split, spec, rate, full, start, scene=view.file, light_scale=scale, yaw=view.yaw,
+                        pitch=view.pitch, film_side=view.side, crop_offset=list(view.offset))
+    return {"arrays": example_arrays(reference, frame, full, scale), "meta": meta}
+
+
+def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
+    """Render one scene's arrays and metadata (see the module docstring)."""
+    if spec.layout == "real":
+        return _render_real_example(seed, split, spec)
+    from .scenes import build_scene
+
+    start = time.perf_counter()
+    exposure = pick_exposure(seed, split.resolution, spec)
+    scene = build_scene(seed, split.resolution, exposure, spec.spp)
+    reference, rate, frame, full = render_frames(scene, seed, split, spec)
+    return {"arrays": example_arrays(reference, frame, full),
+            "meta": example_meta(seed, split, spec, rate, full, start, exposure=exposure)}
 
 
 def save_example(path: Path, example: dict) -> None:
@@ -229,9 +272,11 @@ def _update_manifest(path: Path, spec: DatasetSpec) -> None:
         old = json.loads(path.read_text())
         if is_upgradable(old.get("version"), spec):  # upgraded in place (see upgrade_example)
             old.update(version=spec.version, feature_spp=spec.feature_spp)
-        if old.get("layout", "mixed") != "mixed":  # a scene set this version no longer renders
-            raise ValueError(f"{path.parent} was built with the scene layout {old['layout']}; this build renders mixed")
-        for key in ("version", "spp", "rate_range", "pass_spp", "exposure_range", "feature_spp"):
+        if old.get("layout", "mixed") != spec.layout:  # another scene set (or one this version no longer renders)
+            raise ValueError(f"{path.parent} was built with the scene layout {old.get('layout', 'mixed')}; "
+                             f"this build renders {spec.layout}")
+        keys = ("version", "spp", "rate_range", "pass_spp", "exposure_range", "feature_spp")
+        for key in keys + (("real_files",) if spec.layout == "real" else ()):
             if json.dumps(old.get(key)) != json.dumps(record[key]):
                 raise ValueError(f"{path.parent} was built with {key} = {old.get(key)}, this build has {record[key]}")
         record["splits"] = {**old.get("splits", {}), **record["splits"]}

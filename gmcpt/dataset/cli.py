@@ -1,6 +1,7 @@
-"""``gmcpt dataset``: render (or resume) the procedural dataset.
+"""``gmcpt dataset``: render (or resume) the procedural dataset, or one of views of real scene files.
 
     gmcpt dataset --out data/procedural --train 300 --val 10 --test 6
+    gmcpt dataset --real data/train-scenes --out data/real-train --train 40 --val 4
 
 Each split's scenes come from its own seed range; an interrupted build resumes.
 """
@@ -29,6 +30,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--spp", type=int, default=16, help="spp of the sparse inputs")
     parser.add_argument("--rate", type=float, nargs=2, default=(0.15, 0.5), metavar=("LOW", "HIGH"),
                         help="range of the per-scene sampling rate")
+    parser.add_argument("--real", metavar="DIR",
+                        help="render random views of the scene files under DIR (FOLDER/scene.xml, "
+                        "FOLDER/rand_sceneN.xml, as scripts/import_scenes.py writes) instead of procedural "
+                        "scenes; train and val only (default: procedural)")
     parser.add_argument("--workers", type=int, default=1, help="render processes (0: in this process)")
     parser.add_argument("--threads", type=int, default=0,
                         help="Dr.Jit threads per worker (0: all cores; with --ray: CPUs per task, default 1)")
@@ -48,8 +53,17 @@ def spec_from_args(args) -> "DatasetSpec":  # noqa: F821
         raise GmcptError(f"--rate must satisfy 0 < LOW <= HIGH <= 1, got {args.rate}")
     if args.spp < 1 or args.ref_spp < 1 or args.test_ref_spp < 1:
         raise GmcptError("spp values must be >= 1")
+    real = {}
+    if args.real is not None:
+        from pathlib import Path
+
+        from ..evaluation.scenes import evaluation_folder_names
+        from .real import real_scene_files
+        if args.test:
+            raise GmcptError("--real builds train and val splits only (--test 0): evaluation scenes are never trained on")
+        real = dict(layout="real", real_root=str(Path(args.real).resolve()), real_files=real_scene_files(args.real, evaluation_folder_names()))
     return DatasetSpec(splits=tuple(s for s in splits if s.count > 0), spp=args.spp,
-                       rate_range=tuple(args.rate))
+                       rate_range=tuple(args.rate), **real)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -163,3 +163,9 @@ def evaluation_scenes(names: list[str] | None = None, procedural: int = 2, say=N
         if not scene.available() and say is not None:
             say(scene.missing_line())
     return [scene for scene in chosen if scene.available()] + procedural_scenes(procedural)
+
+
+def evaluation_folder_names() -> frozenset[str]:
+    """Folder and scene names of the scenes the evaluation measures: never trained on (:mod:`gmcpt.dataset.real`)."""
+    folders = {scene.path.parent.name for scene in ALL_SCENES if scene.real}
+    return frozenset(folders | {scene.name for scene in ALL_SCENES})

@@ -27,7 +27,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--config", default="cpu", help="preset (cpu, gpu) or a JSON file")
     parser.add_argument("--out", help="run folder: checkpoint, curves.png, history.json (default: runs/gan-CONFIG)")
     parser.add_argument("--dataset", action="append", metavar="DIR",
-                        help="dataset folder; repeat to train on several as one (default: the config's train.dataset)")
+                        help="dataset folder; repeat to pool several (default: the config's train.dataset)")
+    parser.add_argument("--init", metavar="WEIGHTS",
+                        help="start the generator from these weights (shipped name or .pt): fine-tune "
+                        "(default: the config's train.init, else random)")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=JSON",
                         help="override a config value, e.g. train.steps=100; repeatable (default: none)")
     parser.add_argument("--export", metavar="NAME", help="write the trained generator to gmcpt/gan/weights/NAME.pt, "
@@ -50,26 +53,26 @@ def _overrides(args) -> dict:
             overrides[key] = value
     if args.dataset:
         overrides["train.dataset"] = args.dataset[0] if len(args.dataset) == 1 else args.dataset
+    if args.init:
+        overrides["train.init"] = args.init
     return overrides
 
 
 def export(trainer, name: str, command: str) -> dict:
     """Save the trainer's generator as shipped weights ``name`` (or to a ``.pt`` path) with full metadata."""
-    from .train import dataset_folders
     from .weights import save_weights, weights_path
 
-    folders, seeds = dataset_folders(trainer.config.train.dataset), trainer.train_seeds
-    manifests = [json.loads(path.read_text()) if path.is_file() else {}
-                 for path in (Path(folder) / "manifest.json" for folder in folders)]
-    one = len(folders) == 1  # one folder: its path, version and manifest; several: lists of them
+    records = []
+    for dataset, seeds in zip(trainer.config.train.datasets, trainer.train_seeds):
+        manifest_path = Path(dataset) / "manifest.json"
+        manifest = json.loads(manifest_path.read_text()) if manifest_path.is_file() else {}
+        records.append({"path": str(dataset), "version": manifest.get("version"), "manifest": manifest,
+                        "train_seeds": [min(seeds), max(seeds)], "train_scenes": len(seeds)})
+    records[0]["val_seeds"] = [e["meta"]["seed"] for e in trainer.val]  # of all datasets, in order
     path = weights_path(name)
     metadata = {"name": path.stem, "command": command, "config": trainer.config.to_dict(),
-                "dataset": {"path": folders[0] if one else folders,
-                            "version": manifests[0].get("version") if one else [m.get("version") for m in manifests],
-                            "manifest": manifests[0] if one else manifests,
-                            "train_seeds": [min(seeds), max(seeds)],
-                            "train_scenes": len(seeds),
-                            "val_seeds": [e["meta"]["seed"] for e in trainer.val]},
+                # one dataset: its record, as before; several: a list of them
+                "dataset": records[0] if len(records) == 1 else records,
                 "training": trainer.summary(), "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
     return save_weights(path, trainer.generator, metadata)
 
@@ -82,15 +85,15 @@ def main(argv: list[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         if args.minutes is not None and not args.minutes > 0:
             raise GmcptError(f"--minutes must be positive, got {args.minutes}")
-        from .train import Trainer, dataset_folders, load_config
+        from .train import Trainer, load_config
         try:
             config = load_config(args.config, _overrides(args))
         except (OSError, ValueError, TypeError) as error:
             raise GmcptError(f"bad config {args.config}: {error}") from None
         out = Path(args.out or f"runs/gan-{Path(args.config).stem}")
-        for folder in dataset_folders(config.train.dataset):
-            if not (Path(folder) / "train").is_dir():
-                raise GmcptError(f"no dataset at {folder}; build it with `python -m gmcpt dataset --out {folder}`")
+        for dataset in config.train.datasets:
+            if not (Path(dataset) / "train").is_dir():
+                raise GmcptError(f"no dataset at {dataset}; build it with `python -m gmcpt dataset --out {dataset}`")
         if config.train.device.startswith("cuda"):
             import torch
             if not torch.cuda.is_available():

@@ -37,6 +37,7 @@ class TrainingBatch(NamedTuple):
 class PatchSampler:
     """Random training crops from dataset examples, with fresh masks.
 
+    Each crop comes from a scene drawn uniformly, or with ``probabilities`` (one per path) where given.
     Each scene is kept in memory as one (H, W, 16) array: reference (3) and
     full-frame noisy radiance (3) in the working domain / 255, noise std (1),
     albedo (3), normal (3), depth, visibility and coverage. Masks are uniformly random, the paper's
@@ -44,12 +45,16 @@ class PatchSampler:
     """
 
     def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
-                 rate_range: tuple[float, float] = (0.15, 0.5)):
+                 rate_range: tuple[float, float] = (0.15, 0.5), probabilities: list[float] | None = None):
         from ..dataset import load_example
 
         if not paths:
             raise ValueError("no training examples")
+        if probabilities is not None and len(probabilities) != len(paths):
+            raise ValueError(f"{len(probabilities)} probabilities for {len(paths)} training examples")
         self.crop, self.rate_range = crop, rate_range
+        # None: uniform over the scenes, drawn as before there were weights (the same random stream)
+        self.probabilities = None if probabilities is None else np.asarray(probabilities) / np.sum(probabilities)
         self.scenes = []
         for path in paths:
             example = load_example(path)
@@ -69,7 +74,9 @@ class PatchSampler:
         """``size`` random crops with fresh masks (radiance and target (B, 3, c, c), features (B, F, c, c))."""
         crops = []
         for _ in range(size):
-            scene = self.scenes[rng.integers(len(self.scenes))]
+            index = (rng.integers(len(self.scenes)) if self.probabilities is None
+                     else rng.choice(len(self.scenes), p=self.probabilities))
+            scene = self.scenes[index]
             y = rng.integers(scene.shape[0] - self.crop + 1)
             x = rng.integers(scene.shape[1] - self.crop + 1)
             crop = scene[y:y + self.crop, x:x + self.crop]

@@ -51,7 +51,12 @@ class TrainConfig:
 
     Attributes
     ----------
-    dataset : dataset folder (``train`` and ``val`` splits), or a list of them, read as one.
+    dataset : dataset folder (``train`` and ``val`` splits), or several (a list): their examples are
+        pooled, e.g. the procedural set and one of real scenes (:mod:`gmcpt.dataset.real`).
+    dataset_weights : with several datasets, the share of the crops drawn from each (normalised);
+        empty: each scene equally likely, so in proportion to the datasets' sizes.
+    init : start the generator from these weights (a shipped name or a ``.pt`` file) instead of
+        random ones: fine-tuning. Its generator config must be this one's; a checkpoint still wins.
     steps : generator updates.
     batch, crop : crops per step and their side in pixels.
     rate_range : sampling rates drawn per crop.
@@ -61,11 +66,13 @@ class TrainConfig:
     seed : seeds torch and the batch sampler.
     threads : torch CPU threads (0: torch's default).
     eval_every, checkpoint_every : in steps.
-    max_train_scenes : use only the first N training scenes of ``dataset`` (0: all).
+    max_train_scenes : use only the first N training scenes of each dataset (0: all).
     device : torch device of the models and the batches.
     """
 
     dataset: str | tuple[str, ...] = "data/procedural"
+    dataset_weights: tuple[float, ...] = ()
+    init: str = ""
     steps: int = 4000
     batch: int = 8
     crop: int = 64
@@ -80,6 +87,18 @@ class TrainConfig:
     checkpoint_every: int = 250
     max_train_scenes: int = 300
     device: str = "cpu"
+
+    @property
+    def datasets(self) -> tuple[str, ...]:
+        return (self.dataset,) if isinstance(self.dataset, str) else tuple(self.dataset)
+
+    def __post_init__(self):
+        if not self.datasets:
+            raise ValueError("train.dataset names no folder")
+        if self.dataset_weights and (len(self.dataset_weights) != len(self.datasets)
+                                     or min(self.dataset_weights) < 0 or sum(self.dataset_weights) <= 0):
+            raise ValueError(f"train.dataset_weights must be {len(self.datasets)} non-negative numbers, not all 0 "
+                             f"(one per dataset), got {list(self.dataset_weights)}")
 
 
 @dataclass(frozen=True)
@@ -122,11 +141,6 @@ def config_from_dict(data: dict) -> FullConfig:
                       generator=_build(GeneratorConfig, "generator", data.get("generator", {})),
                       critic=_build(CriticConfig, "critic", data.get("critic", {})),
                       loss=_build(LossWeights, "loss", data.get("loss", {})))
-
-
-def dataset_folders(dataset: str | tuple[str, ...] | list[str]) -> list[str]:
-    """The folders of a ``train.dataset`` value: one folder or several."""
-    return [dataset] if isinstance(dataset, str) else list(dataset)
 
 
 def validate(generator: Generator, examples: list[dict], domain: WorkingDomain) -> dict:
@@ -215,21 +229,47 @@ class Trainer:
         self.extractor = FixedFeatureExtractor().to(self.device)
         self.opt_g = torch.optim.Adam(self.generator.parameters(), lr=cfg.lr_g, betas=(0.9, 0.99))
         self.opt_d = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_d, betas=(0.5, 0.9))
-        folders = dataset_folders(cfg.dataset)
-        train_paths = [path for folder in folders for path in list_examples(folder, "train")]
-        if cfg.max_train_scenes:
-            if len(train_paths) < cfg.max_train_scenes:
-                raise ValueError(f"{', '.join(folders)} hold {len(train_paths)} training scenes, the config asks for "
-                                 f"{cfg.max_train_scenes}; finish the dataset build first")
-            train_paths = train_paths[:cfg.max_train_scenes]
-        self.train_seeds = [int(p.stem) for p in train_paths]
-        self.sampler = PatchSampler(distributed.shard(train_paths, ranks), self.domain, cfg.crop, cfg.rate_range)
-        self.val = [load_example(p) for folder in folders for p in list_examples(folder, "val")] if ranks.main else []
+        if cfg.init:
+            self._load_init(cfg.init)
+        groups = []  # the training files of each dataset
+        for dataset in cfg.datasets:
+            paths = list_examples(dataset, "train")
+            if cfg.max_train_scenes:
+                if len(paths) < cfg.max_train_scenes:
+                    raise ValueError(f"{dataset} has {len(paths)} training scenes, the config asks for "
+                                     f"{cfg.max_train_scenes}; finish the dataset build first")
+                paths = paths[:cfg.max_train_scenes]
+            if not paths:
+                raise ValueError(f"{dataset} has no training scenes; build it first")
+            groups.append(paths)
+        train_paths = [path for paths in groups for path in paths]
+        self.train_seeds = [[int(p.stem) for p in paths] for paths in groups]
+        shards = [distributed.shard(paths, ranks) for paths in groups]
+        # a scene's probability: its dataset's share over that dataset's scene count
+        probabilities = ([w / sum(cfg.dataset_weights) / len(shard) for w, shard in zip(cfg.dataset_weights, shards)
+                          for _ in shard] if cfg.dataset_weights else None)
+        self.sampler = PatchSampler([p for shard in shards for p in shard], self.domain, cfg.crop, cfg.rate_range,
+                                    probabilities)
+        self.val = ([load_example(p) for dataset in cfg.datasets for p in list_examples(dataset, "val")]
+                    if ranks.main else [])
         self.rng = np.random.default_rng(distributed.seed_sequence(cfg.seed, ranks))
         self.step, self.history, self.seconds, self.stopped_early = 0, [], 0.0, False
         self.say(f"generator {parameter_count(self.generator) / 1e6:.3f} M parameters, critic "
                  f"{parameter_count(self.critic) / 1e6:.3f} M; {len(train_paths)} training scenes, {len(self.val)} val"
                  + (f"; {ranks.world} processes, {cfg.batch} crops each a step" if ranks.distributed else ""))
+
+    def _load_init(self, name: str) -> None:
+        """Start the generator from shipped weights (``train.init``); its architecture must be this config's."""
+        from .weights import load_generator
+
+        try:
+            source, _ = load_generator(name)
+        except Exception as error:  # GmcptError: one line already
+            raise ValueError(f"train.init: {error}") from None
+        if source.config.to_dict() != self.generator.config.to_dict():
+            raise ValueError(f"train.init: {name} has another generator config than this run's; "
+                             "use the config it was trained with")
+        self.generator.load_state_dict(source.state_dict())
 
     # ---------------------------------------------------------------- checkpoints
     @property
@@ -383,7 +423,7 @@ class Trainer:
         base = [h["interp_psnr"] for h in self.history if "interp_psnr" in h]
         summary = {"steps": self.step, "train_seconds": round(self.seconds, 1),
                    "val_psnr": val[-1]["val_psnr"] if val else None, "val_interp_psnr": base[-1] if base else None,
-                   "train_scenes": len(self.train_seeds), "val_scenes": len(self.val),
+                   "train_scenes": sum(map(len, self.train_seeds)), "val_scenes": len(self.val),
                    "stopped_early": self.stopped_early}
         if self.ranks.distributed:
             summary.update(processes=self.ranks.world, rank_weights_sha256=getattr(self, "rank_digests", None))
