@@ -11,7 +11,7 @@ README_END = "<!-- results:end -->"
 def _settings_line(run: dict) -> str:
     c = run["config"]
     return (f"{c['resolution']}x{c['resolution']}, {c['spp']} spp per traced pixel, {c.get('feature_spp', 1)}-spp feature pass, "
-            f"`{c.get('mask', 'random')}` mask, seed {c['seed']}, "
+            f"the default as `--budget rate x {c['spp']}`, seed {c['seed']}, "
             f"references {c['reference_spp']} spp; metrics on tonemapped sRGB (clamp to [0, 1], sRGB curve) "
             "except relMSE (linear); FLIP is `flip-evaluator`'s LDR mean (0 = identical).")
 
