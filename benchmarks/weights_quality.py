@@ -7,7 +7,7 @@ completed with ``gan_oidn`` and each weights file, so the columns differ only in
 per-scene PSNR (tonemapped sRGB), the real and synthetic means and the change of each weights file
 against the first.
 
-    python benchmarks/weights_quality.py --weights gan-cpu gan-cpu-real [--rates 0.2 0.3 0.4] [--spp 16]
+    python benchmarks/weights_quality.py --weights gan-cpu gan-cpu-real [--rates 0.2 0.3 0.4] [--spp 16]   (after scripts/train_real.sh)
         [--scenes NAME ...] [--procedural 2] [--threads 1]
 """
 from __future__ import annotations

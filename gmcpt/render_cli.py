@@ -36,7 +36,7 @@ def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
                         "(default: the scene's, else two_pass)")
     parser.add_argument("--method", help="completion method, see gmcpt methods (default: the scene's, else gan_oidn)")
     parser.add_argument("--weights", help="generator of the GAN methods: a shipped name or a .pt file "
-                        "(default: the scene's, else gan-cpu-real)")
+                        "(default: the scene's, else gan-cpu)")
     parser.add_argument("--tile", type=int, help="complete frames larger than N x N in blended tiles (bounded "
                         "memory); 0: whole (default: the scene's, else 1024)")
     parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"),

@@ -55,7 +55,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
      * - weights
        - |string|
        - Generator weights of the GAN methods: a shipped name or a ``.pt`` path, checked at load time.
-         (Default: the shipped ``gan-cpu-real``)
+         (Default: the shipped ``gan-cpu``)
      * - tile
        - |int|
        - Largest side of the tiles a larger frame is completed in (overlapping, blended), so memory stays

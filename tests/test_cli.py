@@ -30,7 +30,7 @@ def test_writes_exr_png_json(rendered):
     record = json.loads(out.with_suffix(".json").read_text())
     assert record["parameters"]["rate"] == 0.4 and record["parameters"]["spp"] == 2
     assert record["parameters"]["method"] == "gan_oidn"  # the default: GAN fill, then OIDN
-    assert record["parameters"]["weights"] == "gan-cpu-real" and len(record["parameters"]["weights_sha256"]) == 64
+    assert record["parameters"]["weights"] == "gan-cpu" and len(record["parameters"]["weights_sha256"]) == 64
     assert record["parameters"]["generator_precision"] in ("float32", "bfloat16")
     assert record["rendered_fraction"] == pytest.approx(0.4, abs=1e-3)
     assert {"features_s", "mask_s", "render_s", "completion_s", "total_s"} <= record["timings"].keys()

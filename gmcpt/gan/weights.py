@@ -23,9 +23,7 @@ from .model import Generator, GeneratorConfig
 
 FORMAT = 1
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
-#: gan-cpu fine-tuned on real scenes too (scripts/train_real.sh): +0.19 to +0.32 dB on the real evaluation scenes
-#: mean at fixed rates, -0.01 to -0.03 on the synthetic ones (docs/experiments.md)
-DEFAULT_WEIGHTS = "gan-cpu-real"
+DEFAULT_WEIGHTS = "gan-cpu"
 RETRAIN_HINT = "retrain with `python -m gmcpt train --config cpu --export {name}` (see README, 'GAN pre-completion: data, training, weights')"
 
 #: Precision of the stored floating-point tensors: half the file of float32, and the same results to
