@@ -438,13 +438,13 @@ def _budget_passes(scene, sensor, integrator, settings: RenderSettings, features
     height, width = features["depth"].shape
     pixels = height * width
     seed = settings.seed
+    # the sparse way's settings: its first pass is the budget's, placed as two_pass places its own
+    sparse = replace(settings, rate=plan.sparse_rate, budget=0.0)
     start = time.perf_counter()
-    density = feature_density(features["albedo"], features["normal"], features["depth"], features["visibility"],
-                              features["coverage"])
-    first = np.zeros(pixels, bool)
+    first, density = np.zeros(pixels, bool), None
     if not plan.dense_only:
-        first = sample_by_density(density, max(1, int(round(plan.sparse_pixels * FIRST_PASS_SHARE))),
-                                  mask_rng(seed)).ravel()
+        first, density = _first_mask(sparse, features, height, width)
+        first = first.ravel()
     timings["mask_s"] = time.perf_counter() - start
 
     sums = _Sums(pixels)
@@ -465,7 +465,6 @@ def _budget_passes(scene, sensor, integrator, settings: RenderSettings, features
         sums.trace(scene, sensor, integrator, first * (SPARSE_SPP - PROBE_SPP), (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)
         timings["render_s"] += time.perf_counter() - start
         passes = sums.passes(first, int(first.sum()), info)
-        sparse = replace(settings, rate=plan.sparse_rate, spp=SPARSE_SPP, budget=0.0)
         _second_pass(scene, sensor, integrator, sparse, features, density, plan.sparse_pixels - int(first.sum()),
                      SPARSE_SPP, passes, say, timings)
         return passes

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import mitsuba as mi
 
-from gmcpt.budget import check_budget
 from gmcpt.completion import DEFAULT_METHOD, check_options, complete
 from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
 from gmcpt.errors import GmcptError
@@ -88,17 +87,14 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         super().__init__(props)
         self.rate = check_rate(props.get("rate", 0.3))
         self.budget = float(props.get("budget", 0.0))
-        if self.budget:
-            check_budget(self.budget)
         self.mask_pattern = check_pattern(props.get("mask", DEFAULT_PATTERN))
         self.seed = check_seed(props.get("seed", 0))
-        if self.budget and self.mask_pattern != "two_pass":
-            raise GmcptError(f"a budget places its samples with the two_pass mask, not {self.mask_pattern!r}")
         self.feature_spp = check_feature_spp(props.get("feature_spp", DEFAULT_FEATURE_SPP))
         self.completion = props.get("completion", DEFAULT_METHOD)
         self.weights = props.get("weights", "") or None
         self.tile = check_tile(props.get("tile", DEFAULT_TILE))
         check_options(self.completion, self.weights)  # fail at load time on an unknown name, a bad weights file
+        self.settings()  # and on a bad budget, or one beside a mask other than two_pass (RenderSettings checks)
         nested = [props[name] for name in props.keys() if isinstance(props[name], mi.Integrator)]
         if len(nested) > 1:
             raise GmcptError("masked_path takes at most one nested integrator")

@@ -61,7 +61,8 @@ def spec_from_args(args) -> "DatasetSpec":  # noqa: F821
         from .real import real_scene_files
         if args.test:
             raise GmcptError("--real builds train and val splits only (--test 0): evaluation scenes are never trained on")
-        real = dict(layout="real", real_root=str(Path(args.real).resolve()), real_files=real_scene_files(args.real, evaluation_folder_names()))
+        real = dict(layout="real", real_root=str(Path(args.real).resolve()),
+                    real_files=real_scene_files(args.real, evaluation_folder_names()))
     return DatasetSpec(splits=tuple(s for s in splits if s.count > 0), spp=args.spp,
                        rate_range=tuple(args.rate), **real)
 

@@ -44,7 +44,8 @@ def placement_section(run: dict) -> list[str]:
         "samples by a density from the feature buffers' edges; `two_pass` spends half the budget "
         "so, then the rest where the first half's samples disagree with their neighbours "
         "(`gmcpt/placement.py`); `budget` (the default) is `--budget rate x spp`: a 4-spp first pass of `two_pass` "
-        "chooses between `two_pass` at rate x 16 spp and tracing every pixel as adaptive path tracing does "
+        "chooses between `two_pass` at rate x 16 spp and tracing every pixel evenly (uniform path tracing at exactly "
+        "the budget) "
         "(`gmcpt/budget.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline.",
         "",
         placement_table(run),
