@@ -2,11 +2,12 @@
 """The budget chooser against its two ways and both baselines, per evaluation scene (256x256, cached references).
 
 For each scene and ``--budgets`` (mean path samples a pixel): the first pass's signal
-(:func:`gmcpt.budget.relative_variance`), the default (`gan_oidn`) at that budget forced sparse and forced dense,
+(:func:`gmcpt.budget.relative_variance`, :func:`gmcpt.budget.edge_share`), the default (`gan_oidn`) at that budget forced sparse and forced dense,
 what the chooser picks, and path tracing (round(budget) spp) + OIDN and adaptive path tracing + OIDN at the same
-budget. Prints PSNR dB per scene and the means of the real and synthetic groups.
+budget (baselines at seed + 17, as the evaluation). Prints PSNR dB per scene, each the mean over ``--seeds``,
+and the means of the real and synthetic groups.
 
-    python benchmarks/budget_chooser.py [--budgets 3.2 4.8 6.4] [--scenes NAME ...] [--procedural 2] [--seed 0]
+    python benchmarks/budget_chooser.py [--budgets 3.2 4.8 6.4] [--scenes NAME ...] [--procedural 2] [--seeds 0 1 2]
 """
 from __future__ import annotations
 
@@ -28,7 +29,8 @@ def main(argv=None) -> int:
     parser.add_argument("--budgets", type=float, nargs="+", default=[3.2, 4.8, 6.4])
     parser.add_argument("--scenes", nargs="+", help="evaluation scene names (default: all available)")
     parser.add_argument("--procedural", type=int, default=2, help="held-out procedural scenes")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2],
+                        help="each row is the mean over these seeds (one seed's spread is 0.1-0.4 dB a scene)")
     args = parser.parse_args(argv)
 
     import gmcpt  # noqa: F401
@@ -43,39 +45,46 @@ def main(argv=None) -> int:
     from gmcpt.metrics import psnr
     from gmcpt.render import RenderSettings, render_sparse_frame
 
-    def default_at(scene, integrator, amount: float, threshold: float):
-        budget.DENSE_ABOVE = threshold
-        frame, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(budget=amount, seed=args.seed))
+    thresholds = budget.DENSE_ABOVE, budget.EDGES_ABOVE
+
+    def default_at(scene, integrator, amount: float, threshold: float, seed: int):
+        budget.DENSE_ABOVE = budget.EDGES_ABOVE = threshold
+        frame, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(budget=amount, seed=seed))
+        budget.DENSE_ABOVE, budget.EDGES_ABOVE = thresholds
         return frame, complete(frame, DEFAULT_METHOD).image
 
     rows = []
-    print(f"{'scene':<22} {'budget':>6} {'signal':>7} " + " ".join(f"{c:>13}" for c in COLUMNS), flush=True)
+    print(f"{'scene':<22} {'budget':>6} {'signal':>7} {'edges':>6} " + " ".join(f"{c:>13}" for c in COLUMNS),
+          flush=True)
     for eval_scene in evaluation_scenes(args.scenes, args.procedural, print):
         reference = eval_scene.reference(256, 4096)
         scene = eval_scene.load(256)
         integrator = scene.integrator()
         integrator = getattr(integrator, "integrator", integrator)
-        chosen_threshold = budget.DENSE_ABOVE
         for amount in args.budgets:
-            sparse_frame, sparse = default_at(scene, integrator, amount, math.inf)
-            dense_frame, dense = default_at(scene, integrator, amount, -1.0)
-            chosen = dense if budget.DENSE_ABOVE and sparse_frame.info["relative_variance"] > chosen_threshold \
-                and dense_frame.info["budget_choice"] == budget.DENSE else sparse
-            budget.DENSE_ABOVE = chosen_threshold
-            features = sparse_frame
-            noisy = render_full(scene, integrator, max(1, round(amount)), args.seed)
-            path = denoise_oidn(noisy, features.albedo, features.normal)
-            adaptive, _, _ = render_adaptive(scene, integrator, AdaptiveSettings(budget=amount, seed=args.seed + 17))
-            values = [psnr(image, reference) for image in (sparse, dense, chosen, path, adaptive)]
+            runs = []
+            for seed in args.seeds:
+                sparse_frame, sparse = default_at(scene, integrator, amount, math.inf, seed)
+                _, dense = default_at(scene, integrator, amount, -1.0, seed)
+                signal, edges = sparse_frame.info["relative_variance"], sparse_frame.info["edge_share"]
+                first = sparse_frame.info["first_pass_pixels"]
+                way = budget.choose(budget.plan_budget(amount, sparse_frame.mask.size), signal, edges,
+                                    sparse_frame.mask.size - first, first * budget.PROBE_SPP)
+                chosen = dense if way == budget.DENSE else sparse
+                noisy = render_full(scene, integrator, max(1, round(amount)), seed + 17)
+                path = denoise_oidn(noisy, sparse_frame.albedo, sparse_frame.normal)
+                adaptive, _, _ = render_adaptive(scene, integrator, AdaptiveSettings(budget=amount, seed=seed + 17))
+                runs.append([psnr(image, reference) for image in (sparse, dense, chosen, path, adaptive)])
+            values = list(np.mean(runs, axis=0))
             rows.append({"scene": eval_scene.name, "real": getattr(eval_scene, "real", False), "budget": amount,
-                         "signal": sparse_frame.info["relative_variance"], "psnr": values})
-            print(f"{eval_scene.name:<22} {amount:6.1f} {rows[-1]['signal']:7.3f} "
+                         "signal": signal, "psnr": values})
+            print(f"{eval_scene.name:<22} {amount:6.1f} {signal:7.3f} {edges:6.3f} "
                   + " ".join(f"{value:13.2f}" for value in values), flush=True)
     for label, real in (("real mean", True), ("synthetic mean", False)):
         for amount in args.budgets:
             group = [row["psnr"] for row in rows if row["real"] == real and row["budget"] == amount]
             if group:
-                print(f"{label:<22} {amount:6.1f} {'':>7} " + " ".join(f"{v:13.2f}" for v in np.mean(group, axis=0)))
+                print(f"{label:<22} {amount:6.1f} {'':>7} {'':>6} " + " ".join(f"{v:13.2f}" for v in np.mean(group, axis=0)))
     return 0
 
 

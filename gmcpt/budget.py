@@ -15,10 +15,16 @@ traces half of those pixels where the feature buffers have edges. Its samples th
   is worse than a few samples of its own.
 
 The first pass traces its pixels at :data:`PROBE_SPP` only, so that choosing dense wastes little of the budget
-on them; the sparse way then tops them up to :data:`SPARSE_SPP`. The signal is :func:`relative_variance`: the
-median, over the first pass's pixels, of the variance of a pixel's mean over its squared brightness, scaled to
-a 16-spp mean. The synthetic evaluation scenes read 0.01-0.07, the real interiors 0.06-0.63
-(docs/experiments.md).
+on them; the sparse way then tops them up to :data:`SPARSE_SPP`. Two signals choose dense:
+
+- :func:`relative_variance`: the median, over the first pass's pixels, of the variance of a pixel's mean over
+  its squared brightness, scaled to a 16-spp mean. The synthetic evaluation scenes read 0.007-0.057, the real
+  interiors 0.23-0.26: noise the fill cannot average away.
+- :func:`edge_share`: the share of the frame near an edge of the feature buffers, read before any path is
+  traced. Sponza's courtyard (0.48 at 256x256) is lit directly, so it reads 0.033 on the first signal, but
+  its columns, arches and textures leave a fill from 30% of the pixels too little to go on; the synthetic
+  scenes read 0.14-0.32 (docs/experiments.md). The share falls as the resolution grows, as the fill's
+  difficulty does.
 
 All functions here are pure numpy; :func:`gmcpt.render.render_sparse_frame` runs the passes.
 """
@@ -38,6 +44,8 @@ SPARSE_SPP = 16
 PROBE_SPP = 4
 #: Above this :func:`relative_variance` the frame is traced dense (set in docs/experiments.md).
 DENSE_ABOVE = 0.15
+#: Above this :func:`edge_share` too (docs/experiments.md).
+EDGES_ABOVE = 0.4
 #: The largest budget, as the largest spp of a masked render.
 MAX_BUDGET = 4096
 #: The chooser's outcomes, as the sidecar records them.
@@ -107,12 +115,22 @@ def relative_variance(mean: np.ndarray, variance_of_mean: np.ndarray, samples: i
     return float(np.median(ratio)) * samples / SPARSE_SPP
 
 
-def choose(plan: BudgetPlan, statistic: float, untraced: int, first_samples: int) -> str:
-    """:data:`DENSE` when the first pass reads above :data:`DENSE_ABOVE` and what is left of the budget gives
-    each of the ``untraced`` pixels a sample at least; else :data:`SPARSE`."""
+def edge_share(features: dict) -> float:
+    """Mean over the frame of :func:`gmcpt.placement.binned_edges` of the feature buffers (a dict with
+    ``albedo``, ``normal``, ``depth``, ``visibility``): the share of the frame near a feature edge, in [0, 1]."""
+    from .placement import binned_edges
+
+    return float(binned_edges(features["albedo"], features["normal"], features["depth"], features["visibility"]).mean())
+
+
+def choose(plan: BudgetPlan, statistic: float, edges: float, untraced: int, first_samples: int) -> str:
+    """:data:`DENSE` when the first pass reads above :data:`DENSE_ABOVE` or the feature edges above
+    :data:`EDGES_ABOVE`, and what is left of the budget gives each of the ``untraced`` pixels a sample at least;
+    else :data:`SPARSE`."""
     if plan.dense_only:
         return DENSE
-    return DENSE if statistic > DENSE_ABOVE and plan.samples - first_samples >= untraced else SPARSE
+    wanted = statistic > DENSE_ABOVE or edges > EDGES_ABOVE
+    return DENSE if wanted and plan.samples - first_samples >= untraced else SPARSE
 
 
 def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:

@@ -116,7 +116,7 @@ def feature_density(albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray, v
     """
     coverage = pixel_coverage(albedo) if coverage is None else coverage
     height, width = depth.shape
-    edges = feature_edges(*(_binned_mean(buffer, EDGE_BIN) for buffer in (albedo, normal, depth, visibility)))
+    edges = binned_edges(albedo, normal, depth, visibility)
     # 1 + EDGE_GAIN * capped edges + SPECULAR_GAIN * (1 - coverage), in place: few full-frame temporaries
     weight = _capped_weight(upsampled(edges, EDGE_BIN, height, width))
     weight += 1.0 + SPECULAR_GAIN
@@ -124,6 +124,12 @@ def feature_density(albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray, v
     uncovered *= np.float32(SPECULAR_GAIN)
     weight -= uncovered
     return _normalise(weight, floor)
+
+
+def binned_edges(albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray, visibility: np.ndarray) -> np.ndarray:
+    """:func:`feature_edges` of the buffers' means over :data:`EDGE_BIN` x :data:`EDGE_BIN` bins, one value a bin.
+    Their mean is the share of the frame near a feature edge (:func:`gmcpt.budget.choose` reads it)."""
+    return feature_edges(*(_binned_mean(buffer, EDGE_BIN) for buffer in (albedo, normal, depth, visibility)))
 
 
 def _binned_mean(image: np.ndarray, size: int) -> np.ndarray:

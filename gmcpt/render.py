@@ -28,7 +28,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .budget import (PROBE_SPP, SPARSE, SPARSE_SPP, check_budget, choose, even_fill, plan_budget,
+from .budget import (PROBE_SPP, SPARSE, SPARSE_SPP, check_budget, choose, edge_share, even_fill, plan_budget,
                      relative_variance)
 from .domain import ALBEDO_MIN
 from .errors import GmcptError
@@ -454,10 +454,12 @@ def _budget_passes(scene, sensor, integrator, settings: RenderSettings, features
     timings["render_s"] = time.perf_counter() - start
     mean, variance_of_mean = sums.estimate(first)
     statistic = relative_variance(mean, variance_of_mean, PROBE_SPP) if first.any() else None
+    edges = edge_share(features) if first.any() else None
     untraced = pixels - int(first.sum())
-    choice = choose(plan, statistic or 0.0, untraced, int(first.sum()) * PROBE_SPP)
-    info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": statistic}
-    say(f"budget {plan.budget:g} spp: {choice}" + ("" if statistic is None else f" (relative variance {statistic:.3f})"))
+    choice = choose(plan, statistic or 0.0, edges or 0.0, untraced, int(first.sum()) * PROBE_SPP)
+    info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": statistic, "edge_share": edges}
+    say(f"budget {plan.budget:g} spp: {choice}"
+        + ("" if statistic is None else f" (relative variance {statistic:.3f}, edge share {edges:.2f})"))
 
     if choice == SPARSE:
         start = time.perf_counter()
@@ -530,7 +532,7 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     (``adaptive``), :func:`gmcpt.placement.error_density` reads its samples, and a second pass traces the
     rest of the budget on other pixels, with other sampler seeds. With a ``budget``, the first pass's samples
     choose (:mod:`gmcpt.budget`) between that second pass and a dense one over every untraced pixel; ``info``
-    records the choice (``budget_choice``) and its signal (``relative_variance``).
+    records the choice (``budget_choice``) and its signals (``relative_variance``, ``edge_share``).
     """
     say = progress or (lambda message: None)
     sensor = sensor if sensor is not None else scene_sensor(scene)

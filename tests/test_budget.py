@@ -42,14 +42,29 @@ def test_relative_variance_is_the_median_over_lit_pixels_scaled_to_16_spp():
     assert relative_variance(np.zeros((3, 3)), np.ones(3)) == 0.0
 
 
-def test_choice_follows_the_signal_and_needs_a_sample_for_every_pixel():
-    from gmcpt.budget import DENSE, DENSE_ABOVE, SPARSE, choose, plan_budget
+def test_choice_follows_either_signal_and_needs_a_sample_for_every_pixel():
+    from gmcpt.budget import DENSE, DENSE_ABOVE, EDGES_ABOVE, SPARSE, choose, plan_budget
 
     plan = plan_budget(4.8, 1000)
-    assert choose(plan, DENSE_ABOVE * 2, untraced=850, first_samples=600) == DENSE
-    assert choose(plan, DENSE_ABOVE / 2, untraced=850, first_samples=600) == SPARSE
-    assert choose(plan_budget(0.9, 1000), DENSE_ABOVE * 2, untraced=970, first_samples=120) == SPARSE
-    assert choose(plan_budget(20, 1000), 0.0, untraced=1000, first_samples=0) == DENSE
+    quiet, flat = DENSE_ABOVE / 2, EDGES_ABOVE / 2
+    assert choose(plan, DENSE_ABOVE * 2, flat, untraced=850, first_samples=600) == DENSE
+    assert choose(plan, quiet, min(1.0, EDGES_ABOVE * 1.5), untraced=850, first_samples=600) == DENSE
+    assert choose(plan, quiet, flat, untraced=850, first_samples=600) == SPARSE
+    assert choose(plan_budget(0.9, 1000), DENSE_ABOVE * 2, 1.0, untraced=970, first_samples=120) == SPARSE
+    assert choose(plan_budget(20, 1000), 0.0, 0.0, untraced=1000, first_samples=0) == DENSE
+
+
+def test_edge_share_counts_the_frame_near_feature_edges():
+    from gmcpt.budget import edge_share
+
+    flat = {"albedo": np.full((32, 32, 3), 0.5, np.float32), "normal": np.zeros((32, 32, 3), np.float32),
+            "depth": np.ones((32, 32), np.float32), "visibility": np.ones((32, 32), np.float32)}
+    assert edge_share(flat) == 0.0
+    striped = dict(flat, albedo=flat["albedo"].copy())
+    striped["albedo"][:, ::8] = 0.0  # a dark stripe every 8 columns: edges on both sides of each
+    busier = dict(flat, albedo=flat["albedo"].copy())
+    busier["albedo"][:, ::4] = 0.0
+    assert 0 < edge_share(striped) < edge_share(busier) <= 1
 
 
 @pytest.mark.parametrize("probe,samples", [(4, 2000), (4, 4096 * 5 - 600 * 4), (4, 4096 * 3), (0, 4096 * 17 + 5)])
@@ -90,10 +105,12 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     from gmcpt.budget import SPARSE_SPP, plan_budget
 
     monkeypatch.setattr(budget, "DENSE_ABOVE", threshold)
+    monkeypatch.setattr(budget, "EDGES_ABOVE", threshold)
     pixels = SIZE[0] * SIZE[1]
     frame = _render(cornell, 4.8)
     plan = plan_budget(4.8, pixels)
     assert frame.info["budget_choice"] == way and frame.info["relative_variance"] >= 0
+    assert 0 <= frame.info["edge_share"] <= 1
     if way == "dense":
         assert frame.info["path_samples"] == round(4.8 * pixels) and frame.mask.all()
     else:

@@ -115,8 +115,12 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
                                                                           round(row["rate"] * 32 * 32) * 16 / 1024))
     chosen = [r for r in record["equal_time"] if r["contender"] == "gan_oidn"]
     assert len(chosen) == 2 * 2 and {r["budget_choice"] for r in chosen} <= {"sparse", "dense"}
+    averaged = {r["variant"]: r["seeds"] for r in record["placement"] if r["variant"] in ("path+oidn", "budget")}
+    assert averaged == {"path+oidn": 3, "budget": 3}  # the baselines and the default: means of 3 seeds
+    assert {r["seeds"] for r in record["placement"] if r["variant"] == "random"} == {1}
     markdown = results_markdown(record)
     assert "Sample placement at equal samples" in markdown and "budget - path+oidn dB" in markdown
+    assert "the means of 3 seeds" in markdown
     assert "budget - adaptive+oidn dB" in markdown and "budget 4" in markdown
     assert "**mean of 1 real**" in markdown and "**mean of 1 synthetic**" in markdown
     assert "Speed-up at equal quality" in markdown and "Full resolution: cornell-box at 48x32" in markdown

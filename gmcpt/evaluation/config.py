@@ -23,6 +23,8 @@ class EvalConfig:
         ``rates`` x ``spp``, beside path tracing at ``round(rate * spp)`` spp + OIDN; ``budget`` is not a mask
         but the budget chooser (:mod:`gmcpt.budget`) at ``rate * spp`` samples a pixel.
     default_placement : the placement of the default, the one the baselines are held against.
+    placement_seeds : seeds (``seed``, ``seed + 1``, ...) whose mean PSNR the placement table gives for both
+        baselines and the default; the other placements run at ``seed`` alone.
     variants : completion variants of the quality tables (keys of :data:`VARIANTS`).
     patch_sizes, patch_rates : the PSNR-against-patch-size sweep of PAWNNM (paper Fig. 12).
     grid_rate : rate of the image grids.
@@ -52,6 +54,7 @@ class EvalConfig:
     mask: str = DEFAULT_PATTERN
     placements: tuple[str, ...] = ("random", "stratified", "adaptive", "two_pass", "budget")
     default_placement: str = "budget"
+    placement_seeds: int = 3
     placement_variant: str = "gan_oidn"
     variants: tuple[str, ...] = ("interp", "liu", "nnm", "pawnnm", "gan", "gan_pawnnm", "gan_oidn", "gan_pawnnm_oidn")
     patch_sizes: tuple[int, ...] = (5, 6, 7, 8)

@@ -45,8 +45,11 @@ def placement_section(run: dict) -> list[str]:
         "so, then the rest where the first half's samples disagree with their neighbours "
         "(`gmcpt/placement.py`); `budget` (the default) is `--budget rate x spp`: a 4-spp first pass of `two_pass` "
         "chooses between `two_pass` at rate x 16 spp and tracing every pixel evenly (uniform path tracing at exactly "
-        "the budget) "
-        "(`gmcpt/budget.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline.",
+        "the budget), dense where the traced means are noisy or the feature buffers busy with edges "
+        "(`gmcpt/budget.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline."
+        + (f" Both baselines and `{_default_placement(c)}` are the means of {c['placement_seeds']} seeds ({c['seed']} "
+           f"to {c['seed'] + c['placement_seeds'] - 1}; baselines at seed + 17), the other masks one seed: one "
+           "seed's PSNR moves by 0.1-0.4 dB a scene." if c.get("placement_seeds", 1) > 1 else ""),
         "",
         placement_table(run),
         "",
