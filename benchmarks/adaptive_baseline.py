@@ -4,7 +4,7 @@
 For each evaluation scene (256x256, cached 4096-spp references) and each budget (mean path samples a
 pixel), uniform path tracing at ``round(budget)`` spp + OIDN beside adaptive path tracing
 (:mod:`gmcpt.adaptive`) at exactly ``budget``, in the shipped form and in the alternatives named by
-``--alternatives``; all denoised by OIDN with the same 4-spp feature pass's albedo and normal. Prints
+``--alternatives``; all denoised by OIDN with the same feature pass's albedo and normal. Prints
 PSNR dB per scene and the mean of the real and the synthetic scenes.
 
     python benchmarks/adaptive_baseline.py [--budgets 3.2 4.8 6.4] [--scenes NAME ...] [--procedural 2] [--seeds 0 1]

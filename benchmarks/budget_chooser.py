@@ -4,7 +4,7 @@
 For each scene and ``--budgets`` (mean path samples a pixel): the first pass's signal
 (:func:`gmcpt.budget.relative_variance`, :func:`gmcpt.budget.edge_share`), the default (`gan_oidn`) at that budget forced sparse and forced dense,
 what the chooser picks, and path tracing (round(budget) spp) + OIDN and adaptive path tracing + OIDN at the same
-budget (baselines at seed + 17, as the evaluation). Prints PSNR dB per scene, each the mean over ``--seeds``,
+budget (baselines at seed + 17, their guides from round(budget) spp, as the evaluation). Prints PSNR dB per scene, each the mean over ``--seeds``,
 and the means of the real and synthetic groups.
 
     python benchmarks/budget_chooser.py [--budgets 3.2 4.8 6.4] [--scenes NAME ...] [--procedural 2] [--seeds 0 1 2]
@@ -31,6 +31,10 @@ def main(argv=None) -> int:
     parser.add_argument("--procedural", type=int, default=2, help="held-out procedural scenes")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2],
                         help="each row is the mean over these seeds (one seed's spread is 0.1-0.4 dB a scene)")
+    parser.add_argument("--feature-spp", type=int, help="the default's feature pass (default: the product's)")
+    parser.add_argument("--baseline-guides", type=int, default=0, metavar="SPP",
+                        help="the baselines' OIDN guides from a feature pass of SPP (default 0: their own samples a "
+                             "pixel, round(budget), as the evaluation)")
     args = parser.parse_args(argv)
 
     import gmcpt  # noqa: F401
@@ -43,13 +47,15 @@ def main(argv=None) -> int:
     from gmcpt.evaluation.baselines import render_full
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.metrics import psnr
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.render import RenderSettings, render_features, render_sparse_frame
+    from gmcpt.scene import scene_sensor
 
     thresholds = budget.DENSE_ABOVE, budget.EDGES_ABOVE
 
     def default_at(scene, integrator, amount: float, threshold: float, seed: int):
         budget.DENSE_ABOVE = budget.EDGES_ABOVE = threshold
-        frame, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(budget=amount, seed=seed))
+        frame, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(
+            budget=amount, seed=seed, **({"feature_spp": args.feature_spp} if args.feature_spp else {})))
         budget.DENSE_ABOVE, budget.EDGES_ABOVE = thresholds
         return frame, complete(frame, DEFAULT_METHOD).image
 
@@ -71,9 +77,12 @@ def main(argv=None) -> int:
                 way = budget.choose(budget.plan_budget(amount, sparse_frame.mask.size), signal, edges,
                                     sparse_frame.mask.size - first, first * budget.PROBE_SPP)
                 chosen = dense if way == budget.DENSE else sparse
-                noisy = render_full(scene, integrator, max(1, round(amount)), seed + 17)
-                path = denoise_oidn(noisy, sparse_frame.albedo, sparse_frame.normal)
-                adaptive, _, _ = render_adaptive(scene, integrator, AdaptiveSettings(budget=amount, seed=seed + 17))
+                own = max(1, round(amount))
+                guides = render_features(scene, scene_sensor(scene), args.baseline_guides or own, seed + 17)
+                noisy = render_full(scene, integrator, own, seed + 17)
+                path = denoise_oidn(noisy, guides["albedo"], guides["normal"])
+                adaptive, _, _ = render_adaptive(scene, integrator, AdaptiveSettings(budget=amount, seed=seed + 17),
+                                                 features=guides)
                 runs.append([psnr(image, reference) for image in (sparse, dense, chosen, path, adaptive)])
             values = list(np.mean(runs, axis=0))
             rows.append({"scene": eval_scene.name, "real": getattr(eval_scene, "real", False), "budget": amount,

@@ -7,7 +7,7 @@ render's pixels where the mask is set (a traced pixel's value has the same
 distribution whichever mask picked it), so each placement costs only its
 completion. ``two_pass`` reads the first pass's pixels from the same render.
 Beside them, path tracing at ``round(rate * spp)`` samples per pixel, full
-frame, denoised by OIDN with the 4-spp feature pass's albedo and normal.
+frame, denoised by OIDN with the feature pass's albedo and normal.
 
 ``--predictors`` also tells which cheap signal predicts where completion errs:
 with a random mask at rate 0.3, the rank correlation over 8x8 tiles between the

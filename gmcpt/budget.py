@@ -21,10 +21,10 @@ on them; the sparse way then tops them up to :data:`SPARSE_SPP`. Two signals cho
   its squared brightness, scaled to a 16-spp mean. The synthetic evaluation scenes read 0.007-0.057, the real
   interiors 0.23-0.26: noise the fill cannot average away.
 - :func:`edge_share`: the share of the frame near an edge of the feature buffers, read before any path is
-  traced. Sponza's courtyard (0.48 at 256x256) is lit directly, so it reads 0.033 on the first signal, but
-  its columns, arches and textures leave a fill from 30% of the pixels too little to go on; the synthetic
-  scenes read 0.14-0.32 (docs/experiments.md). The share falls as the resolution grows, as the fill's
-  difficulty does.
+  traced. Sponza's courtyard (0.47 at 256x256) is lit directly, so it reads 0.034 on the first signal, but
+  its columns, arches and textures leave a fill from 30% of the pixels too little to go on; the other real
+  scenes read 0.17-0.31, the synthetic ones 0.11-0.26 (16-spp feature pass; docs/experiments.md). The share
+  falls as the resolution grows, as the fill's difficulty does, and rises with a noisier feature pass.
 
 All functions here are pure numpy; :func:`gmcpt.render.render_sparse_frame` runs the passes.
 """

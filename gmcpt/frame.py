@@ -9,11 +9,10 @@ from .errors import GmcptError
 
 #: Primary rays per pixel of the feature pass. The traced radiance is an antialiased mean of 16 or so
 #: samples; a 1-sample albedo is aliased at texture and silhouette edges, and demodulating one by the
-#: other leaves that aliasing in every filled pixel. Measured on the 5 evaluation scenes (256x256,
-#: 16 spp, rates 0.2/0.3/0.4, mean PSNR dB; feature_spp 1 -> 4 -> 16): interp 27.19 -> 27.94 ->
-#: 28.20, pawnnm 31.90 -> 32.39, gan (weights trained on 1-spp features) 30.92 -> 31.83 -> 32.10;
-#: 4 samples cost 0.03-0.06 s on a 256x256 frame (benchmarks/render_cost.py: +0.01-0.04 of a full 16-spp render).
-DEFAULT_FEATURE_SPP = 4
+#: other leaves that aliasing in every filled pixel; OIDN, the last stage, reads the same buffers as guides.
+#: Measured with the budget default at 4.8 samples a pixel (256x256, 3 seeds, docs/experiments.md): 4 -> 16
+#: gains 0.0-0.9 dB a scene (sponza +0.5, still life +0.9) for 0.05 s at 256x256 and 1 s at 1920x1080.
+DEFAULT_FEATURE_SPP = 16
 
 #: The per-pixel buffers of a :class:`SparseFrame` and their channels (None: an (H, W) plane).
 PIXEL_BUFFERS = {"radiance": 3, "mask": None, "variance": None, "albedo": 3, "normal": 3, "depth": None,

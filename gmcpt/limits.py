@@ -61,7 +61,7 @@ def check_spp(spp, name: str = "spp") -> int:
 def check_feature_spp(feature_spp, name: str = "feature_spp") -> int:
     """Samples per pixel of the feature pass: in [1, :data:`MAX_FEATURE_SPP`]."""
     return _check_count(feature_spp, name, MAX_FEATURE_SPP, "the features converge within a few samples; "
-                        "the default is 4")
+                        "the default is 16")
 
 
 def _size(count: float) -> str:

@@ -26,10 +26,11 @@ def test_bundled_scene_renders_through_mi_render(mi, scene_file):
     assert not np.allclose(image[frame.mask], frame.radiance[frame.mask])
     # the denoised traced pixels keep their samples' brightness as displayed (clamped to [0, 1]); in
     # linear radiance the light's few clipped pixels (2% of the traced ones at 64 px, 14x brighter
-    # than the walls) dominate the mean, and smoothing their edges moved it by 13% (measured with the
-    # fourth-retrain weights: display-range ratio 1.03 for cornell-box, 0.98 for still-life)
+    # than the walls) dominate the mean, and smoothing their edges moved it by 13%. Display-range ratio with
+    # 16-spp guides over seeds 0-3: 1.02-1.06 for cornell-box, 0.99 for still-life; above 1 because clamping
+    # 4-spp samples darkens their displayed mean (Jensen), the more so the cleaner OIDN gets the pixels
     clamped = lambda values: np.clip(values, 0.0, 1.0).mean()  # noqa: E731
-    assert abs(clamped(image[frame.mask]) / clamped(frame.radiance[frame.mask]) - 1) < 0.05
+    assert abs(clamped(image[frame.mask]) / clamped(frame.radiance[frame.mask]) - 1) < 0.08
     integrator.completion = "interp"  # keeps the traced pixels as rendered
     frame, image = unpack(np.asarray(mi.render(scene)))
     np.testing.assert_allclose(image[frame.mask], frame.radiance[frame.mask], rtol=1e-6)

@@ -64,6 +64,15 @@ def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
 BUDGET = "budget"
 
 
+def baseline_guides(loaded: LoadedScene, samples_per_pixel: float, seed: int) -> dict:
+    """OIDN's albedo and normal for a baseline of ``samples_per_pixel`` path samples: a feature pass of as many
+    primary samples, ``max(1, round(samples_per_pixel))``, what a renderer accumulates over its own samples
+    (Cycles' denoising passes, Mitsuba's ``aov`` integrator) in the same pass; so its time is not counted."""
+    from ..render import render_features
+
+    return render_features(loaded.scene, loaded.scene.sensors()[0], max(1, round(samples_per_pixel)), seed)
+
+
 def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig, pattern: str | None = None):
     """(frame, render timings) of the fastest of ``config.repeats`` masked renders (``pattern``: default
     ``config.mask``; :data:`BUDGET`: the budget chooser at ``rate * spp`` samples a pixel)."""
@@ -82,12 +91,12 @@ def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig,
     return best
 
 
-def adaptive_oidn(loaded: LoadedScene, budget: float, config: EvalConfig, features: dict | None = None):
+def adaptive_oidn(loaded: LoadedScene, budget: float, config: EvalConfig, features: dict):
     """(image, info, timings) of adaptive path tracing + OIDN at ``budget`` mean samples a pixel
-    (:func:`gmcpt.adaptive.render_adaptive`; ``features``: OIDN's guides, default a feature pass of its own)."""
+    (:func:`gmcpt.adaptive.render_adaptive`; ``features``: OIDN's guides, :func:`baseline_guides`)."""
     from ..adaptive import AdaptiveSettings, render_adaptive
 
-    settings = AdaptiveSettings(budget=budget, seed=config.seed + 17, feature_spp=config.feature_spp)
+    settings = AdaptiveSettings(budget=budget, seed=config.seed + 17)
     return render_adaptive(loaded.scene, loaded.integrator, settings, features=features)
 
 
@@ -120,24 +129,19 @@ def quality(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
         if rate == config.grid_rate:
             samples = max(1, round(rate * config.spp))
             noisy = render_full(loaded.scene, loaded.integrator, samples, config.seed + 17)
-            loaded.images[f"path {samples} spp + OIDN"] = denoise_oidn(noisy, loaded.features["albedo"],
-                                                                        loaded.features["normal"])
+            guides = baseline_guides(loaded, samples, config.seed + 17)
+            loaded.images[f"path {samples} spp + OIDN"] = denoise_oidn(noisy, guides["albedo"], guides["normal"])
     return rows
 
 
-def _path_oidn(loaded: LoadedScene, spp: int, seed: int, feature_spp: int) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(noisy, denoised, timings) of path tracing + OIDN, its own feature pass for the guides included."""
-    from ..render import render_features
-
+def _path_oidn(loaded: LoadedScene, spp: int, seed: int, guides: dict) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(noisy, denoised, timings) of path tracing + OIDN with ``guides`` (:func:`baseline_guides`)."""
     timings = {}
-    start = time.perf_counter()
-    features = render_features(loaded.scene, loaded.scene.sensors()[0], feature_spp)
-    timings["features_s"] = time.perf_counter() - start
     start = time.perf_counter()
     noisy = render_full(loaded.scene, loaded.integrator, spp, seed)
     timings["render_s"] = time.perf_counter() - start
     start = time.perf_counter()
-    denoised = denoise_oidn(noisy, features["albedo"], features["normal"])
+    denoised = denoise_oidn(noisy, guides["albedo"], guides["normal"])
     timings["denoise_s"] = time.perf_counter() - start
     return noisy, denoised, timings
 
@@ -165,7 +169,8 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     rows = []
     base = {"scene": loaded.name}
     for spp in config.path_spp:
-        (noisy, denoised, timings), seconds = _warm(lambda: _path_oidn(loaded, spp, config.seed + 17, config.feature_spp),
+        guides = baseline_guides(loaded, spp, config.seed + 17)
+        (noisy, denoised, timings), seconds = _warm(lambda: _path_oidn(loaded, spp, config.seed + 17, guides),
                                                    config.repeats)
         for contender, image, spent in (("path", noisy, timings["render_s"]), ("path+oidn", denoised, seconds)):
             rows.append({**base, "contender": contender, "rate": 1.0, "spp": spp, "samples_per_pixel": float(spp),
@@ -173,7 +178,8 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
         say(f"  {loaded.name} path {spp:>3} spp: {rows[-2]['psnr']:6.2f} dB, + OIDN {rows[-1]['psnr']:6.2f} dB "
             f"({timings['render_s']:.2f} s, {seconds:.2f} s in all)")
     for budget in config.adaptive_budgets:
-        (image, info, _), seconds = _warm(lambda: adaptive_oidn(loaded, budget, config), config.repeats)
+        guides = baseline_guides(loaded, budget, config.seed + 17)
+        (image, info, _), seconds = _warm(lambda: adaptive_oidn(loaded, budget, config, guides), config.repeats)
         rows.append({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
                      "samples_per_pixel": float(budget), "seconds": seconds, **all_metrics(image, loaded.reference)})
         say(f"  {loaded.name} adaptive {budget:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB ({seconds:.2f} s)")
@@ -211,17 +217,18 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     default are the means over ``config.placement_seeds`` seeds: one seed's PSNR moves by 0.1-0.4 dB a scene."""
     rows = []
     variant = VARIANTS[config.placement_variant]
-    albedo, normal = loaded.features["albedo"], loaded.features["normal"]
     seeds = [config.seed + offset for offset in range(max(1, config.placement_seeds))]
     for rate in config.rates:
         samples = max(1, round(rate * config.spp))
+        guides = baseline_guides(loaded, samples, config.seed + 17)
+        albedo, normal = guides["albedo"], guides["normal"]
         runs = [all_metrics(denoise_oidn(render_full(loaded.scene, loaded.integrator, samples, seed + 17), albedo,
                                          normal), loaded.reference) for seed in seeds]
         rows.append({"scene": loaded.name, "rate": rate, "variant": "path+oidn", "samples_per_pixel": samples,
                      "seeds": len(seeds), **_mean_metrics(runs)})
         runs, spent = [], 0
         for seed in seeds:
-            image, info, _ = adaptive_oidn(loaded, rate * config.spp, replace(config, seed=seed), loaded.features)
+            image, info, _ = adaptive_oidn(loaded, rate * config.spp, replace(config, seed=seed), guides)
             runs.append(all_metrics(image, loaded.reference))
             spent = info["path_samples"] / image.shape[0] / image.shape[1]
         rows.append({"scene": loaded.name, "rate": rate, "variant": "adaptive+oidn", "samples_per_pixel": spent,
