@@ -29,7 +29,7 @@ def test_the_denoiser_sees_the_traced_samples_and_the_fill_elsewhere(monkeypatch
         return image.astype(np.float32)
 
     monkeypatch.setattr(denoised, "denoise_oidn", identity)
-    result = denoised.denoise_over_fill(frame, Completion(fill, {"pre_completion_s": 0.1}))
+    result = denoised.denoise_over_fill(frame, lambda: Completion(fill, {"pre_completion_s": 0.1}))
     np.testing.assert_array_equal(result.image[frame.mask], frame.radiance[frame.mask])
     assert np.all(result.image[~frame.mask] == 0.25)
     assert seen["albedo"] is frame.albedo and seen["normal"] is frame.normal
@@ -61,3 +61,18 @@ def test_gan_oidn_fills_with_gans_image_at_the_untraced_pixels(monkeypatch):
     complete(frame, "gan_oidn")
     expected = np.where(frame.mask[..., None], frame.radiance, complete(frame, "gan").image)
     np.testing.assert_array_equal(seen["image"], expected)
+
+
+@pytest.mark.parametrize("method", ["gan_oidn", "gan_pawnnm_oidn"])
+def test_a_frame_with_every_pixel_traced_is_denoised_without_a_fill(monkeypatch, method):
+    from gmcpt.completion import denoised
+
+    frame, _ = _noisy_frame(rate=1.0)
+    assert frame.mask.all()
+    monkeypatch.setattr(denoised, "generator_fill", lambda *a, **k: pytest.fail("the generator ran"))
+    monkeypatch.setattr(denoised, "complete_gan_pawnnm", lambda *a, **k: pytest.fail("the fill ran"))
+    seen = {}
+    monkeypatch.setattr(denoised, "denoise_oidn", lambda image, albedo, normal: seen.setdefault("image", image))
+    result = complete(frame, method)
+    np.testing.assert_array_equal(seen["image"], frame.radiance)
+    assert "pre_completion_s" not in result.timings and "denoise_s" in result.timings
