@@ -31,6 +31,9 @@ from .errors import GmcptError
 PATTERNS = ("random", "stratified", "blue_noise", "adaptive", "two_pass")
 #: the placement of the CLI, the scene XML and the Python API when none is named
 DEFAULT_PATTERN = "two_pass"
+#: the fraction of pixels traced when a rate is wanted and none is named; with no spp either, the scene XML
+#: and the CLI trace a budget of DEFAULT_RATE x the sampler's spp instead (mitsuba_plugins/masked_path.py)
+DEFAULT_RATE = 0.3
 #: patterns that need the feature buffers (they are drawn after the feature pass)
 FEATURE_PATTERNS = ("adaptive", "two_pass")
 

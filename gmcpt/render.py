@@ -34,7 +34,7 @@ from .domain import ALBEDO_MIN
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame  # noqa: F401  (DEFAULT_FEATURE_SPP re-exported)
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seed, check_spp
-from .masks import (DEFAULT_PATTERN, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
+from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
                     sample_by_density, sample_count, second_pass_mask)
 from .placement import FIRST_PASS_SHARE, error_density, feature_density
 from .scene import scene_sensor
@@ -102,7 +102,7 @@ class RenderSettings:
     Checked when made (:mod:`gmcpt.limits`): a bad value raises a one-line :class:`~gmcpt.errors.GmcptError`.
     """
 
-    rate: float = 0.3
+    rate: float = DEFAULT_RATE
     pattern: str = DEFAULT_PATTERN
     seed: int = 0
     spp: int = 0

@@ -25,12 +25,12 @@ DESCRIPTION = "Path trace a fraction of the pixels of a Mitsuba 3 scene and comp
 
 def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
     """The options of one render (all but the scene, --out and --reference), shared with batch."""
-    parser.add_argument("--rate", type=float, help="fraction of pixels to path trace, in (0, 1] "
-                        "(default: the scene's, else 0.3)")
+    parser.add_argument("--rate", type=float, help="fraction of pixels to path trace, in (0, 1], each at --spp "
+                        "(default: the scene's, else a budget; 0.3 with --spp or another --mask)")
     parser.add_argument("--spp", type=int, help="samples per traced pixel (default: the scene's sampler)")
     parser.add_argument("--budget", type=float, metavar="B", help="mean path samples a pixel instead of --rate and "
                         "--spp: each frame's first pass chooses between B/16 of the pixels at 16 spp and all of "
-                        "them (default: the scene's, else none)")
+                        "them (default: the scene's, else 0.3 x the scene's spp if no rate, spp or other mask is set)")
     parser.add_argument("--seed", type=int, help="seed of the mask and the samplers (default: the scene's, else 0)")
     parser.add_argument("--mask", help="sample placement: two_pass, adaptive, random, stratified, blue_noise "
                         "(default: the scene's, else two_pass)")
@@ -171,7 +171,7 @@ def run(args, say=lambda message: None, extra: dict | None = None,
     if reference is not None and reference.shape != (height, width, 3):
         raise GmcptError(f"reference {args.reference} is {reference.shape[1]}x{reference.shape[0]}, "
                          f"the render is {width}x{height}")
-    settings = integrator.settings(spp=args.spp or 0)
+    settings = integrator.settings(spp=args.spp or 0, sensor=scene_sensor(scene, path=args.scene))
     frame, timings = render_sparse_frame(scene, integrator.integrator, None, settings, progress=say)
     dropped = frame.info["nonfinite_samples"]
     if dropped:

@@ -8,7 +8,7 @@ from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
 from gmcpt.errors import GmcptError
 from gmcpt.exr import channel_names, pack
 from gmcpt.limits import check_feature_spp, check_seed
-from gmcpt.masks import DEFAULT_PATTERN, check_pattern, check_rate
+from gmcpt.masks import DEFAULT_PATTERN, DEFAULT_RATE, check_pattern, check_rate
 from gmcpt.plugins import constructor
 from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
 from gmcpt.scene import scene_sensor
@@ -25,12 +25,14 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
      * - rate
        - |float|
-       - Fraction of pixels that are path traced, in (0, 1]. (Default: 0.3)
+       - Fraction of pixels that are path traced, in (0, 1], each at the sampler's spp. (Default: 0.3 when
+         an spp is given to ``mi.render`` or the mask is not ``two_pass``; else a budget, below)
      * - budget
        - |float|
        - Mean path samples a pixel, instead of ``rate`` and the sampler's spp: the first pass of ``two_pass``
          chooses per frame between tracing ``budget / 16`` of the pixels at 16 spp (completed by the
-         ``completion`` method) and tracing every pixel (see ``gmcpt.budget``); 0: none. (Default: 0)
+         ``completion`` method) and tracing every pixel (see ``gmcpt.budget``); 0: none. (Default: with
+         neither ``rate`` nor ``budget`` set, 0.3 x the sampler's spp: as many samples as rate 0.3 traces)
      * - mask
        - |string|
        - Sample placement: ``two_pass`` (half the budget where the feature buffers have edges, the rest
@@ -47,7 +49,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - Depth at which Russian roulette starts, for the default nested ``path``. (Default: 5)
      * - feature_spp
        - |int|
-       - Primary samples per pixel of the feature pass (albedo, normal, depth, visibility). (Default: 4)
+       - Primary samples per pixel of the feature pass (albedo, normal, depth, visibility). (Default: 16)
      * - completion
        - |string|
        - Reconstruction method run after rendering: see ``gmcpt.methods()``. (Default: ``gan_oidn``: GAN fill, then Intel OIDN)
@@ -66,7 +68,9 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
     Only the pixels the mask selects are traced, from a compacted pixel list
     (``round(rate * W * H) * spp`` lanes), with the scene's spp per traced
     pixel and a box estimate per pixel; feature buffers are computed for every
-    pixel in the same call. The completion method then fills the rest.
+    pixel in the same call. The completion method then fills the rest. With a
+    budget (the default), each frame's first pass chooses that or tracing every
+    pixel, the same samples in all.
 
     ``mi.render`` returns an ``(H, W, 17)`` tensor: the completed RGB first,
     then the layers named by :meth:`aov_names` (sparse RGB, mask, albedo,
@@ -85,7 +89,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
     def __init__(self, props: mi.Properties):
         super().__init__(props)
-        self.rate = check_rate(props.get("rate", 0.3))
+        # no rate and no budget: the default budget, DEFAULT_RATE x the sensor's spp (settings)
+        self.rate = check_rate(props["rate"]) if "rate" in props else None
         self.budget = float(props.get("budget", 0.0))
         self.mask_pattern = check_pattern(props.get("mask", DEFAULT_PATTERN))
         self.seed = check_seed(props.get("seed", 0))
@@ -119,12 +124,19 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         """Keyword options for :func:`gmcpt.completion.complete` beside the method name."""
         return {"tile": self.tile, **({} if self.weights is None else {"weights": self.weights})}
 
-    def settings(self, seed: int = 0, spp: int = 0) -> RenderSettings:
-        """What :func:`render_sparse_frame` traces; ``spp`` (0: the sensor's) is refused beside a budget."""
+    def settings(self, seed: int = 0, spp: int = 0, sensor: mi.Sensor | None = None) -> RenderSettings:
+        """What :func:`render_sparse_frame` traces; ``spp`` (0: the sensor's) is refused beside a budget.
+
+        With neither ``rate`` nor ``budget`` set, no ``spp`` and the ``two_pass`` mask, the budget is
+        ``DEFAULT_RATE`` x ``sensor``'s spp (the samples rate ``DEFAULT_RATE`` would trace), at least 1;
+        otherwise (and without a ``sensor``) the rate is ``DEFAULT_RATE``."""
         if self.budget and spp:
             raise GmcptError(f"masked_path has a budget of {self.budget:g} samples a pixel: give no spp as well")
-        return RenderSettings(rate=self.rate, pattern=self.mask_pattern, seed=self.seed + int(seed),
-                              spp=int(spp), feature_spp=self.feature_spp, budget=self.budget)
+        budget = self.budget
+        if not budget and self.rate is None and not spp and sensor is not None and self.mask_pattern == "two_pass":
+            budget = max(1.0, DEFAULT_RATE * sensor.sampler().sample_count())
+        return RenderSettings(rate=DEFAULT_RATE if self.rate is None else self.rate, pattern=self.mask_pattern,
+                              seed=self.seed + int(seed), spp=int(spp), feature_spp=self.feature_spp, budget=budget)
 
     def render(self, scene: mi.Scene, sensor: int | mi.Sensor = 0, seed: int = 0, spp: int = 0,
                develop: bool = True, evaluate: bool = True) -> mi.TensorXf:
@@ -132,7 +144,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
             raise GmcptError("masked_path only renders developed images (develop=True)")
         if isinstance(sensor, int):
             sensor = scene_sensor(scene, sensor)
-        frame, timings = render_sparse_frame(scene, self.integrator, sensor, self.settings(seed, spp))
+        frame, timings = render_sparse_frame(scene, self.integrator, sensor, self.settings(seed, spp, sensor))
         result = complete(frame, self.completion, **self.completion_options())
         self.last_frame, self.last_timings = frame, {**timings, **result.timings}
         return mi.TensorXf(pack(frame, result.image))

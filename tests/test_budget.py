@@ -167,3 +167,41 @@ def test_cli_budget_records_its_choice_and_refuses_a_rate_beside_it(tmp_path):
         assert result.returncode == 2 and "not both" in result.stderr and len(result.stderr.strip().splitlines()) == 1
     result = run_cli(CORNELL, "--budget", "0", "--out", tmp_path / "x.exr", "-q")
     assert result.returncode == 2 and "--budget" in result.stderr and not (tmp_path / "x.exr").exists()
+
+
+def test_with_no_rate_no_spp_and_no_budget_the_integrator_spends_the_default_budget(mi, cornell):
+    from gmcpt.masks import DEFAULT_RATE
+
+    pixels = SIZE[0] * SIZE[1]
+    spp = cornell.sensors()[0].sampler().sample_count()
+    integrator = mi.load_dict({"type": "masked_path", "completion": "interp"})
+    assert integrator.rate is None and not integrator.budget
+    mi.render(cornell, integrator=integrator)
+    info = integrator.last_frame.info
+    assert info["budget"] == pytest.approx(DEFAULT_RATE * spp) and info["budget_choice"] in ("sparse", "dense")
+    assert info["path_samples"] <= round(DEFAULT_RATE * spp * pixels)
+    # an spp given, or a mask other than two_pass: a fixed rate, as before
+    integrator.render(cornell, spp=8)
+    assert "budget_choice" not in integrator.last_frame.info
+    assert integrator.last_frame.info["path_samples"] == round(DEFAULT_RATE * pixels) * 8
+    fixed = mi.load_dict({"type": "masked_path", "completion": "interp", "mask": "random"})
+    fixed.render(cornell)
+    assert fixed.last_frame.info["path_samples"] == round(DEFAULT_RATE * pixels) * spp
+
+
+def test_cli_without_a_rate_spends_the_default_budget(tmp_path):
+    xml = CORNELL.read_text().replace('<float name="rate" value="$rate"/>', "")
+    assert "$rate" not in xml  # the box is built from Mitsuba's shapes alone: it loads from any folder
+    scene = tmp_path / "no-rate.xml"
+    scene.write_text(xml)
+    out = tmp_path / "default.exr"
+    result = run_cli(scene, "--res", *SIZE, "--method", "interp", "--out", out, "-q")
+    assert result.returncode == 0, result.stderr
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["parameters"]["budget"] == pytest.approx(0.3 * 16) and record["parameters"]["rate"] is None
+    assert record["budget_choice"] in ("sparse", "dense")
+    out = tmp_path / "spp.exr"
+    result = run_cli(scene, "--res", *SIZE, "--spp", "4", "--method", "interp", "--out", out, "-q")
+    assert result.returncode == 0, result.stderr
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["parameters"]["rate"] == 0.3 and record["parameters"]["budget"] is None
