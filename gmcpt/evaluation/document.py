@@ -37,7 +37,9 @@ def placement_section(run: dict) -> list[str]:
         "## Sample placement at equal samples",
         "",
         f"`{c['placement_variant']}` at each rate x {c['spp']} spp with each mask, beside two baselines denoised by "
-        "Intel Open Image Denoise (albedo and normal from the same feature pass): full-frame path tracing with the "
+        "Intel Open Image Denoise (albedo and normal from a feature pass of as many primary samples a pixel as "
+        "their own path samples, what a renderer accumulates in the same pass; the default's feature pass has "
+        f"{c.get('feature_spp', 1)}): full-frame path tracing with the "
         f"same total samples (round(rate x {c['spp']}) spp a pixel) and adaptive path tracing with exactly "
         f"rate x {c['spp']} samples a pixel on average (`gmcpt/adaptive.py`: 5/8 of the samples everywhere, "
         "the rest where the first pass's error in the displayed image is high). `random` is the paper's mask; `adaptive` places the "
@@ -206,7 +208,8 @@ def results_markdown(run: dict) -> str:
         "",
         "Every contender ran at several settings in this run: full-frame path tracing at "
         f"{', '.join(map(str, c['path_spp']))} spp; the same + Intel Open Image Denoise (`pyoidn`, CPU, HDR, "
-        "with the albedo and normal of a feature pass, whose time is counted); adaptive path tracing + OIDN at "
+        "with albedo and normal from a feature pass of its own samples a pixel, untimed: a renderer accumulates "
+        "them in the same pass); adaptive path tracing + OIDN at "
         f"{', '.join(f'{b:g}' for b in c.get('adaptive_budgets', ()))} samples a pixel on average; the completion "
         f"methods at rates {', '.join(f'{r:g}' for r in c['budget_rates'])} x {', '.join(map(str, c['budget_spp']))} spp "
         "(feature pass, placement, masked render and completion counted). Timed warm, in one process: each "

@@ -5,7 +5,7 @@ the quality figures. Renders are timed ``config.repeats`` times and the
 fastest counts (the first call in a process traces Dr.Jit kernels); in the
 equal-time comparison every contender's whole pipeline runs so, in one warm
 process: features, placement, render and completion for the completion
-methods; features, render and OIDN for the baselines.
+methods; render and OIDN for the baselines (their guides untimed: :func:`baseline_guides`).
 """
 from __future__ import annotations
 
@@ -161,7 +161,7 @@ def _warm(pipeline: Callable[[], tuple], repeats: int) -> tuple:
 def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     """Quality and total wall time of every contender at every setting of the equal-time comparison.
 
-    Path tracing: a full-frame render. Path tracing + OIDN: a feature pass for the guides, the same render
+    Path tracing: a full-frame render. Path tracing + OIDN: the same render, guides (:func:`baseline_guides`, untimed)
     and the denoiser. Adaptive path tracing + OIDN: the same with the samples placed adaptively. Completion
     variants: feature pass, placement, masked render and completion, the default at ``config.default_budgets``
     samples a pixel, the others at ``config.budget_rates`` x ``config.budget_spp``. Each timed warm (:func:`_warm`).
