@@ -24,6 +24,11 @@ sys.path.insert(0, str(ROOT))
 COLUMNS = ("sparse", "dense", "chosen", "path+OIDN", "adaptive+OIDN")
 
 
+def _cell(value: float | None, width: int) -> str:
+    """A signal to 3 decimals, or ``-`` where the frame had no first pass to read it from."""
+    return f"{'-':>{width}}" if value is None else f"{value:{width}.3f}"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--budgets", type=float, nargs="+", default=[3.2, 4.8, 6.4])
@@ -84,10 +89,12 @@ def main(argv=None) -> int:
                 adaptive, _, _ = render_adaptive(scene, integrator, AdaptiveSettings(budget=amount, seed=seed + 17),
                                                  features=guides)
                 runs.append([psnr(image, reference) for image in (sparse, dense, chosen, path, adaptive)])
+                if budget.plan_budget(amount, sparse_frame.mask.size).dense_only:
+                    runs[-1][0] = math.nan  # no first pass, no choice: there is no sparse frame
             values = list(np.mean(runs, axis=0))
             rows.append({"scene": eval_scene.name, "real": getattr(eval_scene, "real", False), "budget": amount,
                          "signal": signal, "psnr": values})
-            print(f"{eval_scene.name:<22} {amount:6.1f} {signal:7.3f} {edges:6.3f} "
+            print(f"{eval_scene.name:<22} {amount:6.1f} {_cell(signal, 7)} {_cell(edges, 6)} "
                   + " ".join(f"{value:13.2f}" for value in values), flush=True)
     for label, real in (("real mean", True), ("synthetic mean", False)):
         for amount in args.budgets:

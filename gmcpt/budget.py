@@ -26,6 +26,9 @@ on them; the sparse way then tops them up to :data:`SPARSE_SPP`. Two signals cho
   scenes read 0.17-0.31, the synthetic ones 0.11-0.26 (16-spp feature pass; docs/experiments.md). The share
   falls as the resolution grows, as the fill's difficulty does, and rises with a noisier feature pass.
 
+A budget of :data:`SPARSE_SPP` or more, or one that buys every pixel a sample but not a first pass beside
+that (1 to about 1.1), is dense without a first pass (:attr:`BudgetPlan.dense_only`).
+
 All functions here are pure numpy; :func:`gmcpt.render.render_sparse_frame` runs the passes.
 """
 from __future__ import annotations
@@ -37,6 +40,7 @@ import numpy as np
 
 from .errors import GmcptError
 from .masks import mask_rng, sample_by_density
+from .placement import FIRST_PASS_SHARE
 
 #: Samples of each traced pixel on the sparse side; 0.3 x 16 is the evaluation's 4.8-spp default.
 SPARSE_SPP = 16
@@ -83,9 +87,19 @@ class BudgetPlan:
         return self.sparse_pixels / self.pixels
 
     @property
+    def first_pass_pixels(self) -> int:
+        """Pixels of the first pass: ``two_pass``'s first share of the sparse frame's."""
+        return max(1, int(round(self.sparse_pixels * FIRST_PASS_SHARE)))
+
+    @property
     def dense_only(self) -> bool:
-        """True when the budget traces every pixel at :data:`SPARSE_SPP` or more: nothing to choose."""
-        return self.sparse_pixels >= self.pixels
+        """True when the frame is traced dense without a first pass: the budget traces every pixel at
+        :data:`SPARSE_SPP` or more (nothing to choose), or it buys every pixel a sample but not a first
+        pass beside that (below about 1.1 samples a pixel; at 1, the dense frame beat the sparse one on 8
+        of the 9 evaluation scenes, by 2.5 dB on the real mean: docs/experiments.md)."""
+        probe = self.first_pass_pixels * PROBE_SPP
+        unaffordable = self.samples - probe < self.pixels - self.first_pass_pixels
+        return self.sparse_pixels >= self.pixels or (self.samples >= self.pixels and unaffordable)
 
 
 def plan_budget(budget: float, pixels: int) -> BudgetPlan:

@@ -28,6 +28,10 @@ def test_plan_counts_the_samples_and_the_sparse_pixels():
     assert plan.samples == 4800 and plan.sparse_pixels == 4800 // SPARSE_SPP and not plan.dense_only
     assert plan.sparse_rate == pytest.approx(0.3)
     assert plan_budget(16, 1000).dense_only and plan_budget(40, 1000).sparse_pixels == 1000
+    # a sample for every pixel but no first pass beside it: dense at once; below one a pixel: sparse
+    assert plan_budget(1.0, 1000).dense_only and plan_budget(1.05, 1000).dense_only
+    assert plan_budget(1.0, 1000).first_pass_pixels == 31  # 62 sparse pixels, half of them first
+    assert not plan_budget(0.99, 1000).dense_only and not plan_budget(1.2, 1000).dense_only
     with pytest.raises(GmcptError, match="less than one pixel"):
         plan_budget(0.01, 100)
 
