@@ -94,7 +94,7 @@ def available_memory() -> int | None:
     return available
 
 
-def check_resolution(width, height, feature_spp=4, name: str = "resolution") -> tuple[int, int]:
+def check_resolution(width, height, feature_spp, name: str = "resolution") -> tuple[int, int]:
     """Refuse an image that is empty, has more feature rays than one launch can index, or cannot fit in memory."""
     width, height = (_integer(side, name, ">= 1") for side in (width, height))
     if min(width, height) < 1:
