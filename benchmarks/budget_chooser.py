@@ -78,10 +78,8 @@ def main(argv=None) -> int:
                 sparse_frame, sparse = default_at(scene, integrator, amount, math.inf, seed)
                 _, dense = default_at(scene, integrator, amount, -1.0, seed)
                 signal, edges = sparse_frame.info["relative_variance"], sparse_frame.info["edge_share"]
-                first = sparse_frame.info["first_pass_pixels"]
-                way = budget.choose(budget.plan_budget(amount, sparse_frame.mask.size), signal, edges,
-                                    sparse_frame.mask.size - first, first * budget.PROBE_SPP)
-                chosen = dense if way == budget.DENSE else sparse
+                plan = budget.plan_budget(amount, sparse_frame.mask.size)
+                chosen = dense if budget.choose(plan, signal or 0.0, edges or 0.0) == budget.DENSE else sparse
                 own = max(1, round(amount))
                 guides = render_features(scene, scene_sensor(scene), args.baseline_guides or own, seed + 17)
                 noisy = render_full(scene, integrator, own, seed + 17)
@@ -89,7 +87,7 @@ def main(argv=None) -> int:
                 adaptive, _, _ = render_adaptive(scene, integrator, AdaptiveSettings(budget=amount, seed=seed + 17),
                                                  features=guides)
                 runs.append([psnr(image, reference) for image in (sparse, dense, chosen, path, adaptive)])
-                if budget.plan_budget(amount, sparse_frame.mask.size).dense_only:
+                if plan.dense_only:
                     runs[-1][0] = math.nan  # no first pass, no choice: there is no sparse frame
             values = list(np.mean(runs, axis=0))
             rows.append({"scene": eval_scene.name, "real": getattr(eval_scene, "real", False), "budget": amount,

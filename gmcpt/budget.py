@@ -92,14 +92,17 @@ class BudgetPlan:
         return max(1, int(round(self.sparse_pixels * FIRST_PASS_SHARE)))
 
     @property
+    def dense_after_first_pass(self) -> bool:
+        """True when what the first pass leaves of the budget gives every other pixel a sample at least."""
+        return self.samples - self.first_pass_pixels * PROBE_SPP >= self.pixels - self.first_pass_pixels
+
+    @property
     def dense_only(self) -> bool:
         """True when the frame is traced dense without a first pass: the budget traces every pixel at
         :data:`SPARSE_SPP` or more (nothing to choose), or it buys every pixel a sample but not a first
         pass beside that (below about 1.1 samples a pixel; at 1, the dense frame beat the sparse one on 8
         of the 9 evaluation scenes, by 2.5 dB on the real mean: docs/experiments.md)."""
-        probe = self.first_pass_pixels * PROBE_SPP
-        unaffordable = self.samples - probe < self.pixels - self.first_pass_pixels
-        return self.sparse_pixels >= self.pixels or (self.samples >= self.pixels and unaffordable)
+        return self.sparse_pixels >= self.pixels or (self.samples >= self.pixels and not self.dense_after_first_pass)
 
 
 def plan_budget(budget: float, pixels: int) -> BudgetPlan:
@@ -137,14 +140,15 @@ def edge_share(features: dict) -> float:
     return float(binned_edges(features["albedo"], features["normal"], features["depth"], features["visibility"]).mean())
 
 
-def choose(plan: BudgetPlan, statistic: float, edges: float, untraced: int, first_samples: int) -> str:
+def choose(plan: BudgetPlan, statistic: float, edges: float) -> str:
     """:data:`DENSE` when the first pass reads above :data:`DENSE_ABOVE` or the feature edges above
-    :data:`EDGES_ABOVE`, and what is left of the budget gives each of the ``untraced`` pixels a sample at least;
+    :data:`EDGES_ABOVE`, and what the first pass leaves of the budget gives every other pixel a sample
+    (:attr:`BudgetPlan.dense_after_first_pass`); :data:`DENSE` too when the plan is :attr:`~BudgetPlan.dense_only`;
     else :data:`SPARSE`."""
     if plan.dense_only:
         return DENSE
     wanted = statistic > DENSE_ABOVE or edges > EDGES_ABOVE
-    return DENSE if wanted and plan.samples - first_samples >= untraced else SPARSE
+    return DENSE if wanted and plan.dense_after_first_pass else SPARSE
 
 
 def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:

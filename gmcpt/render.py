@@ -455,8 +455,7 @@ def _budget_passes(scene, sensor, integrator, settings: RenderSettings, features
     mean, variance_of_mean = sums.estimate(first)
     statistic = relative_variance(mean, variance_of_mean, PROBE_SPP) if first.any() else None
     edges = edge_share(features) if first.any() else None
-    untraced = pixels - int(first.sum())
-    choice = choose(plan, statistic or 0.0, edges or 0.0, untraced, int(first.sum()) * PROBE_SPP)
+    choice = choose(plan, statistic or 0.0, edges or 0.0)
     info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": statistic, "edge_share": edges}
     say(f"budget {plan.budget:g} spp: {choice}"
         + ("" if statistic is None else f" (relative variance {statistic:.3f}, edge share {edges:.2f})"))

@@ -51,11 +51,14 @@ def test_choice_follows_either_signal_and_needs_a_sample_for_every_pixel():
 
     plan = plan_budget(4.8, 1000)
     quiet, flat = DENSE_ABOVE / 2, EDGES_ABOVE / 2
-    assert choose(plan, DENSE_ABOVE * 2, flat, untraced=850, first_samples=600) == DENSE
-    assert choose(plan, quiet, min(1.0, EDGES_ABOVE * 1.5), untraced=850, first_samples=600) == DENSE
-    assert choose(plan, quiet, flat, untraced=850, first_samples=600) == SPARSE
-    assert choose(plan_budget(0.9, 1000), DENSE_ABOVE * 2, 1.0, untraced=970, first_samples=120) == SPARSE
-    assert choose(plan_budget(20, 1000), 0.0, 0.0, untraced=1000, first_samples=0) == DENSE
+    assert choose(plan, DENSE_ABOVE * 2, flat) == DENSE
+    assert choose(plan, quiet, min(1.0, EDGES_ABOVE * 1.5)) == DENSE
+    assert choose(plan, quiet, flat) == SPARSE
+    # 4.8 on 1000 pixels: a first pass of 150 pixels at 4 spp leaves 4200 samples for the other 850
+    assert plan.first_pass_pixels == 150 and plan.dense_after_first_pass
+    assert not plan_budget(0.9, 1000).dense_after_first_pass  # 900 - 28 * 4 samples for 972 pixels
+    assert choose(plan_budget(0.9, 1000), DENSE_ABOVE * 2, 1.0) == SPARSE
+    assert choose(plan_budget(20, 1000), 0.0, 0.0) == DENSE
 
 
 def test_edge_share_counts_the_frame_near_feature_edges():
@@ -120,7 +123,7 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     else:
         assert frame.info["path_samples"] == plan.sparse_pixels * SPARSE_SPP <= round(4.8 * pixels)
         assert frame.info["traced_pixels"] == plan.sparse_pixels
-        assert frame.info["first_pass_pixels"] == round(plan.sparse_pixels / 2)
+        assert frame.info["first_pass_pixels"] == round(plan.sparse_pixels / 2) == plan.first_pass_pixels
     assert np.isfinite(frame.radiance).all() and (frame.variance[frame.mask] >= 0).all()
     again = _render(cornell, 4.8)
     np.testing.assert_array_equal(frame.radiance, again.radiance)  # same seed, same frame
