@@ -2,8 +2,6 @@
 :func:`gmcpt.denoise.denoise_oidn` on it, path tracing + OIDN)."""
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 
@@ -16,14 +14,3 @@ def render_full(scene, integrator, spp: int, seed: int) -> np.ndarray:
     dr.eval(image)
     return np.asarray(image, dtype=np.float32)[..., :3]
 
-
-def fastest(function, repeats: int):
-    """(result of the fastest of ``repeats`` calls, its wall seconds)."""
-    best, result = float("inf"), None
-    for _ in range(max(1, repeats)):
-        start = time.perf_counter()
-        value = function()
-        seconds = time.perf_counter() - start
-        if seconds < best:
-            best, result = seconds, value
-    return result, best

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..denoise import denoise_oidn
 from ..metrics import all_metrics
-from .baselines import fastest, render_full
+from .baselines import render_full
 from ..budget import SPARSE_SPP
 from .config import DEFAULT_VARIANT, SECOND_REFERENCE_SEED, VARIANTS, EvalConfig, Variant, patch_variant
 
@@ -29,21 +29,18 @@ FULL_REFERENCES = Path(__file__).resolve().parents[2] / "data" / "references"
 
 @dataclass
 class LoadedScene:
-    """An evaluation scene loaded at the evaluation resolution, with its reference and feature buffers."""
+    """An evaluation scene loaded at the evaluation resolution, with its reference (each contender renders its
+    own feature pass: the default inside its frame, the baselines by :func:`baseline_guides`)."""
 
     name: str
     scene: object
     integrator: object
     reference: np.ndarray
-    features: dict
-    features_s: float
     images: dict = field(default_factory=dict)  # label -> image at the grid rate, for the image grid
 
 
 def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     """Load a scene, its cached reference, and measure the reference's noise level (a second reference)."""
-    from ..render import render_features
-
     progress = lambda message: say(f"  {message} (cached after the first run)")  # noqa: E731
     reference = eval_scene.reference(config.resolution, config.reference_spp, progress=progress)
     second = eval_scene.reference(config.resolution, config.reference_spp, seed=SECOND_REFERENCE_SEED,
@@ -53,9 +50,7 @@ def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     scene = eval_scene.load(config.resolution)
     integrator = scene.integrator()
     integrator = getattr(integrator, "integrator", integrator)  # the path tracer masked_path wraps
-    sensor = scene.sensors()[0]
-    features, features_s = fastest(lambda: render_features(scene, sensor, config.feature_spp), config.repeats)
-    loaded = LoadedScene(eval_scene.name, scene, integrator, reference, features, features_s)
+    loaded = LoadedScene(eval_scene.name, scene, integrator, reference)
     loaded.images["reference"] = reference
     return loaded, noise
 
@@ -266,7 +261,7 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     scene = eval_scene.load(config.full_size)
     integrator = scene.integrator()
     integrator = getattr(integrator, "integrator", integrator)
-    loaded = LoadedScene(eval_scene.name, scene, integrator, reference, {}, 0.0)  # each contender has its features
+    loaded = LoadedScene(eval_scene.name, scene, integrator, reference)
     full = replace(config, path_spp=config.full_path_spp, adaptive_budgets=config.full_adaptive_budgets,
                    budget_variants=(DEFAULT_VARIANT,), default_budgets=config.full_budgets)
     size = "x".join(map(str, config.full_size))
@@ -282,8 +277,7 @@ def stage_timings(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
         scene = eval_scene.load(resolution)
         integrator = scene.integrator()
         integrator = getattr(integrator, "integrator", integrator)
-        loaded = LoadedScene(eval_scene.name, scene, integrator, np.zeros((resolution, resolution, 3), np.float32),
-                             {}, 0.0)
+        loaded = LoadedScene(eval_scene.name, scene, integrator, np.zeros((resolution, resolution, 3), np.float32))
         frame, render_timings = sparse_frame(loaded, 0.3, config.spp, config)
         for label in config.budget_variants:
             timings = complete(frame, VARIANTS[label].method).timings
