@@ -52,7 +52,8 @@ def main(argv=None) -> int:
     from gmcpt.evaluation.baselines import render_full
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.metrics import psnr
-    from gmcpt.render import RenderSettings, render_features, render_sparse_frame
+    from gmcpt.render import render_features
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
     from gmcpt.scene import scene_sensor
 
     thresholds = budget.DENSE_ABOVE, budget.EDGES_ABOVE

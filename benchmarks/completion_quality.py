@@ -45,7 +45,7 @@ def main() -> int:
     from gmcpt.completion import complete
     from gmcpt.evaluation.scenes import by_name
     from gmcpt.metrics import all_metrics
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     mi.set_log_level(mi.LogLevel.Error)
     rows = []

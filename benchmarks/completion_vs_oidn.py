@@ -33,7 +33,7 @@ def render_inputs(scene_path: Path, width: int, height: int, rate: float, spp: i
     import numpy as np
 
     from gmcpt.frame import PIXEL_BUFFERS
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
     from gmcpt.scene import load_scene, masked_integrator
 
     scene = load_scene(scene_path, resolution=(width, height))

@@ -35,7 +35,7 @@ def main(argv=None) -> int:
     from gmcpt.completion import DEFAULT_METHOD, complete
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.metrics import psnr, tonemap
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     print(f"{'scene':<22} {'':>8} {'traced MSE':>11} {'untraced MSE':>13} {'all MSE':>9} {'untraced share':>15} "
           f"{'PSNR dB':>8}")

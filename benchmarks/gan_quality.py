@@ -67,7 +67,8 @@ def main() -> int:
     from gmcpt.completion import complete
     from gmcpt.denoise import denoise_oidn
     from gmcpt.metrics import all_metrics
-    from gmcpt.render import RenderSettings, render_features, render_sparse_frame
+    from gmcpt.render import render_features
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     mi.set_log_level(mi.LogLevel.Error)
     rows = []

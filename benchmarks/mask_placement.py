@@ -118,7 +118,8 @@ def main() -> int:
     from gmcpt.evaluation.scenes import QUALITY_SCENES, procedural_scenes
     from gmcpt.evaluation.baselines import render_full
     from gmcpt.metrics import all_metrics
-    from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
+    from gmcpt.render import DEFAULT_FEATURE_SPP
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     mi.set_log_level(mi.LogLevel.Error)
     args.methods = args.methods or [DEFAULT_METHOD]

@@ -60,7 +60,8 @@ def main() -> int:
     import mitsuba as mi
     from gmcpt.evaluation.scenes import BREAKFAST, STILL_LIFE
     from gmcpt.masks import DEFAULT_PATTERN, check_pattern
-    from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
+    from gmcpt.render import DEFAULT_FEATURE_SPP
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
     from gmcpt.scene import load_scene
 
     mi.set_log_level(mi.LogLevel.Error)

@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.gan.weights import load_generator
     from gmcpt.metrics import psnr
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     names = [Path(w).stem for w in args.weights]
     for weights in args.weights:

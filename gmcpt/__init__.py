@@ -30,7 +30,7 @@ with _startup():  # the command line: a Ctrl-C during these imports is one line 
 
     from .frame import SparseFrame
     from .completion import Completion, complete, methods
-    from .render import render_sparse_frame
+    from .sampling import render_sparse_frame
     from .plugins import register_plugins
 
     register_plugins()  # masked_path (mitsuba_plugins, which imports this package; never the other way)

@@ -1,35 +1,40 @@
-"""A sample budget instead of a rate: how many pixels to trace, chosen per frame from its first pass.
+"""A sample budget instead of a rate: how many pixels to trace, chosen per frame from a small probe.
 
-``budget`` is the mean number of path samples a pixel, ``round(budget * W * H)`` in all. The frame starts
-as the default does at rate ``budget / SPARSE_SPP`` x :data:`SPARSE_SPP` spp: the first pass of ``two_pass``
-traces half of those pixels where the feature buffers have edges. Its samples then say which way pays:
+``budget`` is the mean number of path samples a pixel, ``round(budget * W * H)`` in all. The sparse way is
+the default's at rate ``budget / SPARSE_SPP`` x :data:`SPARSE_SPP` spp. A probe's samples say which way pays:
 
 - **sparse** (the paper's way, the default's at a fixed rate): the second pass of ``two_pass``; the
   completion fills the untraced pixels. It wins where the feature buffers predict the radiance, and a
   pixel's 16-spp mean is already close to converged: the synthetic scenes.
-- **dense**: every pixel is traced, the rest of the budget spread so that each pixel's samples (the first
-  pass's included) are as even as integers allow: uniform path tracing at exactly the budget; OIDN denoises
-  the whole frame. Placing some of them as adaptive path tracing does (:mod:`gmcpt.adaptive`), or leaving
-  the first pass's pixels at their 4 samples, did worse on the real scenes (docs/experiments.md).
+- **dense**: every pixel is traced, as evenly as integers allow: uniform path tracing at the budget; OIDN
+  denoises the whole frame. Placing some of the samples as adaptive path tracing does (:mod:`gmcpt.adaptive`)
+  did worse on the real scenes (docs/experiments.md).
   It wins on real interiors, where indirect light leaves even the 16-spp means noisy and a filled pixel
   is worse than a few samples of its own.
 
-The first pass traces its pixels at :data:`PROBE_SPP` only, so that choosing dense wastes little of the budget
-on them; the sparse way then tops them up to :data:`SPARSE_SPP`. Two signals choose dense:
+Before the choice the frame traces only what both ways need: guides (albedo, normal, depth, at about the
+budget's samples a pixel, :func:`guide_spp`, without shadow rays) and a probe, :data:`PROBE_SHARE` of the
+pixels at :data:`PROBE_SPP` spread as blue noise. A dense frame then costs what Mitsuba's own render at the
+same samples plus an albedo/normal pass plus OIDN costs: its bulk is ``mi.render`` itself, the probe's samples
+are left out of it so that no pixel has more than ``ceil(budget)`` samples (OIDN expects even noise), and the
+samples left over go one each to blue-noise pixels. A sparse frame tops the guides up to the full feature
+pass (shadow rays included) and the probe's pixels up to :data:`SPARSE_SPP`, as part of its first pass.
+Two signals choose dense:
 
-- :func:`relative_variance`: the median, over the first pass's pixels, of the variance of a pixel's mean over
+- :func:`relative_variance`: the median, over the probe's pixels, of the variance of a pixel's mean over
   its squared brightness, scaled to a 16-spp mean. The synthetic evaluation scenes read 0.007-0.057, the real
   interiors 0.23-0.26: noise the fill cannot average away.
-- :func:`edge_share`: the share of the frame near an edge of the feature buffers, read before any path is
-  traced. Sponza's courtyard (0.47 at 256x256) is lit directly, so it reads 0.034 on the first signal, but
-  its columns, arches and textures leave a fill from 30% of the pixels too little to go on; the other real
-  scenes read 0.17-0.31, the synthetic ones 0.11-0.26 (16-spp feature pass; docs/experiments.md). The share
-  falls as the resolution grows, as the fill's difficulty does, and rises with a noisier feature pass.
+- :func:`edge_share`: the share of the frame near an edge of the guide pass's buffers, read before any path
+  is traced. Sponza's courtyard is lit directly, so it reads 0.03 on the first signal, but its columns,
+  arches and textures leave a fill from 30% of the pixels too little to go on: it reads 0.32, the other
+  real scenes 0.15-0.26 and the synthetic ones 0.08-0.17 (256x256, guides of 5 rays a pixel, budget 4.8;
+  docs/experiments.md). The share falls as the resolution grows, as the fill's difficulty does, and rises
+  with a noisier guide pass.
 
-A budget of :data:`SPARSE_SPP` or more, or one that buys every pixel a sample but not a first pass beside
-that (1 to about 1.1), is dense without a first pass (:attr:`BudgetPlan.dense_only`).
+A budget of :data:`SPARSE_SPP` or more, or one that buys every pixel a sample but not a probe beside
+that (1 to about 1.04), is dense without a probe (:attr:`BudgetPlan.dense_only`).
 
-All functions here are pure numpy; :func:`gmcpt.render.render_sparse_frame` runs the passes.
+All functions here are pure numpy; :func:`gmcpt.sampling.render_sparse_frame` runs the passes.
 """
 from __future__ import annotations
 
@@ -44,12 +49,17 @@ from .placement import FIRST_PASS_SHARE
 
 #: Samples of each traced pixel on the sparse side; 0.3 x 16 is the evaluation's 4.8-spp default.
 SPARSE_SPP = 16
-#: Samples of each first-pass pixel before the choice.
+#: Samples of each probe pixel before the choice.
 PROBE_SPP = 4
+#: Share of the pixels the probe traces: its median moves by about 0.01 between seeds on every evaluation scene,
+#: far less than the gap between the scenes that go dense and the others (docs/experiments.md).
+PROBE_SHARE = 0.01
+#: Fewest and most primary rays a pixel of the guide pass: the edge signal was set on passes of 4 to 16.
+GUIDE_SPP_RANGE = (4, 16)
 #: Above this :func:`relative_variance` the frame is traced dense (set in docs/experiments.md).
 DENSE_ABOVE = 0.15
 #: Above this :func:`edge_share` too (docs/experiments.md).
-EDGES_ABOVE = 0.4
+EDGES_ABOVE = 0.25
 #: The largest budget, as the largest spp of a masked render.
 MAX_BUDGET = 4096
 #: The chooser's outcomes, as the sidecar records them.
@@ -92,17 +102,23 @@ class BudgetPlan:
         return max(1, int(round(self.sparse_pixels * FIRST_PASS_SHARE)))
 
     @property
-    def dense_after_first_pass(self) -> bool:
-        """True when what the first pass leaves of the budget gives every other pixel a sample at least."""
-        return self.samples - self.first_pass_pixels * PROBE_SPP >= self.pixels - self.first_pass_pixels
+    def probe_pixels(self) -> int:
+        """Pixels of the probe: :data:`PROBE_SHARE` of the frame, at most the sparse frame's first pass."""
+        return min(max(1, int(round(self.pixels * PROBE_SHARE))), self.first_pass_pixels)
+
+    @property
+    def dense_after_probe(self) -> bool:
+        """True when what the probe leaves of the budget gives every pixel a sample at least (the dense frame
+        leaves the probe's samples out)."""
+        return self.samples - self.probe_pixels * PROBE_SPP >= self.pixels
 
     @property
     def dense_only(self) -> bool:
-        """True when the frame is traced dense without a first pass: the budget traces every pixel at
-        :data:`SPARSE_SPP` or more (nothing to choose), or it buys every pixel a sample but not a first
-        pass beside that (below about 1.1 samples a pixel; at 1, the dense frame beat the sparse one on 8
+        """True when the frame is traced dense without a probe: the budget traces every pixel at
+        :data:`SPARSE_SPP` or more (nothing to choose), or it buys every pixel a sample but not a probe
+        beside that (below about 1.04 samples a pixel; at 1, the dense frame beat the sparse one on 8
         of the 9 evaluation scenes, by 2.5 dB on the real mean: docs/experiments.md)."""
-        return self.sparse_pixels >= self.pixels or (self.samples >= self.pixels and not self.dense_after_first_pass)
+        return self.sparse_pixels >= self.pixels or (self.samples >= self.pixels and not self.dense_after_probe)
 
 
 def plan_budget(budget: float, pixels: int) -> BudgetPlan:
@@ -143,12 +159,19 @@ def edge_share(features: dict) -> float:
 def choose(plan: BudgetPlan, statistic: float, edges: float) -> str:
     """:data:`DENSE` when the first pass reads above :data:`DENSE_ABOVE` or the feature edges above
     :data:`EDGES_ABOVE`, and what the first pass leaves of the budget gives every other pixel a sample
-    (:attr:`BudgetPlan.dense_after_first_pass`); :data:`DENSE` too when the plan is :attr:`~BudgetPlan.dense_only`;
+    (:attr:`BudgetPlan.dense_after_probe`); :data:`DENSE` too when the plan is :attr:`~BudgetPlan.dense_only`;
     else :data:`SPARSE`."""
     if plan.dense_only:
         return DENSE
     wanted = statistic > DENSE_ABOVE or edges > EDGES_ABOVE
-    return DENSE if wanted and plan.dense_after_first_pass else SPARSE
+    return DENSE if wanted and plan.dense_after_probe else SPARSE
+
+
+def guide_spp(budget: float, feature_spp: int) -> int:
+    """Primary rays a pixel of a budget's guide pass: about the budget, within :data:`GUIDE_SPP_RANGE` and at most
+    ``feature_spp`` (what a baseline's renderer gathers over its own samples)."""
+    low, high = GUIDE_SPP_RANGE
+    return max(1, min(feature_spp, high, max(low, int(round(budget)))))
 
 
 def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:

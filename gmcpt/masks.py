@@ -17,7 +17,7 @@ a pure function of its arguments, and is reproducible from ``seed``.
   ``blue_noise`` where the density is even (ordered dithering).
 - ``two_pass``: ``adaptive`` for part of the budget, then the rest where the
   first pass's samples say completion will err, on the same thresholds
-  (:func:`gmcpt.render.render_sparse_frame` runs both passes).
+  (:func:`gmcpt.sampling.render_sparse_frame` runs both passes).
 """
 from __future__ import annotations
 

@@ -145,7 +145,7 @@ def run(args, say=lambda message: None, extra: dict | None = None,
     from .metrics import all_metrics
     from .files import make_folder
     from .outputs import library_versions, write_outputs
-    from .render import render_sparse_frame
+    from .sampling import render_sparse_frame
     from .scene import load_scene, masked_integrator, scene_sensor
 
     started = time.perf_counter()

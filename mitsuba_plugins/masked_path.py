@@ -10,7 +10,8 @@ from gmcpt.exr import channel_names, pack
 from gmcpt.limits import check_feature_spp, check_seed
 from gmcpt.masks import DEFAULT_PATTERN, DEFAULT_RATE, check_pattern, check_rate
 from gmcpt.plugins import constructor
-from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings, render_sparse_frame
+from gmcpt.render import DEFAULT_FEATURE_SPP
+from gmcpt.sampling import RenderSettings, render_sparse_frame
 from gmcpt.scene import scene_sensor
 
 

@@ -24,7 +24,7 @@ def main():
     import gmcpt  # noqa: F401
     from gmcpt.completion import DEFAULT_METHOD, complete
     from gmcpt.exr import write_png
-    from gmcpt.render import render_sparse_frame
+    from gmcpt.sampling import render_sparse_frame
     from gmcpt.scene import load_scene, masked_integrator
 
     args.method = args.method or DEFAULT_METHOD

@@ -28,9 +28,10 @@ def test_plan_counts_the_samples_and_the_sparse_pixels():
     assert plan.samples == 4800 and plan.sparse_pixels == 4800 // SPARSE_SPP and not plan.dense_only
     assert plan.sparse_rate == pytest.approx(0.3)
     assert plan_budget(16, 1000).dense_only and plan_budget(40, 1000).sparse_pixels == 1000
-    # a sample for every pixel but no first pass beside it: dense at once; below one a pixel: sparse
-    assert plan_budget(1.0, 1000).dense_only and plan_budget(1.05, 1000).dense_only
+    # a sample for every pixel but no probe beside it: dense at once; below one a pixel: sparse
+    assert plan_budget(1.0, 1000).dense_only and plan_budget(1.03, 1000).dense_only
     assert plan_budget(1.0, 1000).first_pass_pixels == 31  # 62 sparse pixels, half of them first
+    assert plan_budget(4.8, 1000).probe_pixels == 10 and plan_budget(0.2, 1000).probe_pixels == 6  # 1%, or the first pass
     assert not plan_budget(0.99, 1000).dense_only and not plan_budget(1.2, 1000).dense_only
     with pytest.raises(GmcptError, match="less than one pixel"):
         plan_budget(0.01, 100)
@@ -54,10 +55,11 @@ def test_choice_follows_either_signal_and_needs_a_sample_for_every_pixel():
     assert choose(plan, DENSE_ABOVE * 2, flat) == DENSE
     assert choose(plan, quiet, min(1.0, EDGES_ABOVE * 1.5)) == DENSE
     assert choose(plan, quiet, flat) == SPARSE
-    # 4.8 on 1000 pixels: a first pass of 150 pixels at 4 spp leaves 4200 samples for the other 850
-    assert plan.first_pass_pixels == 150 and plan.dense_after_first_pass
-    assert not plan_budget(0.9, 1000).dense_after_first_pass  # 900 - 28 * 4 samples for 972 pixels
+    # 4.8 on 1000 pixels: a probe of 10 pixels at 4 spp leaves 4760 samples for a dense frame of 1000
+    assert plan.probe_pixels == 10 and plan.dense_after_probe
+    assert not plan_budget(1.03, 1000).dense_after_probe  # 1030 - 10 * 4 samples for 1000 pixels
     assert choose(plan_budget(0.9, 1000), DENSE_ABOVE * 2, 1.0) == SPARSE
+    assert choose(plan_budget(1.03, 1000), 0.0, 0.0) == DENSE  # dense only: no probe to choose by
     assert choose(plan_budget(20, 1000), 0.0, 0.0) == DENSE
 
 
@@ -99,7 +101,7 @@ def cornell(mi):
 
 
 def _render(scene, budget, seed=0):
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     integrator = scene.integrator()
     return render_sparse_frame(scene, getattr(integrator, "integrator", integrator),
@@ -138,7 +140,7 @@ def test_a_budget_of_16_or_more_traces_every_pixel(cornell):
 
 def test_a_budget_refuses_an_spp_and_other_masks(mi):
     from gmcpt.errors import GmcptError
-    from gmcpt.render import RenderSettings
+    from gmcpt.sampling import RenderSettings
 
     with pytest.raises(GmcptError, match="not both"):
         RenderSettings(budget=4.8, spp=16)

@@ -102,7 +102,7 @@ def test_build_resume_and_product_identical_inputs(mi, tmp_path):
     from gmcpt.dataset import DatasetSpec, SplitSpec, build, example_path, list_examples, load_example
     from gmcpt.dataset.build import is_complete
     from gmcpt.dataset.scenes import build_scene
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     spec = DatasetSpec(splits=(SplitSpec("train", 1, 16, 16),), pass_spp=8)
     summary = build(tmp_path, spec, workers=0, say=lambda m: None)

@@ -65,7 +65,8 @@ def test_default_nested_integrator_takes_depth_settings(mi):
 
 def test_feature_pass_defaults_to_antialiased_features(mi):
     from gmcpt.evaluation.config import QUICK
-    from gmcpt.render import DEFAULT_FEATURE_SPP, RenderSettings
+    from gmcpt.render import DEFAULT_FEATURE_SPP
+    from gmcpt.sampling import RenderSettings
 
     assert DEFAULT_FEATURE_SPP > 1  # 1 spp aliases albedo at edges against the antialiased radiance
     integrator = mi.load_dict({"type": "masked_path"})

@@ -50,7 +50,7 @@ def test_seed_outside_32_bits_is_refused(tmp_path, seed):
 
 
 def test_api_seed_is_checked_where_the_settings_are_made(mi):
-    from gmcpt.render import RenderSettings
+    from gmcpt.sampling import RenderSettings
     from gmcpt.scene import load_scene
 
     message = _api_message(lambda: RenderSettings(seed=-5))
@@ -81,7 +81,7 @@ def test_absurd_sample_counts_are_refused_at_once(tmp_path, option, limit):
 
 
 def test_api_sample_counts(mi):
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
     from gmcpt.scene import load_scene
 
     assert _api_message(lambda: RenderSettings(spp=10**9)).startswith("spp must be at most 65536 (")
@@ -101,7 +101,7 @@ def test_resolution_beyond_memory_is_refused_with_what_it_needs(tmp_path, argume
 
 
 def test_api_resolution(mi):
-    from gmcpt.render import render_sparse_frame
+    from gmcpt.sampling import render_sparse_frame
     from gmcpt.scene import load_scene
 
     scene = load_scene(CORNELL, (100000, 100000))
@@ -118,7 +118,7 @@ def test_scene_without_sensor(tmp_path, resolution):
 
 
 def test_api_scene_without_sensor(mi, tmp_path):
-    from gmcpt.render import render_sparse_frame
+    from gmcpt.sampling import render_sparse_frame
     from gmcpt.scene import load_scene
 
     (tmp_path / "nosensor.xml").write_text(NO_SENSOR)

@@ -17,7 +17,7 @@ def path_tracer(mi):
 
 
 def test_rate_one_equals_stock_path(mi, cornell, path_tracer):
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     frame, timings = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=1.0, spp=8, seed=7))
     stock = np.asarray(mi.render(cornell, integrator=path_tracer, spp=8, seed=7))[..., :3]
@@ -109,7 +109,7 @@ def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
 
 
 def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     frame, _ = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=0.3, spp=16, seed=3))
     reference = np.asarray(mi.render(cornell, integrator=path_tracer, spp=1024, seed=99))[..., :3]
@@ -125,7 +125,7 @@ def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
 
 @pytest.mark.parametrize("pattern", ["adaptive", "two_pass"])
 def test_feature_placements_spend_the_exact_budget_and_repeat_per_seed(mi, cornell, path_tracer, pattern):
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     for rate in (0.2, 0.5, 1.0):
         settings = RenderSettings(rate=rate, pattern=pattern, spp=4, seed=5)
@@ -145,7 +145,7 @@ def test_feature_placements_spend_the_exact_budget_and_repeat_per_seed(mi, corne
 
 
 def test_feature_buffers(mi, cornell, path_tracer):
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     frame, _ = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=0.2, spp=1, seed=0))
     hits = frame.depth < 1
@@ -163,7 +163,7 @@ def test_nonfinite_samples_do_not_spread(mi, cornell):
     """A nested integrator that returns NaN/Inf for some rays: those samples are dropped."""
     import drjit as dr
     from gmcpt.completion import complete
-    from gmcpt.render import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     class Poisoned(mi.SamplingIntegrator):
         def __init__(self, props):

@@ -11,7 +11,7 @@ Per scene seed (see :mod:`gmcpt.dataset.scenes`):
      ``pass_spp`` with seeds disjoint from the input's (``REFERENCE_SEED``);
    - the product's sparse frame at a rate drawn from ``rate_range`` (mask
      ``random``, 16 spp, seed = scene seed), via
-     :func:`gmcpt.render.render_sparse_frame`: ``radiance``, ``mask``,
+     :func:`gmcpt.sampling.render_sparse_frame`: ``radiance``, ``mask``,
      ``variance`` and the feature buffers (``feature_spp`` primary rays a pixel);
    - the same call at rate 1 (``full_radiance``, ``full_variance``): every
      pixel traced with the same per-pixel estimator, so training can draw
@@ -148,7 +148,7 @@ def render_reference(scene, spp: int, pass_spp: int, seed: int) -> np.ndarray:
 def render_frames(scene, seed: int, split: SplitSpec, spec: DatasetSpec):
     """``(reference, rate, frame, full)`` of a loaded scene: the reference, the product's sparse frame at a
     seeded rate and the same call at rate 1 (see the module docstring)."""
-    from ..render import RenderSettings, render_sparse_frame
+    from ..sampling import RenderSettings, render_sparse_frame
 
     reference = render_reference(scene, split.reference_spp, spec.pass_spp, seed)
     rate = float(np.random.default_rng([seed, 0x4A7E]).uniform(*spec.rate_range))

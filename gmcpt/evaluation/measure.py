@@ -71,7 +71,7 @@ def baseline_guides(loaded: LoadedScene, samples_per_pixel: float, seed: int) ->
 def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig, pattern: str | None = None):
     """(frame, render timings) of the fastest of ``config.repeats`` masked renders (``pattern``: default
     ``config.mask``; :data:`BUDGET`: the budget chooser at ``rate * spp`` samples a pixel)."""
-    from ..render import RenderSettings, render_sparse_frame
+    from ..sampling import RenderSettings, render_sparse_frame
 
     if pattern == BUDGET:
         settings = RenderSettings(budget=rate * spp, seed=config.seed, feature_spp=config.feature_spp)

@@ -80,7 +80,7 @@ def render_golden(scene, settings: Settings) -> np.ndarray:
 def render_check(scene, settings: Settings, seed: int) -> np.ndarray:
     """The cheap check: masked render at the suite's rate and spp, completed by its method; same seed, same image."""
     from ..completion import complete
-    from ..render import render_sparse_frame
+    from ..sampling import render_sparse_frame
     from ..scene import masked_integrator
 
     integrator = masked_integrator(scene, rate=settings.rate, seed=int(seed), completion=settings.method)

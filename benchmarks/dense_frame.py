@@ -1,0 +1,99 @@
+#!/usr/bin/env python3
+"""A budget's dense frame against what a Mitsuba user runs at the same samples, in one warm process.
+
+The product: ``render_sparse_frame`` with ``--budget`` (guides, probe, Mitsuba's own render, the samples left
+over) then ``gan_oidn`` (OIDN, the generator skipped), on a scene whose budget chooses dense. The user's:
+``mi.render`` with the scene's integrator at ``round(budget)`` spp, an ``aov`` pass (albedo, sh_normal) at as
+many spp, then OIDN. Rounds alternate the two after a warm-up round; the table gives each one's fastest round in
+wall time and in CPU time of this process (less disturbed by other programs on a shared machine) and their
+ratios (the budget 5 by default, so both trace the same samples).
+
+    python benchmarks/dense_frame.py [--scene living-room] [--budget 5] [--sizes 256x256 1920x1080] [--rounds 5]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def size(text: str) -> tuple[int, int]:
+    width, height = text.lower().split("x")
+    return int(width), int(height)
+
+
+def _stages(timings: dict) -> str:
+    return " ".join(f"{key[:-2]} {value:.3f}" for key, value in timings.items() if key.endswith("_s"))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", default="living-room", help="an evaluation scene name (a real interior)")
+    parser.add_argument("--budget", type=float, default=5.0)
+    parser.add_argument("--sizes", type=size, nargs="+", default=[(256, 256), (1920, 1080)])
+    parser.add_argument("--rounds", type=int, default=5)
+    args = parser.parse_args()
+
+    import drjit as dr
+    import gmcpt  # noqa: F401  (finds LLVM)
+    import mitsuba as mi
+    import numpy as np
+
+    from gmcpt.completion import DEFAULT_METHOD, complete
+    from gmcpt.denoise import denoise_oidn
+    from gmcpt.evaluation.scenes import by_name
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
+
+    eval_scene = by_name([args.scene])[0]
+    if not eval_scene.available():
+        print(eval_scene.missing_line())
+        return 1
+    guides_integrator = mi.load_dict({"type": "aov", "aovs": "albedo:albedo,normal:sh_normal"})
+    spp = max(1, round(args.budget))
+    print(f"{eval_scene.name}, budget {args.budget:g} against mi.render at {spp} spp + aov at {spp} spp + OIDN; "
+          f"fastest of {args.rounds} rounds")
+    print(f"{'size':>10} {'choice':>7} {'product wall/CPU s':>18} {'user wall/CPU s':>15} {'ratio':>6} {'CPU':>6}"
+          "   product stages | user stages (s, fastest round)")
+    for width, height in args.sizes:
+        scene = eval_scene.load((width, height))
+        integrator = scene.integrator()
+        integrator = getattr(integrator, "integrator", integrator)
+        settings = RenderSettings(budget=args.budget)
+
+        def product():
+            frame, timings = render_sparse_frame(scene, integrator, settings=settings)
+            result = complete(frame, DEFAULT_METHOD)
+            return frame, {**timings, **result.timings}
+
+        def user():
+            timings, start = {}, time.perf_counter()
+            image = np.asarray(mi.render(scene, integrator=integrator, spp=spp, seed=1))
+            timings["render_s"], start = time.perf_counter() - start, time.perf_counter()
+            guides = np.asarray(mi.render(scene, integrator=guides_integrator, spp=spp, seed=1))
+            timings["guides_s"], start = time.perf_counter() - start, time.perf_counter()
+            denoise_oidn(image[..., :3], guides[..., 0:3], guides[..., 3:6])
+            timings["denoise_s"] = time.perf_counter() - start
+            return None, timings
+
+        best = {"product": (np.inf, np.inf, None, {}), "user": (np.inf, np.inf, None, {})}
+        for round_index in range(args.rounds + 1):
+            for name, run in (("product", product), ("user", user)):
+                wall, cpu = time.perf_counter(), time.process_time()
+                frame, stages = run()
+                wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+                if round_index and wall < best[name][0]:  # round 0 compiles kernels
+                    best[name] = (wall, min(cpu, best[name][1]), frame, stages)
+                elif round_index:
+                    best[name] = (best[name][0], min(cpu, best[name][1]), *best[name][2:])
+        (wall, cpu, frame, stages), (user_wall, user_cpu, _, user_stages) = best["product"], best["user"]
+        print(f"{width}x{height:<5} {frame.info['budget_choice']:>7} {wall:7.3f}/{cpu:<7.3f} {user_wall:7.3f}/"
+              f"{user_cpu:<7.3f} {wall / user_wall:6.3f} {cpu / user_cpu:6.3f}   {_stages(stages)} | {_stages(user_stages)}",
+              flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

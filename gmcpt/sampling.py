@@ -1,0 +1,297 @@
+"""Where a frame's path samples go: the strategies over the kernels of :mod:`gmcpt.render`.
+
+- **a mask at a fixed rate** (:func:`_mask_passes`): the mask's pixels at the sampler's spp; ``two_pass``
+  traces half of them by the feature edges, then the rest where those samples disagree (:mod:`gmcpt.placement`).
+- **a budget** (:func:`_budget_passes`): guides and a probe, then the sparse way (``two_pass`` at rate
+  ``budget / SPARSE_SPP``) or the dense one (Mitsuba's own render of every pixel), chosen per frame
+  (:mod:`gmcpt.budget`).
+
+Every strategy traces into one :class:`~gmcpt.render.SampleSums`; :func:`render_sparse_frame` turns it and the
+feature buffers into a :class:`~gmcpt.frame.SparseFrame`.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from typing import Callable
+
+import mitsuba as mi
+import numpy as np
+
+from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share, even_fill,
+                     guide_spp, plan_budget, relative_variance)
+from .errors import GmcptError
+from .frame import DEFAULT_FEATURE_SPP, SparseFrame
+from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seed, check_spp
+from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
+                    sample_by_density, sample_count, second_pass_mask)
+from .placement import FIRST_PASS_SHARE, error_density, feature_density
+from .render import SampleSums, _sensor_film_size, feature_means, render_native
+from .scene import scene_sensor
+
+SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` draws other samples
+TOP_UP_SEED_OFFSET = 0x70B0F  # and a budget's probe pixels their samples after the choice
+EVEN_SEED_OFFSET = 0xE7E4  # the dense way's blue-noise spread of the samples left over
+PROBE_SEED_OFFSET = 0x9B0BE  # the probe's placement
+GUIDE_TOP_UP_SEED_OFFSET = 0x6D1E  # the sparse way's feature rays beside the guides'
+
+Say = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """What to trace. ``spp=0`` keeps the sensor's sample count. A ``budget`` (mean path samples a pixel, 0: none)
+    replaces ``rate`` and ``spp``: :mod:`gmcpt.budget` chooses them per frame, with the ``two_pass`` mask.
+
+    Checked when made (:mod:`gmcpt.limits`): a bad value raises a one-line :class:`~gmcpt.errors.GmcptError`.
+    """
+
+    rate: float = DEFAULT_RATE
+    pattern: str = DEFAULT_PATTERN
+    seed: int = 0
+    spp: int = 0
+    feature_spp: int = DEFAULT_FEATURE_SPP
+    budget: float = 0.0
+
+    def __post_init__(self):
+        check_rate(self.rate)
+        check_pattern(self.pattern)
+        check_seed(self.seed)
+        if self.spp != 0:
+            check_spp(self.spp)
+        check_feature_spp(self.feature_spp)
+        if self.budget:
+            check_budget(self.budget)
+            if self.spp:
+                raise GmcptError("a budget sets the samples per pixel itself: give a budget or spp, not both")
+            if self.pattern != "two_pass":
+                raise GmcptError(f"a budget places its samples with the two_pass mask, not {self.pattern!r}")
+
+
+@dataclass
+class _Trace:
+    """What one frame's strategy has in hand: the scene, the sums of its samples, the pixels it traced."""
+
+    scene: mi.Scene
+    sensor: mi.Sensor
+    integrator: mi.SamplingIntegrator
+    settings: RenderSettings
+    say: Say
+    timings: dict
+    shape: tuple[int, int]
+    sums: SampleSums = None
+    traced: np.ndarray = None  # flat bool
+    first_pass_pixels: int = 0
+    discarded: int = 0  # samples traced and left out of the image (a dense frame's probe)
+    info: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        pixels = self.shape[0] * self.shape[1]
+        self.sums, self.traced = SampleSums(pixels), np.zeros(pixels, bool)
+
+    def timed(self, key: str, start: float) -> None:
+        self.timings[key] = self.timings.get(key, 0.0) + time.perf_counter() - start
+
+    def trace(self, pixels: np.ndarray, spp: int, seed: int) -> None:
+        """``spp`` samples of each flat pixel in ``pixels``."""
+        start = time.perf_counter()
+        self.sums.trace(self.scene, self.sensor, self.integrator, pixels, spp, seed, self.say)
+        self.traced[pixels] = True
+        self.timed("render_s", start)
+
+    def trace_counts(self, counts: np.ndarray, seed: int) -> None:
+        """``counts[p]`` samples of each flat pixel ``p``."""
+        start = time.perf_counter()
+        self.sums.trace_counts(self.scene, self.sensor, self.integrator, counts, seed)
+        self.traced |= counts > 0
+        self.timed("render_s", start)
+
+    def features(self, spp: int, seed_offset: int = 0, visibility: bool = True):
+        start = time.perf_counter()
+        self.say(f"features: {self.shape[1]}x{self.shape[0]} px x {spp} spp"
+                 + ("" if visibility else " (guides: albedo, normal, depth)"))
+        means = feature_means(self.scene, self.sensor, spp, (self.settings.seed + seed_offset) % SEED_LIMIT,
+                              visibility)
+        self.timed("features_s", start)
+        return means
+
+
+def _first_mask(settings: RenderSettings, features: dict, height: int, width: int,
+                count: int | None = None, taken: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The mask of the (first) radiance pass, and the feature density (None for the patterns without one, and at
+    rate 1). ``count`` (``two_pass``): pixels of the first pass instead of its share of the rate's, beside
+    the ``taken`` (H, W) pixels, which it leaves out."""
+    total = sample_count(settings.rate, height * width)
+    if total == height * width:  # at rate 1 there is nothing to place (and no density to compute)
+        return np.ones((height, width), bool), None
+    if settings.pattern not in FEATURE_PATTERNS:
+        return make_mask(height, width, settings.rate, settings.pattern, settings.seed), None
+    density = feature_density(features["albedo"], features["normal"], features["depth"], features["visibility"],
+                              features["coverage"])
+    if settings.pattern == "adaptive":
+        return make_mask(height, width, settings.rate, "adaptive", settings.seed, density), density
+    first = max(1, int(round(total * FIRST_PASS_SHARE))) if count is None else count
+    return sample_by_density(density, first, mask_rng(settings.seed), exclude=taken), density
+
+
+def _second_pass(trace: _Trace, settings: RenderSettings, features: dict, density: np.ndarray, rest: int,
+                 spp: int) -> None:
+    """The second pass of ``two_pass``: ``rest`` more pixels where the first pass's samples disagree."""
+    height, width = trace.shape
+    start = time.perf_counter()
+    first = trace.traced.reshape(height, width)
+    mean, variance = trace.sums.estimate()
+    valid = trace.traced & (trace.sums.finite > 0)
+    radiance = np.where(valid[:, None], mean, 0.0).astype(np.float32).reshape(height, width, 3)
+    variance = np.where(valid, variance, 0.0).astype(np.float32).reshape(height, width)
+    errors = error_density(radiance, variance, first, features["albedo"], features["coverage"], density)
+    second = np.flatnonzero(second_pass_mask(errors, rest, first, settings.seed))
+    trace.timed("mask_s", start)
+    trace.trace(second, spp, (settings.seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT)
+
+
+def _mask_passes(trace: _Trace, mask: np.ndarray | None, spp: int) -> dict:
+    """The passes at a fixed rate: the mask's pixels at ``spp``, and for ``two_pass`` a second pass. Returns the
+    feature buffers."""
+    settings = trace.settings
+    height, width = trace.shape
+    features = trace.features(settings.feature_spp).buffers()
+    start = time.perf_counter()
+    density = None
+    if mask is None:
+        mask, density = _first_mask(settings, features, height, width)
+    trace.timed("mask_s", start)
+    pixels = np.flatnonzero(mask)
+    trace.trace(pixels, spp, settings.seed)
+    trace.first_pass_pixels = pixels.size
+    rest = sample_count(settings.rate, height * width) - pixels.size
+    if settings.pattern == "two_pass" and density is not None and rest > 0:
+        _second_pass(trace, settings, features, density, rest, spp)
+    return features
+
+
+def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
+    """The passes of a budget (:mod:`gmcpt.budget`): guides, a probe at ``PROBE_SPP`` unless the plan is dense
+    only, then the sparse way or the dense one. Returns the feature buffers."""
+    settings, seed = trace.settings, trace.settings.seed
+    height, width = trace.shape
+    guide_rays = guide_spp(plan.budget, settings.feature_spp)
+    guides = trace.features(guide_rays, visibility=False)
+    features = guides.buffers()
+    probe = np.zeros(plan.pixels, bool)
+    if not plan.dense_only:
+        start = time.perf_counter()
+        probe = sample_by_density(np.ones((height, width), np.float32), plan.probe_pixels,
+                                  mask_rng((seed + PROBE_SEED_OFFSET) % SEED_LIMIT)).ravel()
+        trace.timed("mask_s", start)
+        trace.say(f"path tracing: {int(probe.sum())} px x {PROBE_SPP} spp (probe)")
+        trace.trace(np.flatnonzero(probe), PROBE_SPP, seed)
+    statistic, edges = None, None
+    if probe.any():
+        statistic = relative_variance(*trace.sums.estimate(probe), PROBE_SPP)
+        edges = edge_share(features)
+    choice = choose(plan, statistic or 0.0, edges or 0.0)
+    trace.info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": statistic,
+                  "edge_share": edges, "guide_spp": guide_rays}
+    trace.say(f"budget {plan.budget:g} spp: {choice}"
+              + ("" if statistic is None else f" (relative variance {statistic:.3f}, edge share {edges:.2f})"))
+    if choice == SPARSE:
+        return _sparse_after_probe(trace, plan, guides, probe)
+    _dense(trace, plan, probe)
+    return features
+
+
+def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarray) -> dict:
+    """The sparse way: the feature pass completed (shadow rays), the probe's pixels topped up to ``SPARSE_SPP``
+    beside the rest of the first pass (placed by the feature edges), then ``two_pass``'s second pass."""
+    settings, seed = trace.settings, trace.settings.seed
+    height, width = trace.shape
+    more_rays = max(settings.feature_spp - guides.spp, PROBE_SPP)
+    features = guides.merged(trace.features(more_rays, GUIDE_TOP_UP_SEED_OFFSET)).buffers()
+    sparse = replace(settings, rate=plan.sparse_rate, budget=0.0)
+    start = time.perf_counter()
+    first, density = _first_mask(sparse, features, height, width, plan.first_pass_pixels - int(probe.sum()),
+                                 probe.reshape(height, width))
+    trace.timed("mask_s", start)
+    counts = probe * (SPARSE_SPP - PROBE_SPP) + first.ravel() * SPARSE_SPP
+    trace.say(f"path tracing: {int((counts > 0).sum())} px to {SPARSE_SPP} spp (first pass)")
+    trace.trace_counts(counts, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)
+    trace.first_pass_pixels = int(trace.traced.sum())
+    _second_pass(trace, sparse, features, density, plan.sparse_pixels - trace.first_pass_pixels, SPARSE_SPP)
+    return features
+
+
+def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
+    """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
+    render at ``level`` spp, the rest one sample each on blue-noise pixels. The probe's samples are left out of
+    the image, so that no pixel has more than ``ceil(budget)``."""
+    seed = trace.settings.seed
+    left = plan.samples - trace.sums.samples
+    trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
+    start = time.perf_counter()
+    counts = even_fill(np.zeros(trace.shape, np.int64), left, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT).ravel()
+    trace.timed("mask_s", start)
+    level = int(counts.min())
+    if level:
+        start = time.perf_counter()
+        trace.say(f"path tracing: {plan.pixels} px x {level} spp (Mitsuba's own render)")
+        trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, level,
+                                            (seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT), level)
+        trace.timed("render_s", start)
+    if (counts > level).any():
+        trace.say(f"path tracing: {int((counts > level).sum())} px x 1 spp (the samples left over)")
+        trace.trace_counts(counts - level, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)
+    trace.traced[:] = True
+    trace.first_pass_pixels = int(probe.sum())
+
+
+def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,
+                        settings: RenderSettings = RenderSettings(), mask: np.ndarray | None = None,
+                        progress: Say | None = None) -> tuple[SparseFrame, dict]:
+    """Render features for all pixels and radiance for the masked ones.
+
+    Parameters
+    ----------
+    scene : a loaded Mitsuba scene.
+    integrator : the integrator that computes radiance per ray (e.g. ``path``).
+    sensor : defaults to the scene's first sensor.
+    settings : rate, mask pattern, seed, spp, feature spp, budget.
+    mask : an explicit (H, W) bool mask; overrides ``settings.rate/pattern/budget``.
+    progress : called with a one-line status message before each pass.
+
+    Returns
+    -------
+    (frame, timings) with timings ``features_s``, ``mask_s`` (placing the samples) and ``render_s``
+    (path tracing, every pass) in seconds.
+
+    With the ``two_pass`` pattern, a first radiance pass traces ``FIRST_PASS_SHARE`` of the pixel budget
+    (``adaptive``), :func:`gmcpt.placement.error_density` reads its samples, and a second pass traces the
+    rest of the budget on other pixels, with other sampler seeds. With a ``budget``, a probe's samples
+    choose (:mod:`gmcpt.budget`) between that and a dense frame; ``info`` records the choice
+    (``budget_choice``) and its signals (``relative_variance``, ``edge_share``).
+    """
+    say = progress or (lambda message: None)
+    sensor = sensor if sensor is not None else scene_sensor(scene)
+    height, width = _sensor_film_size(sensor)
+    check_resolution(width, height, settings.feature_spp)
+    plan = plan_budget(settings.budget, height * width) if settings.budget and mask is None else None
+    spp = SPARSE_SPP if plan is not None else check_spp(settings.spp or sensor.sampler().sample_count())
+    trace = _Trace(scene, sensor, integrator, settings, say, {"features_s": 0.0, "mask_s": 0.0, "render_s": 0.0},
+                   (height, width))
+    features = _budget_passes(trace, plan) if plan is not None else _mask_passes(trace, mask, spp)
+
+    sums = trace.sums
+    mean, variance = sums.estimate()
+    traced = trace.traced & (sums.finite > 0)  # pixels whose every sample was NaN/Inf count as untraced
+    radiance = np.where(traced[:, None], mean, 0.0).astype(np.float32)
+    variance = np.where(traced, variance, 0.0).astype(np.float32)
+    feature_spp = trace.info.get("guide_spp", settings.feature_spp) if trace.info.get("budget_choice") == DENSE \
+        else settings.feature_spp
+    info = {"mask": settings.pattern, "seed": settings.seed, "feature_spp": feature_spp,
+            "traced_pixels": int(traced.sum()), "path_samples": int(sums.samples + trace.discarded),
+            "nonfinite_samples": int(sums.samples - sums.finite.sum()),
+            "first_pass_pixels": int(trace.first_pass_pixels), **trace.info}
+    frame = SparseFrame(radiance=radiance.reshape(height, width, 3), mask=traced.reshape(height, width),
+                        variance=variance.reshape(height, width), spp=spp, info=info, **features)
+    return frame, trace.timings
+
