@@ -12,6 +12,7 @@ message is the same).
 """
 from __future__ import annotations
 
+import math
 import numbers
 import os
 from pathlib import Path
@@ -21,6 +22,7 @@ from .errors import GmcptError
 SEED_LIMIT = 1 << 32
 MAX_SPP = 1 << 16
 MAX_FEATURE_SPP = 1024
+MAX_SECONDS = 7 * 24 * 3600  # a week: a time budget beyond that is a typo
 LANE_LIMIT = 1 << 32
 #: Peak memory per pixel, rounded up: measured peak RSS of the command line at 512x512 and
 #: 1024x1024 (1 spp, 4 feature spp) grows by 250 bytes per pixel with ``none``, 570 with ``pawnnm``
@@ -49,6 +51,17 @@ def _check_count(value, name: str, maximum: int, why: str) -> int:
         raise GmcptError(f"{name} must be >= 1, got {value}")
     if value > maximum:
         raise GmcptError(f"{name} must be at most {maximum} ({why}), got {value}")
+    return value
+
+
+def check_seconds(seconds, name: str = "time") -> float:
+    """A time budget in seconds: a finite number in (0, :data:`MAX_SECONDS`]."""
+    try:
+        value = float(seconds)
+    except (TypeError, ValueError):
+        raise GmcptError(f"{name} must be a number of seconds, got {seconds!r}") from None
+    if not math.isfinite(value) or not 0 < value <= MAX_SECONDS:
+        raise GmcptError(f"{name} must be in (0, {MAX_SECONDS}] seconds, got {seconds}")
     return value
 
 

@@ -354,6 +354,7 @@ class SampleSums:
     """
 
     def __init__(self, pixels: int):
+        self.size = pixels
         self.total, self.squares, self.finite = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels)
         self.squared_samples = np.zeros(pixels)  # finite samples that brought their squares
         self.samples = 0

@@ -31,6 +31,9 @@ def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
     parser.add_argument("--budget", type=float, metavar="B", help="mean path samples a pixel instead of --rate and "
                         "--spp: each frame's first pass chooses between B/16 of the pixels at 16 spp and all of "
                         "them (default: the scene's, else 0.3 x the scene's spp if no rate, spp or other mask is set)")
+    parser.add_argument("--time", type=float, metavar="S", help="seconds of wall time for the frame and its "
+                        "completion, instead of --rate, --spp and --budget: every pixel traced, in passes sized to "
+                        "fill S (default: the scene's, else none)")
     parser.add_argument("--seed", type=int, help="seed of the mask and the samplers (default: the scene's, else 0)")
     parser.add_argument("--mask", help="sample placement: two_pass, adaptive, random, stratified, blue_noise "
                         "(default: the scene's, else two_pass)")
@@ -67,7 +70,7 @@ def validate(args) -> None:
     from .completion import check_options
     from .files import check_not_inputs, check_output
     from .gan.weights import weights_path
-    from .limits import check_feature_spp, check_resolution, check_seed, check_spp
+    from .limits import check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
     from .completion.tiles import check_tile
     from .masks import check_pattern, check_rate
     from .scene import scene_inputs
@@ -82,6 +85,10 @@ def validate(args) -> None:
         check_budget(args.budget, "--budget")
         if args.rate is not None or args.spp is not None:
             raise GmcptError("--budget sets the rate and the spp itself: give --budget or --rate/--spp, not both")
+    if args.time is not None:
+        check_seconds(args.time, "--time")
+        if args.rate is not None or args.spp is not None or args.budget is not None:
+            raise GmcptError("--time sets the samples itself: give --time or --budget or --rate/--spp, not two")
     if args.tile is not None:
         check_tile(args.tile)
     if args.spp is not None:
@@ -140,12 +147,11 @@ def run(args, say=lambda message: None, extra: dict | None = None,
 
     ``committed`` runs as soon as the three outputs are in place (:func:`gmcpt.files.write_together`).
     """
-    from .completion import check_size, complete
+    from .completion import check_size
     from .limits import check_resolution
     from .metrics import all_metrics
     from .files import make_folder
     from .outputs import library_versions, write_outputs
-    from .sampling import render_sparse_frame
     from .scene import load_scene, masked_integrator, scene_sensor
 
     started = time.perf_counter()
@@ -153,9 +159,11 @@ def run(args, say=lambda message: None, extra: dict | None = None,
     reference = _reference(args.reference) if args.reference else None
     parameters = dict(define.split("=", 1) for define in args.defines)
     scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
-    # --rate/--spp drop a budget the scene sets
-    budget = args.budget if args.budget is not None else (0.0 if args.rate or args.spp else None)
-    integrator = masked_integrator(scene, rate=args.rate, budget=budget, mask=args.mask, seed=args.seed,
+    # --rate/--spp drop a budget or a time the scene sets, and each of --budget and --time the other
+    fixed = args.rate or args.spp
+    budget = args.budget if args.budget is not None else (0.0 if fixed or args.time else None)
+    seconds = args.time if args.time is not None else (0.0 if fixed or args.budget else None)
+    integrator = masked_integrator(scene, rate=args.rate, budget=budget, time=seconds, mask=args.mask, seed=args.seed,
                                    feature_spp=args.feature_spp, completion=args.method, weights=args.weights,
                                    tile=args.tile)
     # every check on the input happens before the first progress line (render_sparse_frame checks the
@@ -171,22 +179,28 @@ def run(args, say=lambda message: None, extra: dict | None = None,
     if reference is not None and reference.shape != (height, width, 3):
         raise GmcptError(f"reference {args.reference} is {reference.shape[1]}x{reference.shape[0]}, "
                          f"the render is {width}x{height}")
-    settings = integrator.settings(spp=args.spp or 0, sensor=scene_sensor(scene, path=args.scene))
-    frame, timings = render_sparse_frame(scene, integrator.integrator, None, settings, progress=say)
-    dropped = frame.info["nonfinite_samples"]
-    if dropped:
-        message = f"{dropped} radiance samples were NaN/Inf"
-        if not args.allow_nonfinite:
-            raise GmcptError(message + " (broken scene data?); --allow-nonfinite drops them and goes on")
-        print(f"warning: {message}; dropped them", file=sys.stderr)
-    say(f"completing with {integrator.completion!r}")
-    result = complete(frame, integrator.completion, **integrator.completion_options())
-    timings.update(result.timings)
+    sensor = scene_sensor(scene, path=args.scene)
+    settings = integrator.settings(spp=args.spp or 0, sensor=sensor)
+
+    def check(frame) -> None:
+        dropped = frame.info["nonfinite_samples"]
+        if dropped:
+            message = f"{dropped} radiance samples were NaN/Inf"
+            if not args.allow_nonfinite:
+                raise GmcptError(message + " (broken scene data?); --allow-nonfinite drops them and goes on")
+            print(f"warning: {message}; dropped them", file=sys.stderr)
+        if frame.info.get("time_short"):
+            print(f"warning: --time {settings.time:g} s is less than one sample a pixel and the completion cost "
+                  "here; rendered one sample a pixel", file=sys.stderr)
+
+    result = integrator.render_frame(scene, sensor, spp=args.spp or 0, progress=say, check=check)
+    frame, timings = result.frame, result.timings
     record = {
         "scene": str(Path(args.scene).resolve()),
         "output": str(Path(args.out).resolve()),
         # with a budget the frame's rate is the chooser's: rendered_fraction below
-        "parameters": {"rate": None if settings.budget else settings.rate, "budget": settings.budget or None,
+        "parameters": {"rate": None if settings.budget or settings.time else settings.rate,
+                       "budget": settings.budget or None, "time": settings.time or None,
                        "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
                        "feature_spp": settings.feature_spp, "method": integrator.completion,
                        "tile": integrator.tile, **_weights_record(integrator),
@@ -198,7 +212,9 @@ def run(args, say=lambda message: None, extra: dict | None = None,
         "rendered_fraction": frame.rendered_fraction,
         "traced_pixels": frame.info["traced_pixels"],
         "path_samples": frame.info["path_samples"],
-        **{key: frame.info[key] for key in ("budget_choice", "relative_variance", "edge_share") if key in frame.info},
+        **{key: frame.info[key] for key in ("budget_choice", "relative_variance", "edge_share", "guide_spp",
+                                            "time_spent") if key in frame.info},
+        **({"spent_budget": frame.info["budget"]} if settings.time else {}),
         **({"first_pass_pixels": frame.info["first_pass_pixels"]} if settings.pattern == "two_pass" else {}),
         "nonfinite_samples": frame.info["nonfinite_samples"],
         "timings": timings,

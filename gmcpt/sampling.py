@@ -5,6 +5,9 @@
 - **a budget** (:func:`_budget_passes`): guides and a probe, then the sparse way (``two_pass`` at rate
   ``budget / SPARSE_SPP``) or the dense one (Mitsuba's own render of every pixel), chosen per frame
   (:mod:`gmcpt.budget`).
+- **a time budget** (:func:`_time_passes`): guides, then Mitsuba's own render of every pixel in passes sized
+  by the time the passes before took, until the seconds left would not pay for another sample a pixel and
+  the completion after them (in the spirit of Cycles' time limit).
 
 Every strategy traces into one :class:`~gmcpt.render.SampleSums`; :func:`render_sparse_frame` turns it and the
 feature buffers into a :class:`~gmcpt.frame.SparseFrame`.
@@ -22,11 +25,11 @@ from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_bud
                      guide_spp, plan_budget, relative_variance)
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
-from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seed, check_spp
+from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
 from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
                     sample_by_density, sample_count, second_pass_mask)
 from .placement import FIRST_PASS_SHARE, error_density, feature_density
-from .render import SampleSums, _sensor_film_size, feature_means, render_native
+from .render import SampleSums, _sensor_film_size, feature_means, pass_seed, render_native
 from .scene import scene_sensor
 
 SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` draws other samples
@@ -52,6 +55,7 @@ class RenderSettings:
     spp: int = 0
     feature_spp: int = DEFAULT_FEATURE_SPP
     budget: float = 0.0
+    time: float = 0.0  # seconds of wall time for the frame and its completion; 0: none
 
     def __post_init__(self):
         check_rate(self.rate)
@@ -66,6 +70,10 @@ class RenderSettings:
                 raise GmcptError("a budget sets the samples per pixel itself: give a budget or spp, not both")
             if self.pattern != "two_pass":
                 raise GmcptError(f"a budget places its samples with the two_pass mask, not {self.pattern!r}")
+        if self.time:
+            check_seconds(self.time)
+            if self.budget or self.spp:
+                raise GmcptError("a time budget sets the samples itself: give a time, a budget or spp, not two")
 
 
 @dataclass
@@ -81,6 +89,7 @@ class _Trace:
     shape: tuple[int, int]
     sums: SampleSums = None
     traced: np.ndarray = None  # flat bool
+    started: float = field(default_factory=time.perf_counter)
     first_pass_pixels: int = 0
     discarded: int = 0  # samples traced and left out of the image (a dense frame's probe)
     info: dict = field(default_factory=dict)
@@ -245,9 +254,34 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
     trace.first_pass_pixels = int(probe.sum())
 
 
+def _time_passes(trace: _Trace, completion_seconds: float) -> dict:
+    """A time budget: guides, then every pixel at one sample, then passes of as many samples as the seconds left
+    (less ``completion_seconds``, what the completion is expected to take) pay for at the pace of the passes so
+    far. Returns the feature buffers; ``info`` records the samples a pixel spent (``budget``)."""
+    settings, seconds = trace.settings, trace.settings.time
+    guides = trace.features(guide_spp(1, settings.feature_spp), visibility=False)
+    spp, pace, index = 1, None, 0
+    while True:
+        start = time.perf_counter()
+        trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render, {seconds:g} s in all)")
+        trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, spp,
+                                            pass_seed(settings.seed, index, 2)), spp)
+        trace.timed("render_s", start)
+        pace = (time.perf_counter() - start) / spp  # seconds per sample a pixel, the launch's own cost included
+        left = seconds - (time.perf_counter() - trace.started) - completion_seconds
+        spp, index = int(left // pace), index + 1
+        if spp < 1:
+            break
+    spent = int(trace.sums.samples // trace.sums.size)
+    trace.traced[:] = True
+    trace.info = {"time_budget": seconds, "budget": float(spent), "budget_choice": DENSE,
+                  "guide_spp": guides.spp, "time_short": index == 1 and left < 0}
+    return guides.buffers()
+
+
 def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,
                         settings: RenderSettings = RenderSettings(), mask: np.ndarray | None = None,
-                        progress: Say | None = None) -> tuple[SparseFrame, dict]:
+                        progress: Say | None = None, completion_seconds: float = 0.0) -> tuple[SparseFrame, dict]:
     """Render features for all pixels and radiance for the masked ones.
 
     Parameters
@@ -258,6 +292,7 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     settings : rate, mask pattern, seed, spp, feature spp, budget.
     mask : an explicit (H, W) bool mask; overrides ``settings.rate/pattern/budget``.
     progress : called with a one-line status message before each pass.
+    completion_seconds : what a time budget (``settings.time``) keeps back for the completion after the frame.
 
     Returns
     -------
@@ -278,7 +313,12 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     spp = SPARSE_SPP if plan is not None else check_spp(settings.spp or sensor.sampler().sample_count())
     trace = _Trace(scene, sensor, integrator, settings, say, {"features_s": 0.0, "mask_s": 0.0, "render_s": 0.0},
                    (height, width))
-    features = _budget_passes(trace, plan) if plan is not None else _mask_passes(trace, mask, spp)
+    if settings.time and mask is None:
+        features = _time_passes(trace, completion_seconds)
+    elif plan is not None:
+        features = _budget_passes(trace, plan)
+    else:
+        features = _mask_passes(trace, mask, spp)
 
     sums = trace.sums
     mean, variance = sums.estimate()

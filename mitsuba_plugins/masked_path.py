@@ -3,15 +3,16 @@ from __future__ import annotations
 
 import mitsuba as mi
 
-from gmcpt.completion import DEFAULT_METHOD, check_options, complete
+from gmcpt.completion import DEFAULT_METHOD, check_options
 from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
 from gmcpt.errors import GmcptError
 from gmcpt.exr import channel_names, pack
-from gmcpt.limits import check_feature_spp, check_seed
+from gmcpt.limits import check_feature_spp, check_seconds, check_seed
 from gmcpt.masks import DEFAULT_PATTERN, DEFAULT_RATE, check_pattern, check_rate
+from gmcpt.pipeline import Rendered, render_and_complete
 from gmcpt.plugins import constructor
 from gmcpt.render import DEFAULT_FEATURE_SPP
-from gmcpt.sampling import RenderSettings, render_sparse_frame
+from gmcpt.sampling import RenderSettings
 from gmcpt.scene import scene_sensor
 
 
@@ -34,6 +35,11 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
          chooses per frame between tracing ``budget / 16`` of the pixels at 16 spp (completed by the
          ``completion`` method) and tracing every pixel (see ``gmcpt.budget``); 0: none. (Default: with
          neither ``rate`` nor ``budget`` set, 0.3 x the sampler's spp: as many samples as rate 0.3 traces)
+     * - time
+       - |float|
+       - Seconds of wall time for the frame and its completion, instead of ``rate``, ``budget`` and the
+         sampler's spp: guides, then Mitsuba's own render of every pixel in passes sized by the pace of the
+         passes before, OIDN's time kept back; 0: none. (Default: 0)
      * - mask
        - |string|
        - Sample placement: ``two_pass`` (half the budget where the feature buffers have edges, the rest
@@ -93,6 +99,9 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         # no rate and no budget: the default budget, DEFAULT_RATE x the sensor's spp (settings)
         self.rate = check_rate(props["rate"]) if "rate" in props else None
         self.budget = float(props.get("budget", 0.0))
+        self.time = float(props.get("time", 0.0))
+        if self.time:  # 0: none
+            check_seconds(self.time)
         self.mask_pattern = check_pattern(props.get("mask", DEFAULT_PATTERN))
         self.seed = check_seed(props.get("seed", 0))
         self.feature_spp = check_feature_spp(props.get("feature_spp", DEFAULT_FEATURE_SPP))
@@ -117,7 +126,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
     def plugin_properties(self) -> dict:
         """The plugin's own properties as set (``rate``, ``mask``, ...), for a copy with some changed."""
-        return {"rate": self.rate, "budget": self.budget, "mask": self.mask_pattern, "seed": self.seed,
+        return {"rate": self.rate, "budget": self.budget, "time": self.time or None, "mask": self.mask_pattern,
+                "seed": self.seed,
                 "feature_spp": self.feature_spp,
                 "completion": self.completion, "weights": self.weights, "tile": self.tile}
 
@@ -133,11 +143,25 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         otherwise (and without a ``sensor``) the rate is ``DEFAULT_RATE``."""
         if self.budget and spp:
             raise GmcptError(f"masked_path has a budget of {self.budget:g} samples a pixel: give no spp as well")
+        if self.time and spp:
+            raise GmcptError(f"masked_path has a time budget of {self.time:g} s: give no spp as well")
         budget = self.budget
-        if not budget and self.rate is None and not spp and sensor is not None and self.mask_pattern == "two_pass":
+        if not budget and not self.time and self.rate is None and not spp and sensor is not None \
+                and self.mask_pattern == "two_pass":
             budget = max(1.0, DEFAULT_RATE * sensor.sampler().sample_count())
         return RenderSettings(rate=DEFAULT_RATE if self.rate is None else self.rate, pattern=self.mask_pattern,
-                              seed=self.seed + int(seed), spp=int(spp), feature_spp=self.feature_spp, budget=budget)
+                              seed=self.seed + int(seed), spp=int(spp), feature_spp=self.feature_spp, budget=budget,
+                              time=self.time)
+
+    def render_frame(self, scene: mi.Scene, sensor: mi.Sensor | None = None, seed: int = 0, spp: int = 0,
+                     progress=None, check=None) -> Rendered:
+        """Render and complete one frame (:func:`gmcpt.pipeline.render_and_complete`) with this plugin's settings;
+        the front door of ``mi.render``, the ``render`` command and the regression suite."""
+        sensor = sensor if sensor is not None else scene_sensor(scene)
+        rendered = render_and_complete(scene, self.integrator, self.settings(seed, spp, sensor), self.completion,
+                                       self.completion_options(), sensor, progress, check)
+        self.last_frame, self.last_timings = rendered.frame, rendered.timings
+        return rendered
 
     def render(self, scene: mi.Scene, sensor: int | mi.Sensor = 0, seed: int = 0, spp: int = 0,
                develop: bool = True, evaluate: bool = True) -> mi.TensorXf:
@@ -145,10 +169,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
             raise GmcptError("masked_path only renders developed images (develop=True)")
         if isinstance(sensor, int):
             sensor = scene_sensor(scene, sensor)
-        frame, timings = render_sparse_frame(scene, self.integrator, sensor, self.settings(seed, spp, sensor))
-        result = complete(frame, self.completion, **self.completion_options())
-        self.last_frame, self.last_timings = frame, {**timings, **result.timings}
-        return mi.TensorXf(pack(frame, result.image))
+        rendered = self.render_frame(scene, sensor, seed, spp)
+        return mi.TensorXf(pack(rendered.frame, rendered.image))
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         return self.integrator.sample(scene, sampler, ray, medium, active)
@@ -157,7 +179,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         return channel_names()[3:]
 
     def to_string(self) -> str:
-        return (f"MaskedPathIntegrator[rate={self.rate}, budget={self.budget}, mask={self.mask_pattern!r}, seed={self.seed}, "
+        return (f"MaskedPathIntegrator[rate={self.rate}, budget={self.budget}, time={self.time}, "
+                f"mask={self.mask_pattern!r}, seed={self.seed}, "
                 f"feature_spp={self.feature_spp}, completion={self.completion!r}, weights={self.weights!r},\n"
                 f"  integrator={self.integrator}]")
 

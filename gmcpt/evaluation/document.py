@@ -208,11 +208,13 @@ def results_markdown(run: dict) -> str:
         "",
         "Every contender ran at several settings in this run: full-frame path tracing at "
         f"{', '.join(map(str, c['path_spp']))} spp; the same + Intel Open Image Denoise (`pyoidn`, CPU, HDR, "
-        "with albedo and normal from a feature pass of its own samples a pixel, untimed: a renderer accumulates "
-        "them in the same pass); adaptive path tracing + OIDN at "
+        "with albedo and normal from the project's feature pass at its own samples a pixel, which OIDN prefers to "
+        "Mitsuba's albedo on scenes with metals, charged the time of Mitsuba's `aov` pass (albedo, normal) at as "
+        "many samples); adaptive path tracing + OIDN at "
         f"{', '.join(f'{b:g}' for b in c.get('adaptive_budgets', ()))} samples a pixel on average; the completion "
         f"methods at rates {', '.join(f'{r:g}' for r in c['budget_rates'])} x {', '.join(map(str, c['budget_spp']))} spp "
-        "(feature pass, placement, masked render and completion counted). Timed warm, in one process: each "
+        "(guides or feature pass, probe, placement, render and completion counted; the default's dense frames are "
+        "Mitsuba's own render and its guides a pass of about the budget's samples without shadow rays). Timed warm, in one process: each "
         f"contender's whole pipeline runs {max(2, c['repeats'])} times and the fastest counts (kernels compiled, "
         "weights loaded). For each budget, each contender's best setting that fits it: "
         "PSNR dB / SSIM / FLIP. Path tracing cannot spend less than 1 sample per pixel.",

@@ -4,8 +4,11 @@ Every timing here is wall time on this machine, measured in the same run as
 the quality figures. Renders are timed ``config.repeats`` times and the
 fastest counts (the first call in a process traces Dr.Jit kernels); in the
 equal-time comparison every contender's whole pipeline runs so, in one warm
-process: features, placement, render and completion for the completion
-methods; render and OIDN for the baselines (their guides untimed: :func:`baseline_guides`).
+process: guides, probe, placement, render and completion for the completion
+methods; render, guides and OIDN for the baselines. A baseline's guides are the
+project's own feature pass at its own samples (:func:`baseline_guides`: OIDN
+prefers it to Mitsuba's albedo on scenes with metals), and it is charged the time
+of Mitsuba's ``aov`` pass (albedo, normal) at those samples (:func:`guide_pass_seconds`).
 """
 from __future__ import annotations
 
@@ -62,28 +65,45 @@ BUDGET = "budget"
 def baseline_guides(loaded: LoadedScene, samples_per_pixel: float, seed: int) -> dict:
     """OIDN's albedo and normal for a baseline of ``samples_per_pixel`` path samples: a feature pass of as many
     primary samples, ``max(1, round(samples_per_pixel))``, what a renderer accumulates over its own samples
-    (Cycles' denoising passes, Mitsuba's ``aov`` integrator) in the same pass; so its time is not counted."""
+    (Cycles' denoising passes, Mitsuba's ``aov`` integrator). Its time is :func:`guide_pass_seconds`."""
     from ..render import render_features
 
     return render_features(loaded.scene, loaded.scene.sensors()[0], max(1, round(samples_per_pixel)), seed)
 
 
+def guide_pass_seconds(loaded: LoadedScene, samples_per_pixel: float, seed: int) -> float:
+    """Seconds of Mitsuba's ``aov`` integrator (albedo, shading normal) at ``max(1, round(samples_per_pixel))``
+    spp: what a baseline's guides cost a Mitsuba user."""
+    import mitsuba as mi
+
+    integrator = mi.load_dict({"type": "aov", "aovs": "albedo:albedo,normal:sh_normal"})
+    start = time.perf_counter()
+    np.asarray(mi.render(loaded.scene, integrator=integrator, spp=max(1, round(samples_per_pixel)), seed=seed))
+    return time.perf_counter() - start
+
+
 def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig, pattern: str | None = None):
     """(frame, render timings) of the fastest of ``config.repeats`` masked renders (``pattern``: default
     ``config.mask``; :data:`BUDGET`: the budget chooser at ``rate * spp`` samples a pixel)."""
-    from ..sampling import RenderSettings, render_sparse_frame
+    from ..sampling import render_sparse_frame
 
-    if pattern == BUDGET:
-        settings = RenderSettings(budget=rate * spp, seed=config.seed, feature_spp=config.feature_spp)
-    else:
-        settings = RenderSettings(rate=rate, pattern=pattern or config.mask, spp=spp, seed=config.seed,
-                                  feature_spp=config.feature_spp)
+    settings = _settings(rate, spp, config, pattern)
     best = None
     for _ in range(max(1, config.repeats)):
         frame, timings = render_sparse_frame(loaded.scene, loaded.integrator, settings=settings)
         if best is None or sum(timings.values()) < sum(best[1].values()):
             best = (frame, timings)
     return best
+
+
+def _settings(rate: float, spp: int, config: EvalConfig, pattern: str | None = None):
+    """The render settings of a completion contender (see :func:`sparse_frame`)."""
+    from ..sampling import RenderSettings
+
+    if pattern == BUDGET:
+        return RenderSettings(budget=rate * spp, seed=config.seed, feature_spp=config.feature_spp)
+    return RenderSettings(rate=rate, pattern=pattern or config.mask, spp=spp, seed=config.seed,
+                          feature_spp=config.feature_spp)
 
 
 def adaptive_oidn(loaded: LoadedScene, budget: float, config: EvalConfig, features: dict):
@@ -130,11 +150,13 @@ def quality(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
 
 
 def _path_oidn(loaded: LoadedScene, spp: int, seed: int, guides: dict) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(noisy, denoised, timings) of path tracing + OIDN with ``guides`` (:func:`baseline_guides`)."""
+    """(noisy, denoised, timings) of path tracing + OIDN with ``guides`` (:func:`baseline_guides`), charged an
+    ``aov`` pass (:func:`guide_pass_seconds`)."""
     timings = {}
     start = time.perf_counter()
     noisy = render_full(loaded.scene, loaded.integrator, spp, seed)
     timings["render_s"] = time.perf_counter() - start
+    timings["guides_s"] = guide_pass_seconds(loaded, spp, seed)
     start = time.perf_counter()
     denoised = denoise_oidn(noisy, guides["albedo"], guides["normal"])
     timings["denoise_s"] = time.perf_counter() - start
@@ -142,12 +164,13 @@ def _path_oidn(loaded: LoadedScene, spp: int, seed: int, guides: dict) -> tuple[
 
 
 def _warm(pipeline: Callable[[], tuple], repeats: int) -> tuple:
-    """The result of the fastest of ``max(2, repeats)`` runs of ``pipeline`` (returning ``(..., timings)``),
-    and its total seconds: the first run in a process compiles kernels and loads weights, later ones do not."""
+    """The result of the fastest of ``max(2, repeats)`` runs of ``pipeline``, and its wall seconds: the first run
+    in a process compiles kernels and loads weights, later ones do not."""
     best = None
     for _ in range(max(2, repeats)):
+        start = time.perf_counter()
         result = pipeline()
-        seconds = sum(result[-1].values())
+        seconds = time.perf_counter() - start
         if best is None or seconds < best[1]:
             best = (result, seconds)
     return best
@@ -156,8 +179,8 @@ def _warm(pipeline: Callable[[], tuple], repeats: int) -> tuple:
 def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     """Quality and total wall time of every contender at every setting of the equal-time comparison.
 
-    Path tracing: a full-frame render. Path tracing + OIDN: the same render, guides (:func:`baseline_guides`, untimed)
-    and the denoiser. Adaptive path tracing + OIDN: the same with the samples placed adaptively. Completion
+    Path tracing: a full-frame render. Path tracing + OIDN: the same render, guides (:func:`baseline_guides`, charged
+    :func:`guide_pass_seconds`) and the denoiser. Adaptive path tracing + OIDN: the same with the samples placed adaptively. Completion
     variants: feature pass, placement, masked render and completion, the default at ``config.default_budgets``
     samples a pixel, the others at ``config.budget_rates`` x ``config.budget_spp``. Each timed warm (:func:`_warm`).
     """
@@ -174,7 +197,12 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
             f"({timings['render_s']:.2f} s, {seconds:.2f} s in all)")
     for budget in config.adaptive_budgets:
         guides = baseline_guides(loaded, budget, config.seed + 17)
-        (image, info, _), seconds = _warm(lambda: adaptive_oidn(loaded, budget, config, guides), config.repeats)
+
+        def adaptive():
+            image, info, timings = adaptive_oidn(loaded, budget, config, guides)
+            return image, info, {**timings, "guides_s": guide_pass_seconds(loaded, budget, config.seed + 17)}
+
+        (image, info, _), seconds = _warm(adaptive, config.repeats)
         rows.append({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
                      "samples_per_pixel": float(budget), "seconds": seconds, **all_metrics(image, loaded.reference)})
         say(f"  {loaded.name} adaptive {budget:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB ({seconds:.2f} s)")
@@ -184,12 +212,12 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
         settings += [(DEFAULT_VARIANT, budget / SPARSE_SPP, SPARSE_SPP, BUDGET) for budget in config.default_budgets]
     for label, rate, spp, pattern in settings:
         def pipeline():
-            from ..completion import complete
+            from ..pipeline import render_and_complete
 
             variant = VARIANTS[label]
-            frame, render_timings = sparse_frame(loaded, rate, spp, replace(config, repeats=1), pattern)
-            result = complete(frame, variant.method, **variant.options())
-            return result.image, frame.info, {**render_timings, "completion_s": result.timings["completion_s"]}
+            rendered = render_and_complete(loaded.scene, loaded.integrator, _settings(rate, spp, config, pattern),
+                                           variant.method, variant.options())
+            return rendered.image, rendered.frame.info, rendered.timings
 
         (image, info, _), seconds = _warm(pipeline, config.repeats)
         metrics = all_metrics(image, loaded.reference)

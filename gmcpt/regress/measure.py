@@ -79,13 +79,10 @@ def render_golden(scene, settings: Settings) -> np.ndarray:
 
 def render_check(scene, settings: Settings, seed: int) -> np.ndarray:
     """The cheap check: masked render at the suite's rate and spp, completed by its method; same seed, same image."""
-    from ..completion import complete
-    from ..sampling import render_sparse_frame
     from ..scene import masked_integrator
 
     integrator = masked_integrator(scene, rate=settings.rate, seed=int(seed), completion=settings.method)
-    frame, _ = render_sparse_frame(scene, integrator.integrator, None, integrator.settings(spp=settings.spp))
-    return complete(frame, integrator.completion, **integrator.completion_options()).image
+    return integrator.render_frame(scene, spp=settings.spp).image
 
 
 def timed(function, *args):

@@ -1,0 +1,71 @@
+"""A time budget (``--time``, ``time`` on masked_path, ``RenderSettings.time``): every pixel traced, in passes
+sized to fill the seconds; bad values get one line."""
+import json
+
+import numpy as np
+import pytest
+
+from conftest import CORNELL, run_cli
+
+SIZE = (40, 32)
+
+
+@pytest.fixture(scope="module")
+def cornell(mi):
+    from gmcpt.scene import load_scene
+    return load_scene(CORNELL, resolution=SIZE)
+
+
+def _render(scene, seconds):
+    from gmcpt.pipeline import render_and_complete
+    from gmcpt.sampling import RenderSettings
+
+    integrator = scene.integrator()
+    return render_and_complete(scene, getattr(integrator, "integrator", integrator), RenderSettings(time=seconds),
+                               "interp")
+
+
+def test_more_seconds_buy_more_samples_every_pixel_alike(cornell):
+    _render(cornell, 0.05)  # compiles the kernels
+    short, long = _render(cornell, 0.05), _render(cornell, 1.5)
+    for rendered in (short, long):
+        info = rendered.frame.info
+        assert info["budget_choice"] == "dense" and rendered.frame.mask.all() and info["time_budget"] > 0
+        assert info["path_samples"] == info["budget"] * SIZE[0] * SIZE[1]  # the same samples in every pixel
+        assert np.isfinite(rendered.image).all()
+    assert long.frame.info["budget"] > 4 * short.frame.info["budget"]
+    assert long.frame.info["time_spent"] <= 1.5 * 1.5
+
+
+def test_a_time_below_one_frame_says_so_and_renders_one_sample(cornell):
+    rendered = _render(cornell, 1e-4)
+    assert rendered.frame.info["time_short"] and rendered.frame.info["budget"] == 1
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "abc", "1e9"])
+def test_bad_times_get_one_line(tmp_path, value):
+    result = run_cli(CORNELL, "--time", value, "--out", tmp_path / "x.exr", "-q")
+    assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1
+    assert "--time" in result.stderr and not (tmp_path / "x.exr").exists()
+
+
+def test_time_refuses_a_budget_or_an_spp_beside_it(mi, tmp_path):
+    from gmcpt.errors import GmcptError
+    from gmcpt.sampling import RenderSettings
+
+    with pytest.raises(GmcptError, match="not two"):
+        RenderSettings(time=1.0, budget=4.8)
+    for extra in (["--budget", "4"], ["--spp", "4"], ["--rate", "0.3"]):
+        result = run_cli(CORNELL, "--time", "1", *extra, "--out", tmp_path / "x.exr", "-q")
+        assert result.returncode == 2 and "not two" in result.stderr
+    with pytest.raises(Exception, match="time"):
+        mi.load_dict({"type": "masked_path", "time": -2.0})
+
+
+def test_cli_records_the_time_and_the_samples_it_spent(tmp_path):
+    out = tmp_path / "timed.exr"
+    result = run_cli(CORNELL, "--res", *SIZE, "--time", "2", "--method", "interp", "--out", out, "-q")
+    assert result.returncode == 0, result.stderr
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["parameters"]["time"] == 2 and record["parameters"]["budget"] is None
+    assert record["spent_budget"] >= 1 and record["time_spent"] > 0 and record["budget_choice"] == "dense"
