@@ -38,12 +38,12 @@ All functions here are pure numpy; :func:`gmcpt.sampling.render_sparse_frame` ru
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import GmcptError
+from .limits import check_positive
 from .masks import mask_rng, sample_by_density
 from .placement import FIRST_PASS_SHARE
 
@@ -68,13 +68,7 @@ SPARSE, DENSE = "sparse", "dense"
 
 def check_budget(budget, name: str = "budget") -> float:
     """``budget`` as a float in (0, :data:`MAX_BUDGET`], else a one-line :class:`GmcptError`."""
-    try:
-        value = float(budget)
-    except (TypeError, ValueError):
-        raise GmcptError(f"{name} must be a number of samples a pixel in (0, {MAX_BUDGET}], got {budget!r}") from None
-    if not math.isfinite(value) or not 0 < value <= MAX_BUDGET:
-        raise GmcptError(f"{name} must be in (0, {MAX_BUDGET}] samples a pixel, got {budget}")
-    return value
+    return check_positive(budget, name, MAX_BUDGET, "samples a pixel")
 
 
 @dataclass(frozen=True)

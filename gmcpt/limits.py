@@ -54,15 +54,20 @@ def _check_count(value, name: str, maximum: int, why: str) -> int:
     return value
 
 
-def check_seconds(seconds, name: str = "time") -> float:
-    """A time budget in seconds: a finite number in (0, :data:`MAX_SECONDS`]."""
+def check_positive(value, name: str, maximum: float, unit: str) -> float:
+    """``value`` as a finite float in (0, ``maximum``], else a one-line :class:`GmcptError` that names ``unit``."""
     try:
-        value = float(seconds)
+        number = float(value)
     except (TypeError, ValueError):
-        raise GmcptError(f"{name} must be a number of seconds, got {seconds!r}") from None
-    if not math.isfinite(value) or not 0 < value <= MAX_SECONDS:
-        raise GmcptError(f"{name} must be in (0, {MAX_SECONDS}] seconds, got {seconds}")
-    return value
+        raise GmcptError(f"{name} must be a number of {unit} in (0, {maximum}], got {value!r}") from None
+    if not math.isfinite(number) or not 0 < number <= maximum:
+        raise GmcptError(f"{name} must be in (0, {maximum}] {unit}, got {value}")
+    return number
+
+
+def check_seconds(seconds, name: str = "time") -> float:
+    """A time budget in seconds: in (0, :data:`MAX_SECONDS`]."""
+    return check_positive(seconds, name, MAX_SECONDS, "seconds")
 
 
 def check_spp(spp, name: str = "spp") -> int:
