@@ -45,7 +45,7 @@ import numpy as np
 from .errors import GmcptError
 from .limits import check_positive
 from .masks import mask_rng, sample_by_density
-from .placement import FIRST_PASS_SHARE
+from .placement import first_pass_count
 
 #: Samples of each traced pixel on the sparse side; 0.3 x 16 is the evaluation's 4.8-spp default.
 SPARSE_SPP = 16
@@ -93,7 +93,7 @@ class BudgetPlan:
     @property
     def first_pass_pixels(self) -> int:
         """Pixels of the first pass: ``two_pass``'s first share of the sparse frame's."""
-        return max(1, int(round(self.sparse_pixels * FIRST_PASS_SHARE)))
+        return first_pass_count(self.sparse_pixels)
 
     @property
     def probe_pixels(self) -> int:

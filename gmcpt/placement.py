@@ -44,6 +44,11 @@ ERROR_WINDOW = 3
 DEPTH_EPS = 1e-3
 
 
+def first_pass_count(pixels: int) -> int:
+    """Pixels of ``two_pass``'s first pass when the frame traces ``pixels`` in all (at least one)."""
+    return max(1, int(round(pixels * FIRST_PASS_SHARE)))
+
+
 def feature_edges(albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray,
                   visibility: np.ndarray) -> np.ndarray:
     """(H, W) float32 edge strength in [0, 1]: the largest difference to a 4-neighbour of any channel of

@@ -73,6 +73,7 @@ def validate(args) -> None:
     from .limits import check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
     from .completion.tiles import check_tile
     from .masks import check_pattern, check_rate
+    from .sampling import check_one_sample_count
     from .scene import scene_inputs
 
     if not args.out.lower().endswith(".exr"):
@@ -83,12 +84,10 @@ def validate(args) -> None:
         check_rate(args.rate)
     if args.budget is not None:
         check_budget(args.budget, "--budget")
-        if args.rate is not None or args.spp is not None:
-            raise GmcptError("--budget sets the rate and the spp itself: give --budget or --rate/--spp, not both")
     if args.time is not None:
         check_seconds(args.time, "--time")
-        if args.rate is not None or args.spp is not None or args.budget is not None:
-            raise GmcptError("--time sets the samples itself: give --time or --budget or --rate/--spp, not two")
+    check_one_sample_count({name: f"--{name}" for name in ("rate", "spp", "budget", "time")},
+                           rate=args.rate, spp=args.spp, budget=args.budget, time=args.time)
     if args.tile is not None:
         check_tile(args.tile)
     if args.spp is not None:

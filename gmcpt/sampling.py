@@ -28,7 +28,7 @@ from .frame import DEFAULT_FEATURE_SPP, SparseFrame
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
 from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
                     sample_by_density, sample_count, second_pass_mask)
-from .placement import FIRST_PASS_SHARE, error_density, feature_density
+from .placement import error_density, feature_density, first_pass_count
 from .render import SampleSums, _sensor_film_size, feature_means, pass_seed, render_native
 from .scene import scene_sensor
 
@@ -66,14 +66,22 @@ class RenderSettings:
         check_feature_spp(self.feature_spp)
         if self.budget:
             check_budget(self.budget)
-            if self.spp:
-                raise GmcptError("a budget sets the samples per pixel itself: give a budget or spp, not both")
             if self.pattern != "two_pass":
                 raise GmcptError(f"a budget places its samples with the two_pass mask, not {self.pattern!r}")
         if self.time:
             check_seconds(self.time)
-            if self.budget or self.spp:
-                raise GmcptError("a time budget sets the samples itself: give a time, a budget or spp, not two")
+        check_one_sample_count(spp=self.spp, budget=self.budget, time=self.time)
+
+
+def check_one_sample_count(names: dict | None = None, **given) -> None:
+    """The one rule of the sample counts: ``budget`` and ``time`` each set the samples a pixel themselves, so
+    neither goes with the other, with ``spp`` or with ``rate``. ``given``: the values (None or 0: not given);
+    ``names``: how the caller names them (the command line's ``--budget``), in the one-line error."""
+    names = names or {}
+    chosen = [name for name in ("time", "budget", "rate", "spp") if given.get(name)]
+    if len(chosen) > 1 and chosen[0] in ("time", "budget"):
+        first, second = (names.get(name, name) for name in chosen[:2])
+        raise GmcptError(f"{first} sets the samples a pixel itself: give {first} or {second}, not both")
 
 
 @dataclass
@@ -139,7 +147,7 @@ def _first_mask(settings: RenderSettings, features: dict, height: int, width: in
                               features["coverage"])
     if settings.pattern == "adaptive":
         return make_mask(height, width, settings.rate, "adaptive", settings.seed, density), density
-    first = max(1, int(round(total * FIRST_PASS_SHARE))) if count is None else count
+    first = first_pass_count(total) if count is None else count
     return sample_by_density(density, first, mask_rng(settings.seed), exclude=taken), density
 
 
@@ -299,7 +307,7 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     (frame, timings) with timings ``features_s``, ``mask_s`` (placing the samples) and ``render_s``
     (path tracing, every pass) in seconds.
 
-    With the ``two_pass`` pattern, a first radiance pass traces ``FIRST_PASS_SHARE`` of the pixel budget
+    With the ``two_pass`` pattern, a first radiance pass traces :func:`~gmcpt.placement.first_pass_count` pixels
     (``adaptive``), :func:`gmcpt.placement.error_density` reads its samples, and a second pass traces the
     rest of the budget on other pixels, with other sampler seeds. With a ``budget``, a probe's samples
     choose (:mod:`gmcpt.budget`) between that and a dense frame; ``info`` records the choice

@@ -12,7 +12,7 @@ from gmcpt.masks import DEFAULT_PATTERN, DEFAULT_RATE, check_pattern, check_rate
 from gmcpt.pipeline import Rendered, render_and_complete
 from gmcpt.plugins import constructor
 from gmcpt.render import DEFAULT_FEATURE_SPP
-from gmcpt.sampling import RenderSettings
+from gmcpt.sampling import RenderSettings, check_one_sample_count
 from gmcpt.scene import scene_sensor
 
 
@@ -141,10 +141,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         With neither ``rate`` nor ``budget`` set, no ``spp`` and the ``two_pass`` mask, the budget is
         ``DEFAULT_RATE`` x ``sensor``'s spp (the samples rate ``DEFAULT_RATE`` would trace), at least 1;
         otherwise (and without a ``sensor``) the rate is ``DEFAULT_RATE``."""
-        if self.budget and spp:
-            raise GmcptError(f"masked_path has a budget of {self.budget:g} samples a pixel: give no spp as well")
-        if self.time and spp:
-            raise GmcptError(f"masked_path has a time budget of {self.time:g} s: give no spp as well")
+        check_one_sample_count({"spp": "an spp to mi.render"}, spp=spp, budget=self.budget, time=self.time)
         budget = self.budget
         if not budget and not self.time and self.rate is None and not spp and sensor is not None \
                 and self.mask_pattern == "two_pass":

@@ -53,11 +53,11 @@ def test_time_refuses_a_budget_or_an_spp_beside_it(mi, tmp_path):
     from gmcpt.errors import GmcptError
     from gmcpt.sampling import RenderSettings
 
-    with pytest.raises(GmcptError, match="not two"):
+    with pytest.raises(GmcptError, match="not both"):
         RenderSettings(time=1.0, budget=4.8)
     for extra in (["--budget", "4"], ["--spp", "4"], ["--rate", "0.3"]):
         result = run_cli(CORNELL, "--time", "1", *extra, "--out", tmp_path / "x.exr", "-q")
-        assert result.returncode == 2 and "not two" in result.stderr
+        assert result.returncode == 2 and "not both" in result.stderr
     with pytest.raises(Exception, match="time"):
         mi.load_dict({"type": "masked_path", "time": -2.0})
 
