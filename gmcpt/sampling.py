@@ -36,6 +36,7 @@ SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` dr
 TOP_UP_SEED_OFFSET = 0x70B0F  # and a budget's probe pixels their samples after the choice
 EVEN_SEED_OFFSET = 0xE7E4  # the dense way's blue-noise spread of the samples left over
 PROBE_SEED_OFFSET = 0x9B0BE  # the probe's placement
+FIRST_PASS_SEED_OFFSET = 0xF1257  # the sparse way's first pass beside the probe (same seed: same lanes' samples)
 GUIDE_TOP_UP_SEED_OFFSET = 0x6D1E  # the sparse way's feature rays beside the guides'
 
 Say = Callable[[str], None]
@@ -114,13 +115,6 @@ class _Trace:
         start = time.perf_counter()
         self.sums.trace(self.scene, self.sensor, self.integrator, pixels, spp, seed, self.say)
         self.traced[pixels] = True
-        self.timed("render_s", start)
-
-    def trace_counts(self, counts: np.ndarray, seed: int) -> None:
-        """``counts[p]`` samples of each flat pixel ``p``."""
-        start = time.perf_counter()
-        self.sums.trace_counts(self.scene, self.sensor, self.integrator, counts, seed)
-        self.traced |= counts > 0
         self.timed("render_s", start)
 
     def features(self, spp: int, seed_offset: int = 0, visibility: bool = True):
@@ -230,9 +224,10 @@ def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarr
     first, density = _first_mask(sparse, features, height, width, plan.first_pass_pixels - int(probe.sum()),
                                  probe.reshape(height, width))
     trace.timed("mask_s", start)
-    counts = probe * (SPARSE_SPP - PROBE_SPP) + first.ravel() * SPARSE_SPP
-    trace.say(f"path tracing: {int((counts > 0).sum())} px to {SPARSE_SPP} spp (first pass)")
-    trace.trace_counts(counts, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)
+    # two pixel lists of even counts, not one of uneven counts: a pixel's samples stay consecutive lanes,
+    # summed within their SIMD packet, and no per-sample index list is built in numpy
+    trace.trace(np.flatnonzero(probe), SPARSE_SPP - PROBE_SPP, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)
+    trace.trace(np.flatnonzero(first), SPARSE_SPP, (seed + FIRST_PASS_SEED_OFFSET) % SEED_LIMIT)
     trace.first_pass_pixels = int(trace.traced.sum())
     _second_pass(trace, sparse, features, density, plan.sparse_pixels - trace.first_pass_pixels, SPARSE_SPP)
     return features
@@ -255,9 +250,7 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
         trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, level,
                                             (seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT), level)
         trace.timed("render_s", start)
-    if (counts > level).any():
-        trace.say(f"path tracing: {int((counts > level).sum())} px x 1 spp (the samples left over)")
-        trace.trace_counts(counts - level, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)
+    trace.trace(np.flatnonzero(counts > level), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the samples left over
     trace.traced[:] = True
     trace.first_pass_pixels = int(probe.sum())
 
