@@ -8,6 +8,8 @@ Cache folder: ``$GMCPT_CACHE`` or ``~/.cache/gmcpt/references``.
 """
 from __future__ import annotations
 
+import contextlib
+
 import hashlib
 import json
 import os
@@ -57,6 +59,20 @@ def render_reference(scene_path: str | Path, resolution: int | tuple[int, int] =
                             spp, seed, pass_spp, progress, label=Path(scene_path).parent.name, folder=folder)
 
 
+_cached_only = {"on": False}
+
+
+@contextlib.contextmanager
+def cached_only():
+    """Within it, a reference missing from the cache raises LookupError instead of being rendered (benchmarks
+    that measure against the evaluation's references, without its hours of rendering)."""
+    _cached_only["on"] = True
+    try:
+        yield
+    finally:
+        _cached_only["on"] = False
+
+
 def cached_reference(key: str, load: Callable[[], object], spp: int, seed: int, pass_spp: int = 256,
                      progress: Callable[[str], None] | None = None, label: str = "",
                      folder: Path | None = None) -> np.ndarray:
@@ -70,6 +86,8 @@ def cached_reference(key: str, load: Callable[[], object], spp: int, seed: int, 
     path = (folder or cache_dir()) / (key + ".exr")
     if path.is_file():
         return read_rgb_exr(path)
+    if _cached_only["on"]:
+        raise LookupError(f"no cached reference {path}")
     reference = render_full(load(), spp, seed, pass_spp, progress, label or key)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_output(path) as temporary:

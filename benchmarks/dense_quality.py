@@ -1,0 +1,72 @@
+#!/usr/bin/env python3
+"""A budget's dense frame against Mitsuba's own render at the same samples, both + OIDN with the same guides.
+
+For each evaluation scene with a cached reference (``make eval`` renders them), each budget and each seed: the
+product's frame forced dense (``render_sparse_frame`` with the chooser's thresholds at -1) completed by
+``gan_oidn`` (OIDN with the frame's guides), and ``mi.render`` at ``round(budget)`` spp denoised by OIDN with
+the very same guides. The table gives the PSNR of each, averaged over the seeds, and their difference.
+
+    python benchmarks/dense_quality.py [--budgets 4.8 16] [--seeds 3] [--scenes NAME ...]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--budgets", type=float, nargs="+", default=[4.8, 16.0])
+    parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--scenes", nargs="+", help="evaluation scene names (default: the quality scenes)")
+    parser.add_argument("--procedural", type=int, default=2)
+    args = parser.parse_args()
+
+    import gmcpt  # noqa: F401  (finds LLVM)
+    import numpy as np
+
+    from gmcpt import budget
+    from gmcpt.completion import DEFAULT_METHOD, complete
+    from gmcpt.denoise import denoise_oidn
+    from gmcpt.evaluation.baselines import render_full
+    from gmcpt.evaluation.config import QUICK
+    from gmcpt.evaluation.reference import cached_only
+    from gmcpt.evaluation.scenes import evaluation_scenes
+    from gmcpt.metrics import psnr
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
+
+    budget.DENSE_ABOVE = budget.EDGES_ABOVE = -1.0  # every frame dense
+    print(f"{'scene':<20} {'budget':>6} {'dense frame':>11} {'mi.render':>9} {'difference':>10}  "
+          f"(PSNR dB, means of {args.seeds} seeds; mi.render at round(budget) spp)")
+    differences = []
+    for eval_scene in evaluation_scenes(args.scenes, args.procedural, say=print):
+        with cached_only():
+            try:
+                reference = eval_scene.reference(QUICK.resolution, QUICK.reference_spp)
+            except LookupError:
+                print(f"{eval_scene.name:<20} no cached reference: make eval renders it")
+                continue
+        scene = eval_scene.load(QUICK.resolution)
+        integrator = scene.integrator()
+        integrator = getattr(integrator, "integrator", integrator)
+        for samples in args.budgets:
+            ours, theirs = [], []
+            for seed in range(args.seeds):
+                frame, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(budget=samples, seed=seed))
+                ours.append(psnr(complete(frame, DEFAULT_METHOD).image, reference))
+                noisy = render_full(scene, integrator, max(1, round(samples)), seed + 17)
+                theirs.append(psnr(denoise_oidn(noisy, frame.albedo, frame.normal), reference))
+            difference = float(np.mean(ours) - np.mean(theirs))
+            differences.append(difference)
+            print(f"{eval_scene.name:<20} {samples:6g} {np.mean(ours):11.2f} {np.mean(theirs):9.2f} {difference:+10.2f}",
+                  flush=True)
+    if differences:
+        print(f"largest shortfall {min(differences):+.2f} dB, mean {np.mean(differences):+.2f} dB")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
