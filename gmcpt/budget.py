@@ -19,7 +19,9 @@ same samples plus an albedo/normal pass plus OIDN costs: its bulk is ``mi.render
 are left out of it so that no pixel has more than ``ceil(budget)`` samples (OIDN expects even noise), and the
 samples left over go one each to blue-noise pixels. A sparse frame tops the guides up to the full feature
 pass (shadow rays included) and the probe's pixels up to :data:`SPARSE_SPP`, as part of its first pass.
-Two signals choose dense:
+Two signals choose dense, and so does time (:func:`sparse_pays`): the sparse way's extra work (the rest of
+the feature pass, the placement, the generator; :mod:`gmcpt.costs`) must cost less than the samples a dense
+frame would buy with it are worth:
 
 - :func:`relative_variance`: the median, over the probe's pixels, of the variance of a pixel's mean over
   its squared brightness, scaled to a 16-spp mean. The synthetic evaluation scenes read 0.007-0.057, the real
@@ -38,6 +40,7 @@ All functions here are pure numpy; :func:`gmcpt.sampling.render_sparse_frame` ru
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,6 +63,11 @@ GUIDE_SPP_RANGE = (4, 16)
 DENSE_ABOVE = 0.15
 #: Above this :func:`edge_share` too (docs/experiments.md).
 EDGES_ABOVE = 0.25
+#: dB a dense frame gains after OIDN when its samples double (cornell-box, 3.2 -> 10 samples a pixel: 2.0-2.3).
+DENSE_GAIN_PER_DOUBLING = 2.0
+#: dB the sparse way is expected to gain over a dense frame at the same samples where the signals choose it
+#: (the synthetic scenes at 3.2-8 samples a pixel: 0.6-1.7; docs/experiments.md).
+SPARSE_GAIN = 1.0
 #: The largest budget, as the largest spp of a masked render.
 MAX_BUDGET = 4096
 #: The chooser's outcomes, as the sidecar records them.
@@ -150,14 +158,21 @@ def edge_share(features: dict) -> float:
     return float(binned_edges(features["albedo"], features["normal"], features["depth"], features["visibility"]).mean())
 
 
-def choose(plan: BudgetPlan, statistic: float, edges: float) -> str:
-    """:data:`DENSE` when the first pass reads above :data:`DENSE_ABOVE` or the feature edges above
-    :data:`EDGES_ABOVE`, and what the first pass leaves of the budget gives every other pixel a sample
-    (:attr:`BudgetPlan.dense_after_probe`); :data:`DENSE` too when the plan is :attr:`~BudgetPlan.dense_only`;
-    else :data:`SPARSE`."""
+def sparse_pays(extra_seconds: float, dense_seconds: float) -> bool:
+    """True when the sparse way's expected gain at equal samples (:data:`SPARSE_GAIN`) beats what a dense frame
+    of ``dense_seconds`` would gain from the ``extra_seconds`` the sparse way costs on top of it, spent on more
+    samples (:data:`DENSE_GAIN_PER_DOUBLING`)."""
+    return SPARSE_GAIN > DENSE_GAIN_PER_DOUBLING * math.log2(1 + max(extra_seconds, 0.0) / max(dense_seconds, 1e-9))
+
+
+def choose(plan: BudgetPlan, statistic: float, edges: float, pays: bool = True) -> str:
+    """:data:`DENSE` when the probe reads above :data:`DENSE_ABOVE`, the feature edges above :data:`EDGES_ABOVE`
+    or the sparse way would not pay for its time (``pays``: :func:`sparse_pays`), and what the probe leaves of
+    the budget gives every pixel a sample (:attr:`BudgetPlan.dense_after_probe`); :data:`DENSE` too when the
+    plan is :attr:`~BudgetPlan.dense_only`; else :data:`SPARSE`."""
     if plan.dense_only:
         return DENSE
-    wanted = statistic > DENSE_ABOVE or edges > EDGES_ABOVE
+    wanted = statistic > DENSE_ABOVE or edges > EDGES_ABOVE or not pays
     return DENSE if wanted and plan.dense_after_probe else SPARSE
 
 

@@ -12,13 +12,13 @@ from typing import Callable
 import numpy as np
 
 from .completion import DEFAULT_METHOD, complete
+from .costs import frame_costs, record_denoise
 from .frame import SparseFrame
 from .sampling import RenderSettings, render_sparse_frame
 
-#: The fewest seconds per pixel a completion has taken in this process (first guess: OIDN on 2 cores, about
-#: 0.06 s at 256x256 and 1.9 s at 1920x1080): what a time budget keeps back for it. The fewest, as the first
-#: completion in a process loads its denoiser and is many times slower than the next.
-_completion_pace = {"seconds_per_pixel": 1.0e-6}
+
+#: sparse frames completed in this process so far
+_warm = {"sparse frames": 0}
 
 
 @dataclass
@@ -37,23 +37,20 @@ def render_and_complete(scene, integrator, settings: RenderSettings = RenderSett
     (``options``: its keyword options). ``check(frame)`` runs between the two (it may raise)."""
     say = progress or (lambda message: None)
     start = time.perf_counter()
-    frame, timings = render_sparse_frame(scene, integrator, sensor, settings, progress=say,
-                                         completion_seconds=_completion_pace["seconds_per_pixel"] * frame_pixels(scene, sensor))
+    frame, timings = render_sparse_frame(scene, integrator, sensor, settings, progress=say)
     if check is not None:
         check(frame)
     say(f"completing with {method!r}")
     completion_start = time.perf_counter()
     result = complete(frame, method, **(options or {}))
-    pace = (time.perf_counter() - completion_start) / frame.mask.size
-    _completion_pace["seconds_per_pixel"] = min(_completion_pace["seconds_per_pixel"], pace)
     timings = {**timings, **result.timings}
+    record_denoise(timings.get("denoise_s", time.perf_counter() - completion_start), frame.mask.size)
+    if "sparse_extra_s" in frame.info:  # what this sparse frame added to a dense one's work, the generator's included
+        extra = frame.info.pop("sparse_extra_s") + timings.get("pre_completion_s", 0.0)
+        if _warm["sparse frames"]:  # the first one in a process loads and compiles the generator
+            frame_costs(scene, frame.mask.size).learn_extra(extra)
+        _warm["sparse frames"] += 1
     if settings.time:
         frame.info["time_spent"] = time.perf_counter() - start
     return Rendered(frame, result.image, timings)
 
-
-def frame_pixels(scene, sensor=None) -> int:
-    """Pixels of the film of ``sensor`` (default: the scene's first)."""
-    film = (sensor if sensor is not None else scene.sensors()[0]).film()
-    width, height = film.crop_size()
-    return int(width) * int(height)

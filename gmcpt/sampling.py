@@ -22,7 +22,8 @@ import mitsuba as mi
 import numpy as np
 
 from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share, even_fill,
-                     guide_spp, plan_budget, relative_variance)
+                     guide_spp, plan_budget, relative_variance, sparse_pays)
+from .costs import completion_seconds, frame_costs
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
@@ -99,6 +100,7 @@ class _Trace:
     sums: SampleSums = None
     traced: np.ndarray = None  # flat bool
     started: float = field(default_factory=time.perf_counter)
+    completion_seconds: float = 0.0  # what the completion after the frame is expected to take (gmcpt.costs)
     first_pass_pixels: int = 0
     discarded: int = 0  # samples traced and left out of the image (a dense frame's probe)
     info: dict = field(default_factory=dict)
@@ -190,24 +192,36 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
     guides = trace.features(guide_rays, visibility=False)
     features = guides.buffers()
     probe = np.zeros(plan.pixels, bool)
+    statistic, edges, extra_share, pays = None, None, None, True
     if not plan.dense_only:
         start = time.perf_counter()
         probe = sample_by_density(np.ones((height, width), np.float32), plan.probe_pixels,
                                   mask_rng((seed + PROBE_SEED_OFFSET) % SEED_LIMIT)).ravel()
         trace.timed("mask_s", start)
         trace.say(f"path tracing: {int(probe.sum())} px x {PROBE_SPP} spp (probe)")
+        start = time.perf_counter()
         trace.trace(np.flatnonzero(probe), PROBE_SPP, seed)
-    statistic, edges = None, None
-    if probe.any():
+        probe_pace = (time.perf_counter() - start) / (int(probe.sum()) * PROBE_SPP)
         statistic = relative_variance(*trace.sums.estimate(probe), PROBE_SPP)
         edges = edge_share(features)
-    choice = choose(plan, statistic or 0.0, edges or 0.0)
+        costs = frame_costs(trace.scene, plan.pixels)
+        dense_seconds = (time.perf_counter() - trace.started + plan.budget * costs.path_seconds(probe_pace)
+                         + trace.completion_seconds)
+        extra_share = costs.extra_seconds() / dense_seconds
+        pays = sparse_pays(costs.extra_seconds(), dense_seconds)
+    choice = choose(plan, statistic or 0.0, edges or 0.0, pays)
     trace.info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": statistic,
-                  "edge_share": edges, "guide_spp": guide_rays}
-    trace.say(f"budget {plan.budget:g} spp: {choice}"
-              + ("" if statistic is None else f" (relative variance {statistic:.3f}, edge share {edges:.2f})"))
+                  "edge_share": edges, "sparse_time_share": extra_share, "guide_spp": guide_rays}
+    trace.say(f"budget {plan.budget:g} spp: {choice}" + ("" if statistic is None else
+              f" (relative variance {statistic:.3f}, edge share {edges:.2f}, sparse time +{extra_share:.0%})"))
     if choice == SPARSE:
-        return _sparse_after_probe(trace, plan, guides, probe)
+        features_before = trace.timings["features_s"]
+        features = _sparse_after_probe(trace, plan, guides, probe)
+        costs = frame_costs(trace.scene, plan.pixels)
+        costs.learn_path(trace.timings["render_s"] / (trace.sums.samples / plan.pixels))
+        # the generator's seconds join these in gmcpt.pipeline, after the completion
+        trace.info["sparse_extra_s"] = trace.timings["features_s"] - features_before + trace.timings["mask_s"]
+        return features
     _dense(trace, plan, probe)
     return features
 
@@ -250,14 +264,15 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
         trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, level,
                                             (seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT), level)
         trace.timed("render_s", start)
+        frame_costs(trace.scene, plan.pixels).learn_path((time.perf_counter() - start) / level)
     trace.trace(np.flatnonzero(counts > level), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the samples left over
     trace.traced[:] = True
     trace.first_pass_pixels = int(probe.sum())
 
 
-def _time_passes(trace: _Trace, completion_seconds: float) -> dict:
+def _time_passes(trace: _Trace) -> dict:
     """A time budget: guides, then every pixel at one sample, then passes of as many samples as the seconds left
-    (less ``completion_seconds``, what the completion is expected to take) pay for at the pace of the passes so
+    (less what the completion is expected to take) pay for at the pace of the passes so
     far. Returns the feature buffers; ``info`` records the samples a pixel spent (``budget``)."""
     settings, seconds = trace.settings, trace.settings.time
     guides = trace.features(guide_spp(1, settings.feature_spp), visibility=False)
@@ -269,7 +284,7 @@ def _time_passes(trace: _Trace, completion_seconds: float) -> dict:
                                             pass_seed(settings.seed, index, 2)), spp)
         trace.timed("render_s", start)
         pace = (time.perf_counter() - start) / spp  # seconds per sample a pixel, the launch's own cost included
-        left = seconds - (time.perf_counter() - trace.started) - completion_seconds
+        left = seconds - (time.perf_counter() - trace.started) - trace.completion_seconds
         spp, index = int(left // pace), index + 1
         if spp < 1:
             break
@@ -282,7 +297,7 @@ def _time_passes(trace: _Trace, completion_seconds: float) -> dict:
 
 def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,
                         settings: RenderSettings = RenderSettings(), mask: np.ndarray | None = None,
-                        progress: Say | None = None, completion_seconds: float = 0.0) -> tuple[SparseFrame, dict]:
+                        progress: Say | None = None) -> tuple[SparseFrame, dict]:
     """Render features for all pixels and radiance for the masked ones.
 
     Parameters
@@ -293,7 +308,6 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     settings : rate, mask pattern, seed, spp, feature spp, budget.
     mask : an explicit (H, W) bool mask; overrides ``settings.rate/pattern/budget``.
     progress : called with a one-line status message before each pass.
-    completion_seconds : what a time budget (``settings.time``) keeps back for the completion after the frame.
 
     Returns
     -------
@@ -313,9 +327,9 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     plan = plan_budget(settings.budget, height * width) if settings.budget and mask is None else None
     spp = SPARSE_SPP if plan is not None else check_spp(settings.spp or sensor.sampler().sample_count())
     trace = _Trace(scene, sensor, integrator, settings, say, {"features_s": 0.0, "mask_s": 0.0, "render_s": 0.0},
-                   (height, width))
+                   (height, width), completion_seconds=completion_seconds(height * width))
     if settings.time and mask is None:
-        features = _time_passes(trace, completion_seconds)
+        features = _time_passes(trace)
     elif plan is not None:
         features = _budget_passes(trace, plan)
     else:

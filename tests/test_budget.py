@@ -61,6 +61,15 @@ def test_choice_follows_either_signal_and_needs_a_sample_for_every_pixel():
     assert choose(plan_budget(0.9, 1000), DENSE_ABOVE * 2, 1.0) == SPARSE
     assert choose(plan_budget(1.03, 1000), 0.0, 0.0) == DENSE  # dense only: no probe to choose by
     assert choose(plan_budget(20, 1000), 0.0, 0.0) == DENSE
+    assert choose(plan, quiet, flat, pays=False) == DENSE  # the sparse way's extra seconds buy more as samples
+
+
+def test_the_sparse_way_pays_when_its_extra_time_is_worth_less_than_its_gain():
+    from gmcpt.budget import DENSE_GAIN_PER_DOUBLING, SPARSE_GAIN, sparse_pays
+
+    break_even = 2 ** (SPARSE_GAIN / DENSE_GAIN_PER_DOUBLING) - 1  # extra seconds over a dense frame's
+    assert sparse_pays(0.0, 1.0) and sparse_pays(0.9 * break_even, 1.0)
+    assert not sparse_pays(1.1 * break_even, 1.0) and not sparse_pays(10.0, 1.0)
 
 
 def test_edge_share_counts_the_frame_near_feature_edges():
@@ -115,6 +124,7 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
 
     monkeypatch.setattr(budget, "DENSE_ABOVE", threshold)
     monkeypatch.setattr(budget, "EDGES_ABOVE", threshold)
+    monkeypatch.setattr(budget, "SPARSE_GAIN", threshold)  # the sparse way's time always pays, or never
     pixels = SIZE[0] * SIZE[1]
     frame = _render(cornell, 4.8)
     plan = plan_budget(4.8, pixels)

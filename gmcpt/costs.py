@@ -1,0 +1,71 @@
+"""What a frame costs on this machine, learnt as a process renders: the budget chooser weighs time with it.
+
+Per scene and frame size, :class:`FrameCosts` keeps the seconds one sample a pixel of path tracing takes and
+the seconds the sparse way adds to a dense frame (the rest of the feature pass, the placement, the generator).
+Before a scene's first frame it knows only the probe's pace (an upper bound: a small launch pays its set-up)
+and a per-pixel guess of the sparse way's extra work (:data:`SPARSE_EXTRA_SECONDS_PER_PIXEL`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: The sparse way's extra seconds a pixel before the process has seen a sparse frame: the rest of the feature
+#: pass, the placement and the generator took 1.6 us a pixel on the bundled scenes at 256x256 (2 cores).
+SPARSE_EXTRA_SECONDS_PER_PIXEL = 1.6e-6
+
+
+@dataclass
+class FrameCosts:
+    """Seconds of one frame's parts on one scene at one size (the last measured, or None)."""
+
+    pixels: int
+    seconds_per_spp: float | None = None  # path tracing, one sample for every pixel
+    sparse_extra_seconds: float | None = None  # what the sparse way adds to a dense frame's work
+
+    def path_seconds(self, probe_seconds_per_sample: float) -> float:
+        """Seconds of one sample a pixel: measured, else the probe's pace times the pixels."""
+        return self.seconds_per_spp if self.seconds_per_spp is not None else probe_seconds_per_sample * self.pixels
+
+    def extra_seconds(self) -> float:
+        return (self.sparse_extra_seconds if self.sparse_extra_seconds is not None
+                else SPARSE_EXTRA_SECONDS_PER_PIXEL * self.pixels)
+
+    # the fewest seconds seen: a scene's first frame in a process compiles kernels and loads the generator
+    def learn_path(self, seconds_per_spp: float) -> None:
+        self.seconds_per_spp = min(seconds_per_spp, self.seconds_per_spp or np.inf)
+
+    def learn_extra(self, seconds: float) -> None:
+        self.sparse_extra_seconds = min(seconds, self.sparse_extra_seconds or np.inf)
+
+
+#: The fewest seconds per pixel the denoiser has taken in this process (first guess: OIDN on 2 cores, about
+#: 0.06 s at 256x256 and 1.9 s at 1920x1080): what a time budget keeps back for the completion, and what a
+#: budget's chooser counts in a dense frame. The fewest, as the first call in a process loads the denoiser.
+_denoise_pace = {"seconds_per_pixel": 1.0e-6}
+
+
+def completion_seconds(pixels: int) -> float:
+    """Seconds the denoiser is expected to take on a frame of ``pixels`` pixels."""
+    return _denoise_pace["seconds_per_pixel"] * pixels
+
+
+def record_denoise(seconds: float, pixels: int) -> None:
+    """Learn from a denoiser run of ``seconds`` on ``pixels`` pixels."""
+    _denoise_pace["seconds_per_pixel"] = min(_denoise_pace["seconds_per_pixel"], seconds / max(pixels, 1))
+
+
+#: (id of the scene, pixels) -> its costs; a later scene that takes a dead one's id starts from its costs and
+#: corrects them with its first frame
+_COSTS: dict[tuple[int, int], FrameCosts] = {}
+
+
+def frame_costs(scene, pixels: int) -> FrameCosts:
+    """The costs of ``scene`` at ``pixels`` pixels learnt so far in this process."""
+    return _COSTS.setdefault((id(scene), pixels), FrameCosts(pixels))
+
+
+def forget() -> None:
+    """Forget every cost learnt (tests)."""
+    _COSTS.clear()
