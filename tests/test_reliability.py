@@ -61,6 +61,7 @@ def test_api_seed_is_checked_where_the_settings_are_made(mi):
 def test_multi_pass_render_and_largest_seed_do_not_overflow(mi, monkeypatch):
     """More lanes than one launch takes: per-pass seeds stay 32-bit for every seed; one pass keeps the seed."""
     from gmcpt import render
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
     from gmcpt.scene import load_scene
 
     assert render.pass_seed(123, 0, 1) == 123
@@ -68,8 +69,8 @@ def test_multi_pass_render_and_largest_seed_do_not_overflow(mi, monkeypatch):
     assert len({render.pass_seed(9, index, 4) for index in range(4)}) == 4
     monkeypatch.setattr(render, "MAX_LANES", 64)  # 16x16 at rate 0.5 and 4 spp: 512 lanes, 8 passes
     scene = load_scene(CORNELL, (16, 16))
-    frame, _ = render.render_sparse_frame(scene, mi.load_dict({"type": "path"}),
-                                          settings=render.RenderSettings(rate=0.5, spp=4, seed=2**32 - 1))
+    frame, _ = render_sparse_frame(scene, mi.load_dict({"type": "path"}),
+                                   settings=RenderSettings(rate=0.5, spp=4, seed=2**32 - 1))
     assert frame.mask.sum() == 128 and np.isfinite(frame.radiance).all() and frame.radiance.max() > 0
 
 
