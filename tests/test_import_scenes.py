@@ -60,8 +60,8 @@ SCENE_06 = """<?xml version="1.0"?>
 """
 
 
-def _module():
-    spec = importlib.util.spec_from_file_location("import_scenes", SCRIPT)
+def _module(name: str = "import_scenes"):
+    spec = importlib.util.spec_from_file_location(name, SCRIPT.with_name(name + ".py"))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -95,7 +95,7 @@ def _one_error_line(result, *words):
 
 
 def test_snake_case_follows_mitsubas_own_upgrade():
-    snake = _module().snake_case
+    snake = _module("mitsuba06").snake_case  # the translation rules, beside the script
     assert [snake(n) for n in ("toWorld", "intIOR", "extEta", "fovAxis", "sampleCount", "radius")] == \
         ["to_world", "int_ior", "ext_eta", "fov_axis", "sample_count", "radius"]
 
