@@ -15,6 +15,7 @@ import os
 from .errors import BadValue
 
 DEVICE_ENV = "GMCPT_DEVICE"
+THREADS_ENV = "GMCPT_TORCH_THREADS"
 PRECISION_ENV = "GMCPT_GENERATOR_PRECISION"
 PRECISIONS = ("float32", "bfloat16")
 #: a device setting that means: CUDA where torch sees a GPU, else the CPU
@@ -39,6 +40,13 @@ def completion_device(wanted: str | None = None) -> str:
     if device.type == "cuda" and not torch.cuda.is_available():
         raise BadValue(f"device {wanted!r}: torch sees no CUDA device (unset {DEVICE_ENV} to use the CPU)")
     return str(device)
+
+
+def generator_threads() -> int:
+    """The CPU threads the generator runs on: ``$GMCPT_TORCH_THREADS``, else as many as torch is set to use."""
+    import torch
+
+    return int(os.environ.get(THREADS_ENV, torch.get_num_threads()))
 
 
 def generator_precision(device: str, wanted: str | None = None) -> str:

@@ -34,6 +34,11 @@ _REASONS = tuple(os.strerror(code) for code in (errno.ENOSPC, errno.EDQUOT, errn
                                                 errno.EFBIG, errno.EIO))
 
 
+def cache_folder(name: str) -> Path:
+    """Folder ``name`` of gmcpt's disk cache: under ``$GMCPT_CACHE``, else ``~/.cache/gmcpt``."""
+    return Path(os.environ.get("GMCPT_CACHE", Path.home() / ".cache" / "gmcpt")) / name
+
+
 def _temporary(path: Path) -> str:
     """A new hidden file beside ``path``, with the mode a plain ``open`` would give."""
     try:

@@ -55,20 +55,11 @@ def upsampled(bins: np.ndarray, size: int, height: int, width: int) -> np.ndarra
     return blocks.reshape(rows * size, columns * size, *rest)[:height, :width]
 
 
-def push_pull(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """Fill an (H, W, C) image from samples with (H, W) weights in [0, 1].
-
-    Pushes weighted sums down a 2x2 pyramid and pulls the coarse estimate back
-    up where fine weights are missing. The block sums add the four quarters of each block in the order
-    numpy's ``reshape(...).sum`` takes for 3-channel images (the same result to the bit there, in half
-    the time).
-    """
+def _pushed(values: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The next level of :func:`push_pull`'s pyramid: (values, weights) of the 2x2 blocks, an odd side padded
+    by zeros. The block sums add the four quarters of each block in the order numpy's ``reshape(...).sum``
+    takes for 3-channel images (the same result to the bit there, in half the time)."""
     height, width = weights.shape
-    total = weights.sum()
-    if total == 0:
-        return np.zeros_like(values)
-    if max(height, width) <= 1:
-        return values * weights[..., None] / np.maximum(weights[..., None], 1e-12)
     even = ((0, height % 2), (0, width % 2))
     weighted = values * weights[..., None]
     if height % 2 or width % 2:
@@ -79,23 +70,62 @@ def push_pull(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     sum_v = top_left + top_right
     sum_v += bottom_left
     sum_v += bottom_right
-    coarse_w = np.minimum(sum_w, 1.0)
-    coarse_v = sum_v / np.maximum(sum_w[..., None], 1e-12)
-    coarse = push_pull(coarse_v, coarse_w)
-    alpha = weights[:height, :width, None]
+    return sum_v / np.maximum(sum_w[..., None], 1e-12), np.minimum(sum_w, 1.0)
+
+
+def push_pull(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Fill an (H, W, C) image from samples with (H, W) weights in [0, 1].
+
+    Pushes weighted sums down a 2x2 pyramid (:func:`_pushed`) and pulls the coarse estimate back
+    up where fine weights are missing.
+    """
+    height, width = weights.shape
+    if weights.sum() == 0:
+        return np.zeros_like(values)
+    if max(height, width) <= 1:
+        return values * weights[..., None] / np.maximum(weights[..., None], 1e-12)
+    coarse = push_pull(*_pushed(values, weights))
+    alpha = weights[..., None]
     return alpha * values + (1.0 - alpha) * upsampled(coarse, 2, height, width)
 
 
-#: Pixels of the band of rows the fill works on at a time: a band's planes stay in the CPU's cache across
-#: the offsets of the window (rate 0.3: 256x256 0.036 s, 1024x1024 0.55 s; whole planes 0.09 and 1.2 s;
-#: bands of 2^14 pixels 0.055 and 0.60 s, 2^16 0.039 and 0.63 s).
+def pulled_at(values: np.ndarray, weights: np.ndarray, rows: np.ndarray, columns: np.ndarray) -> np.ndarray:
+    """``push_pull(values, weights)[rows, columns]``, (n, C), without the full-size blend of every level: the
+    guided fill needs the pyramid at a few hundred pixels of a frame, not at its millions."""
+    if weights.sum() == 0:
+        return np.zeros((len(rows),) + values.shape[2:], values.dtype)
+    if max(weights.shape) <= 1:
+        return (values * weights[..., None] / np.maximum(weights[..., None], 1e-12))[rows, columns]
+    coarse = pulled_at(*_pushed(values, weights), rows // 2, columns // 2)
+    alpha = weights[rows, columns][:, None]
+    return alpha * values[rows, columns] + (1.0 - alpha) * coarse
+
+
+def _padded_planes(channels: list[tuple[np.ndarray, object]], pad: int, edge: bool) -> np.ndarray:
+    """(n, H + 2 pad, W + 2 pad) float32 planes of the products ``array * factor`` of (H, W) ``channels``,
+    written in place (no stacked copy to pad after), padded by their edge values (``edge``) or by zeros."""
+    height, width = channels[0][0].shape
+    planes = (np.empty if edge else np.zeros)((len(channels), height + 2 * pad, width + 2 * pad), np.float32)
+    for plane, (array, factor) in zip(planes, channels):
+        np.multiply(array, factor, out=plane[pad:pad + height, pad:pad + width])
+    if edge and pad:
+        inner = slice(pad, pad + height)
+        planes[:, inner, :pad] = planes[:, inner, pad:pad + 1]
+        planes[:, inner, pad + width:] = planes[:, inner, pad + width - 1:pad + width]
+        planes[:, :pad] = planes[:, pad:pad + 1]
+        planes[:, pad + height:] = planes[:, pad + height - 1:pad + height]
+    return planes
+
+
+#: Pixels of the band of rows the fill works on at a time, so that a band's planes stay in the CPU's cache
+#: across the offsets of the window (measured: docs/experiments.md, "Figures moved out of the code").
 BAND_PIXELS = 1 << 15
 
 
-def _window(radius: int) -> list[tuple[int, int]]:
-    """The offsets of a disc of ``radius`` pixels."""
-    return [(dy, dx) for dy in range(-radius, radius + 1) for dx in range(-radius, radius + 1)
-            if dy * dy + dx * dx <= radius * radius]
+def _half_window(radius: int) -> list[tuple[int, int]]:
+    """The offsets of a disc of ``radius`` pixels after (0, 0) in row-major order: one of each pair ``o``, ``-o``."""
+    return [(dy, dx) for dy in range(0, radius + 1) for dx in range(-radius, radius + 1)
+            if (dy, dx) > (0, 0) and dy * dy + dx * dx <= radius * radius]
 
 
 def _weighted_sums(values: np.ndarray, mask: np.ndarray, planes: np.ndarray, norms: np.ndarray, depth: np.ndarray,
@@ -105,35 +135,38 @@ def _weighted_sums(values: np.ndarray, mask: np.ndarray, planes: np.ndarray, nor
     squared norms and depth by their edge values, values and mask by 0), ``depth_scale`` unpadded.
 
     The squared feature distance is ``|a|^2 + |b|^2 - 2 a.b``, the dot product one pass over the planes
-    (an ``einsum``): a third less time than differences squared and summed (256x256 at rate 0.2: 21 ->
-    15 ms), within 5e-6 of them relative to the sums."""
+    (an ``einsum``), and it is symmetric: one plane of it over the band and its margin serves the offsets
+    ``o`` and ``-o`` (the depth term, relative to the centre's depth, is not, and is computed for each)."""
     pad = radius
     height, width = rows.stop - rows.start, depth.shape[1] - 2 * pad
     here = (slice(rows.start + pad, rows.stop + pad), slice(pad, pad + width))
-    centre, centre_norm = planes[(slice(None),) + here], norms[here]
     centre_depth, scale = depth[here], depth_scale[rows]
-    numerator = np.zeros((values.shape[0], height, width), np.float32)
-    denominator = np.zeros((height, width), np.float32)
-    distance = np.empty((height, width), np.float32)
-    dot = np.empty((height, width), np.float32)
+    numerator = values[(slice(None),) + here] * mask[here]  # the centre's own weight is 1
+    denominator = mask[here].copy()
+    weight = np.empty((height, width), np.float32)
     value_terms = np.empty(numerator.shape, np.float32)
-    for dy, dx in _window(radius):
-        there = (slice(rows.start + pad + dy, rows.stop + pad + dy), slice(pad + dx, pad + dx + width))
-        np.einsum("khw,khw->hw", planes[(slice(None),) + there], centre, out=dot)
-        np.subtract(depth[there], centre_depth, out=distance)
-        np.multiply(distance, scale, out=distance)
-        np.square(distance, out=distance)
-        distance += norms[there]
-        distance += centre_norm
-        dot *= np.float32(2.0)
-        distance -= dot
-        distance += np.float32((dy * dy + dx * dx) / (2 * sigma_space ** 2))
-        np.negative(distance, out=distance)
-        np.exp(distance, out=distance)
-        distance *= mask[there]
-        denominator += distance
-        np.multiply(values[(slice(None),) + there], distance, out=value_terms)
-        numerator += value_terms
+    for dy, dx in _half_window(radius):
+        # minus the squared distance of q and q + o, for every q that is a centre or a neighbour in the band
+        top, left, right = rows.start + pad - dy, pad + min(0, -dx), pad + width + max(0, -dx)
+        first, second = (slice(top, rows.stop + pad), slice(left, right)), \
+            (slice(top + dy, rows.stop + pad + dy), slice(left + dx, right + dx))
+        similarity = np.einsum("khw,khw->hw", planes[(slice(None),) + first], planes[(slice(None),) + second])
+        similarity *= np.float32(2.0)
+        similarity -= norms[first]
+        similarity -= norms[second]
+        similarity -= np.float32((dy * dy + dx * dx) / (2 * sigma_space ** 2))
+        # the pair (p, p + o) sits at p in it, the pair (p, p - o) at p - o
+        for sy, sx, row, column in ((dy, dx, dy, pad - left), (-dy, -dx, 0, pad - left - dx)):
+            there = (slice(rows.start + pad + sy, rows.stop + pad + sy), slice(pad + sx, pad + width + sx))
+            np.subtract(depth[there], centre_depth, out=weight)
+            weight *= scale
+            np.square(weight, out=weight)
+            np.subtract(similarity[row:row + height, column:column + width], weight, out=weight)
+            np.exp(weight, out=weight)
+            weight *= mask[there]
+            denominator += weight
+            np.multiply(values[(slice(None),) + there], weight, out=value_terms)
+            numerator += value_terms
     return numerator, denominator
 
 
@@ -163,13 +196,12 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     # to the pixel's own depth, so depth is scaled per pixel rather than once
     scale = np.float32(math.sqrt(0.5)) * np.array([1 / params.sigma_albedo] * 3 + [1 / params.sigma_normal] * 3
                                                   + [1 / params.sigma_visibility], np.float32)
-    scaled = np.concatenate([features[..., 0:6], features[..., 7:8]], axis=-1).astype(np.float32) * scale
+    planes = _padded_planes([(features[..., channel], factor) for channel, factor in zip((0, 1, 2, 3, 4, 5, 7), scale)],
+                            pad, edge=True)
     depth = features[..., 6].astype(np.float32)
     depth_scale = np.float32(math.sqrt(0.5) / params.sigma_depth) / np.maximum(depth, np.float32(1e-3))
-    planes = np.pad(np.moveaxis(scaled, -1, 0), ((0, 0), (pad, pad), (pad, pad)), mode="edge")
     norms = np.einsum("khw,khw->hw", planes, planes)
-    padded_values = np.pad(np.moveaxis(values * mask[..., None], -1, 0).astype(np.float32),
-                           ((0, 0), (pad, pad), (pad, pad)))
+    padded_values = _padded_planes([(values[..., channel], mask) for channel in range(values.shape[-1])], pad, False)
     padded_mask = np.pad(mask.astype(np.float32), pad)
     padded_depth = np.pad(depth, pad, mode="edge")
     numerator = np.empty((values.shape[-1],) + mask.shape, np.float32)
@@ -180,14 +212,12 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
         numerator[:, rows], denominator[rows] = _weighted_sums(padded_values, padded_mask, planes, norms,
                                                                padded_depth, depth_scale, radius, sigma_space, rows)
     confident = denominator > params.min_weight
-    guided = np.moveaxis(numerator, 0, -1) / np.maximum(denominator, 1e-12)[..., None]
-    filled = guided
-    if not confident.all():  # the pyramid fill only where no traced neighbour is similar enough
-        fallback = push_pull(values * mask[..., None], mask.astype(np.float32))
-        filled = np.where(confident[..., None], guided, fallback)
-    if not keep_samples:
-        return np.where(mask[..., None] & ~confident[..., None], values, filled).astype(np.float32)
-    return np.where(mask[..., None], values, filled).astype(np.float32)
+    filled = np.moveaxis(numerator, 0, -1) / np.maximum(denominator, 1e-12)[..., None]
+    unsure = np.nonzero(~confident)
+    if len(unsure[0]):  # the pyramid fill only where no traced neighbour is similar enough
+        fallback = pulled_at(values * mask[..., None], mask.astype(np.float32), *unsure)
+        filled[unsure] = fallback if keep_samples else np.where(mask[unsure][:, None], values[unsure], fallback)
+    return np.where(mask[..., None], values, filled).astype(np.float32) if keep_samples else filled
 
 
 def interpolate(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),

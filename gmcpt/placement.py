@@ -21,9 +21,8 @@ import numpy as np
 from .domain import WorkingDomain, channel_mean, pixel_coverage
 from .fills import upsampled
 
-#: Share of every density that is spread evenly (the floor): no region is left without samples. With
-#: OIDN as the last stage (``gan_oidn``), 0.3 beat 0.5 on the 5 evaluation scenes (mean PSNR at rates
-#: 0.2/0.3/0.4: 0.5 34.81/35.88/36.53, 0.3 34.98/35.96/36.65, 0.2 34.95/35.93/36.80, 0.7 34.44/35.41/36.02).
+#: Share of every density that is spread evenly (the floor), so that no region is left without samples; 0.3
+#: scored best with OIDN as the last stage (docs/experiments.md, "Figures moved out of the code").
 FLOOR = 0.3
 #: Edge weight above the floor: ``1 + EDGE_GAIN * min(edge / mean(edge), EDGE_CAP)`` before mixing.
 EDGE_GAIN = 4.0
@@ -31,9 +30,8 @@ EDGE_CAP = 8.0
 #: Extra weight of a pixel whose feature rays saw no diffuse albedo (glass, metal, emitters).
 SPECULAR_GAIN = 1.0
 #: The feature edges are found on bins of EDGE_BIN x EDGE_BIN pixels (the buffers' means) and given to every
-#: pixel of the bin: a band two pixels wider about each edge, less moved by the feature pass's noise. Over 4
-#: seeds on the 5 evaluation scenes (mean PSNR, rates 0.2/0.3/0.4): two_pass +0.11/+0.10/+0.03 dB, adaptive
-#: +0.19/+0.15/+0.12 over single pixels; bins of 3 and 4 within 0.05 dB of 2.
+#: pixel of the bin: a band two pixels wider about each edge, less moved by the feature pass's noise (measured:
+#: docs/experiments.md, "Figures moved out of the code").
 EDGE_BIN = 2
 #: Fraction of the pixel budget the first pass of ``two_pass`` spends.
 FIRST_PASS_SHARE = 0.5

@@ -12,18 +12,17 @@ import contextlib
 
 import hashlib
 import json
-import os
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
 from ..exr import atomic_output, read_rgb_exr, write_exr
+from ..files import cache_folder
 
 
 def cache_dir() -> Path:
-    root = Path(os.environ.get("GMCPT_CACHE", Path.home() / ".cache" / "gmcpt"))
-    return root / "references"
+    return cache_folder("references")
 
 
 def film_size(resolution: int | tuple[int, int]) -> tuple[int, int]:

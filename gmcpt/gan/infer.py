@@ -11,26 +11,21 @@ from ..domain import WorkingDomain, channel_mean
 from ..frame import SparseFrame
 from ..workers import map_single_threaded, torch_threads
 from .inputs import SCALE, frame_inputs
-from .model import Generator
+from .model import Generator, smoothed_fill
+from .runtime import CpuNetwork
 
-#: Brightness the product brings a frame to before the generator sees it: the 95th percentile of
-#: the traced pixels' mean radiance (the statistic the dataset builder sets, to 0.4-1.2, when it
-#: picks each training scene's exposure). Chosen on the dataset's validation split with the
-#: shipped gan-cpu weights (mean PSNR of the 10 val scenes: no exposure 27.58 dB; target 0.8
-#: 27.67, 1.5 27.89, 2.5 27.93, 4 27.91): brighter frames put more of the image on the
-#: logarithmic part of the working domain, where noise is closer to uniform.
+#: Brightness the product brings a frame to before the generator sees it (the 95th percentile of the traced
+#: pixels' mean radiance, the statistic the dataset builder sets when it picks a scene's exposure): brighter
+#: frames put more of the image on the working domain's logarithmic part, where noise is closer to uniform
+#: (chosen on the validation split: docs/experiments.md, "Figures moved out of the code").
 EXPOSURE_TARGET = 2.5
 
-#: The generator runs on horizontal bands of about ``BAND_ROWS`` rows, each seeing ``BAND_HALO`` more
-#: rows of context on either side, dealt to the threads (:func:`gmcpt.workers.map_single_threaded`). The
-#: bands follow from the frame's height alone, so the thread count moves the output by float rounding only. Measured
-#: on the still life's 1024x1024 frame, 2 cores: the whole frame 2.4-2.8 s; 2 bands 1.38-1.44 s, 4 bands
-#: 1.46-1.59 s, 8 bands 2.04-2.17 s. A halo of 64 rows (8 cells of the coarsest level) leaves the output
-#: within 3e-4 of the whole frame's (on 0..1.3; 32 rows: 1.4e-2). A frame of one band (under 768 rows)
-#: runs on torch's own threads instead: at 256x256, 2 threads 0.073-0.082 s against 0.10-0.11 on one
-#: (outputs within 3e-7), where two bands, with their halos, took 0.096-0.108 s. Torch's threads meet at a
-#: barrier after every layer, which stalls while another process holds a core, but a small frame's
-#: generator is a tenth of a second.
+#: PyTorch runs the generator on horizontal bands of about ``BAND_ROWS`` rows, each seeing ``BAND_HALO`` more
+#: rows of context on either side, dealt to threads that each run torch on one thread
+#: (:func:`gmcpt.workers.map_single_threaded`), because torch's own threads meet at a barrier after every layer,
+#: which stalls on a whole large frame; a frame of one band (under 768 rows) runs on torch's own threads. The
+#: bands follow from the frame's height alone, so the thread count moves the output by float rounding only
+#: (band sizes and halos measured: docs/experiments.md, "Figures moved out of the code").
 BAND_ROWS = 512
 BAND_HALO = 64
 
@@ -54,10 +49,8 @@ def exposed(frame: SparseFrame, exposure: float) -> SparseFrame:
 
 def memory_format(device: str | torch.device) -> torch.memory_format:
     """The layout the generator runs in on ``device``: channels last (pixel-interleaved) on a CPU, where
-    oneDNN's convolutions need no reorder of their inputs then. Measured with the shipped generator on the
-    still life's 256x256 frame (2 threads, bfloat16, the fill left out): 24.6 -> 21.2 ms; the whole
-    pre-completion 4-7 % faster at 256x256 and 1024x1024. CUDA keeps the contiguous layout (not measured
-    there)."""
+    oneDNN's convolutions then need no reorder of their inputs (measured: docs/experiments.md); CUDA keeps the
+    contiguous layout (not measured there)."""
     return torch.channels_last if torch.device(device).type == "cpu" else torch.contiguous_format
 
 
@@ -74,12 +67,13 @@ def bands(height: int, multiple: int) -> list[tuple[int, int]]:
 
 
 def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tensor, threads: int = 1,
-             precision: str = "float32") -> torch.Tensor:
-    """``generator(radiance, features)`` band by band (:data:`BAND_ROWS`), on ``threads`` threads: bands
+             precision: str = "float32", fill: torch.Tensor | None = None) -> torch.Tensor:
+    """``generator(radiance, features, fill)`` band by band (:data:`BAND_ROWS`), on ``threads`` threads: bands
     dealt to threads that each run torch on one thread, or one band on ``threads`` torch threads. On a
     GPU (the inputs' device) the same bands run one after another. ``precision`` ``"bfloat16"`` runs
     the generator under autocast (:func:`gmcpt.device.generator_precision`); the output is float32. The
-    inputs are laid out in the device's :func:`memory_format` (the generator: :func:`prepare`)."""
+    inputs are laid out in the device's :func:`memory_format` (the generator: :func:`prepare`). Without a
+    ``fill`` (the whole frame's), each band computes its own."""
     height = radiance.shape[2]
     cast = precision == "bfloat16"
     layout_format = memory_format(radiance.device)
@@ -88,9 +82,10 @@ def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tenso
     def band_output(band):
         first, stop = band
         top, bottom = max(0, first - BAND_HALO), min(height, stop + BAND_HALO)
+        band_fill = None if fill is None else fill[:, :, top:bottom]
         # autocast is a thread's own setting: entered in the thread that runs the band
         with torch.inference_mode(), torch.autocast(radiance.device.type, torch.bfloat16, enabled=cast):
-            output = generator(radiance[:, :, top:bottom], features[:, :, top:bottom]).float()
+            output = generator(radiance[:, :, top:bottom], features[:, :, top:bottom], band_fill).float()
         return output[:, :, first - top:stop - top]
 
     cuts = bands(height, generator.multiple)
@@ -102,20 +97,11 @@ def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tenso
         return band_output(cuts[0])
 
 
-def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
-                exposure: float = 1.0, threads: int = 1, precision: str = "float32") -> tuple[np.ndarray, np.ndarray]:
-    """(completed image in the working domain (H, W, 3), 0..255-like; demodulation factor (H, W, 3)).
-
-    The generator sees the frame scaled by ``exposure`` (see :func:`target_exposure`); the
-    exposure is folded into the returned factor, so ``domain.inverse(working, factor)`` is
-    radiance at the frame's own exposure, and ``domain.forward(frame.radiance, factor)`` is
-    the frame in the working domain the generator ran in. The frame is padded (reflect) to a
-    multiple of the generator's :attr:`~gmcpt.gan.model.Generator.multiple` and cropped back. The
-    generator runs in bands (:func:`generate`) on ``threads`` threads, on the generator's device, in
-    ``precision``.
-    """
-    if exposure != 1.0:
-        frame = exposed(frame, exposure)
+def network_inputs(generator: Generator, frame: SparseFrame, domain: WorkingDomain
+                   ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray]:
+    """(radiance, features, fill, each (1, C, H', W'), factor (H, W, 3)) of ``frame`` for ``generator``: padded
+    (reflect) to a multiple of its :attr:`~gmcpt.gan.model.Generator.multiple`, the fill made once for the whole
+    frame."""
     radiance, features, factor = frame_inputs(frame, domain, generator.config.use_variance,
                                                generator.config.use_coverage)
     height, width = frame.shape
@@ -124,7 +110,32 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
     mode = "reflect" if min(height, width) > multiple else "replicate"
     if any(pad):
         radiance, features = F.pad(radiance, pad, mode=mode), F.pad(features, pad, mode=mode)
-    device = next(generator.parameters()).device
-    output = generate(generator, radiance.to(device), features.to(device), threads, precision)
-    working = output[0, :, :height, :width].permute(1, 2, 0).cpu().numpy() * SCALE
+    return radiance, features, smoothed_fill(radiance, features), factor
+
+
+def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
+                exposure: float = 1.0, threads: int = 1, precision: str = "float32",
+                network: CpuNetwork | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(completed image in the working domain (H, W, 3), 0..255-like; demodulation factor (H, W, 3)).
+
+    The generator sees the frame scaled by ``exposure`` (see :func:`target_exposure`); the
+    exposure is folded into the returned factor, so ``domain.inverse(working, factor)`` is
+    radiance at the frame's own exposure, and ``domain.forward(frame.radiance, factor)`` is
+    the frame in the working domain the generator ran in. The inputs are :func:`network_inputs`'s,
+    cropped back after. The network runs on ``network`` (the generator compiled for a CPU runtime,
+    :func:`gmcpt.gan.runtime.cpu_network`) where given, else in PyTorch in bands (:func:`generate`) on the
+    generator's device, in ``precision``.
+    """
+    if exposure != 1.0:
+        frame = exposed(frame, exposure)
+    radiance, features, fill, factor = network_inputs(generator, frame, domain)
+    if network is not None:  # (1, H, W, C): views of the channels-last tensors
+        pixels = [tensor.permute(0, 2, 3, 1).numpy() for tensor in (radiance, features, fill)]
+        output = pixels[2] + network(*pixels)
+    else:
+        device = next(generator.parameters()).device
+        output = generate(generator, radiance.to(device), features.to(device), threads, precision, fill.to(device))
+        output = output.permute(0, 2, 3, 1).cpu().numpy()
+    height, width = frame.shape
+    working = output[0, :height, :width] * SCALE
     return np.maximum(working, 0.0).astype(np.float32), factor / np.float32(exposure)

@@ -196,8 +196,13 @@ class Generator(nn.Module):
             x = block(x, condition)
         return x
 
-    def forward(self, radiance: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
-        fill = smoothed_fill(radiance, features)
+    def forward(self, radiance: torch.Tensor, features: torch.Tensor, fill: torch.Tensor | None = None) -> torch.Tensor:
+        """The completed image; ``fill``, where given, is the frame's :func:`smoothed_fill` computed beforehand."""
+        fill = smoothed_fill(radiance, features) if fill is None else fill
+        return fill + self.correction(radiance, features, fill)
+
+    def correction(self, radiance: torch.Tensor, features: torch.Tensor, fill: torch.Tensor) -> torch.Tensor:
+        """What the generator adds to ``fill``: the network proper, without the numpy fill (so it exports)."""
         cond = self.condition(features)
         x0 = self._run(self.enc0, space_to_depth_conv(self.head, torch.cat([radiance, fill, features], 1)), cond[0])
         x1 = self._run(self.enc1, self.down1(F.leaky_relu(x0, 0.2)), cond[1])
@@ -206,7 +211,7 @@ class Generator(nn.Module):
         # weights sum to 1, so the order does not matter (to float rounding)
         y1 = self._run(self.dec1, x1 + F.interpolate(self.up1(x2), scale_factor=2, mode="bilinear"), cond[1])
         y0 = self._run(self.dec0, x0 + F.interpolate(self.up0(y1), scale_factor=2, mode="bilinear"), cond[0])
-        return fill + F.pixel_shuffle(self.tail(F.leaky_relu(y0, 0.2)), 2)
+        return F.pixel_shuffle(self.tail(F.leaky_relu(y0, 0.2)), 2)
 
 
 class Critic(nn.Module):

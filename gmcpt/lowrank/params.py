@@ -152,34 +152,11 @@ PAPER_PRESET = LowRankParams(patch_size=7, step=3, search_radius=10, group_size=
                              iterations=45, w0=80.5, c=0.9, rematch_every=1, feature_weight=0.0,
                              threshold="weighted", data_term="exact", momentum=0.0, noise_power=0.0, wiener=0.0)
 
-#: Tuned default. First from benchmarks/sweep_lowrank.py on two synthetic
-#: 256x256 frames (30 % samples, noise std 12): patch 7, step 5, K 16, 11
-#: iterations, c 0.9, momentum 0.8, soft data term, re-matching every 4
-#: iterations (one change at a time, dB: K 24 +0.2 at 1.7x time, 15 iterations
-#: +0.3 at 1.3x, step 3 +0.1 at 2.7x, c = 1 -0.7, no momentum -0.9, exact data
-#: term -2.0). Then from benchmarks/sweep_rendered.py on the rendered frames of
-#: cornell-box and still-life (256x256, 16 spp, rates 0.2/0.3/0.4, seed 0),
-#: scored by the worst frame's tonemapped-PSNR gain over interp: w0 3e4 -> 1e4,
-#: search radius 8 -> 10, feature weight 0 -> 0.3 together +0.4 dB (worst frame
-#: +2.3 -> +2.8), and the low-rank domain's albedo_eps 0.02 -> 0.2 another +0.9
-#: (worst frame +3.6; see gmcpt.completion.matrix.LOW_RANK_DOMAIN). Tried and
-#: left: K 24 (-2.6 dB on cornell-box at rate 0.2), c 0.8, momentum 0.6,
-#: patch 5 or 8, 16 iterations, two passes.
+#: Tuned default: each setting changed one at a time on synthetic and rendered frames (benchmarks/sweep_lowrank.py,
+#: benchmarks/sweep_rendered.py), then thresholds that follow the local noise (``noise_power``) and the
+#: collaborative Wiener pass (``wiener``) on the validation split, kept where they gained without costing
+#: much time (the figures: docs/experiments.md, "Figures moved out of the code").
 DEFAULT = LowRankParams()
-
-#: Then (2026-11-23) ``noise_power`` 0 -> 0.5, thresholds that follow the local noise: ``pawnnm`` on the
-#: dataset's validation split 29.61 -> 29.77 dB, on the 5 evaluation scenes (rendered, rates
-#: 0.2/0.3/0.4) 32.65/33.30/33.93 -> 32.77/33.57/34.22 (power 1: 32.76/33.60/34.25, the breakfast room
-#: -0.2 dB).
-#: Then (2026-11-23) ``wiener`` 0 -> 2, the collaborative Wiener pass: ``pawnnm`` on the validation split
-#: 29.77 -> 30.41 dB, ``gan_pawnnm`` 31.50 -> 31.59 (before the mean patch's own factor, with re-matched
-#: groups: on a step-3 grid, noise scale 1: 30.33 and 31.58, 2: 30.46 and 31.57, 4: 30.51 and 31.52; on
-#: the step-5 grid ``pawnnm`` 2: 30.41, 4: 30.46, 8: 30.43, ``gan_pawnnm`` 1: 31.59, 2: 31.57, 4: 31.52);
-#: on the 5 evaluation scenes 32.77/33.57/34.22 -> 32.84/33.74/34.57 and
-#: 33.97/34.51/35.00 -> 34.06/34.62/35.06, for +0.1 s on a 256x256 frame. The pass reuses the last
-#: iteration's groups: re-matching on the result scored the same on validation for +0.25 s. On a
-#: reference grid of step 3 instead of 5: +0.04 dB for twice the time; 32 patches a group: +0.1 dB for
-#: four times.
 
 #: NNM ablation: constant threshold (w0 is then a singular value, not its square), one for the frame,
 #: no Wiener pass: the rule of the paper's Table 2 against PAWNNM's weights and nothing of ours.
