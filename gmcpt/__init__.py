@@ -8,9 +8,12 @@ selects a Mitsuba variant when none is set (``$GMCPT_VARIANT``, else
 
 The pipeline, one plain function per stage::
 
-    render_sparse_frame(scene, ...)      -> SparseFrame   (gmcpt.render)
+    render_sparse_frame(scene, ...)      -> SparseFrame   (gmcpt.sampling, over gmcpt.render's kernels)
     complete(frame, method)              -> Completion    (gmcpt.completion)
     write_outputs(path, frame, result)                     (gmcpt.outputs)
+
+and the two first ones together, as the plugin, the CLI, regress and the evaluation run them:
+``render_and_complete(scene, integrator, settings, method)`` (gmcpt.pipeline).
 """
 from __future__ import annotations
 
