@@ -382,10 +382,16 @@ class SampleSums:
         self.samples += pixels.size * spp
 
     def add_native(self, image: np.ndarray, spp: int) -> None:
-        """A :func:`render_native` image of ``spp`` samples a pixel; a non-finite pixel's samples count as dropped."""
+        """A :func:`render_native` image of ``spp`` samples a pixel (scaled in place); a non-finite pixel's samples
+        count as dropped."""
         finite = np.isfinite(image).all(axis=1)
-        self.total[finite] += image[finite] * spp
-        self.finite[finite] += spp
+        if finite.all():  # the usual case, without the masked copies (0.35 s at 1920x1080)
+            image *= spp
+            self.total += image
+            self.finite += spp
+        else:
+            self.total[finite] += image[finite] * spp
+            self.finite[finite] += spp
         self.samples += image.shape[0] * spp
 
     def estimate(self, where: np.ndarray | slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
