@@ -65,7 +65,3 @@ def frame_costs(scene, pixels: int) -> FrameCosts:
     """The costs of ``scene`` at ``pixels`` pixels learnt so far in this process."""
     return _COSTS.setdefault((id(scene), pixels), FrameCosts(pixels))
 
-
-def forget() -> None:
-    """Forget every cost learnt (tests)."""
-    _COSTS.clear()

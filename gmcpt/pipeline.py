@@ -41,10 +41,10 @@ def render_and_complete(scene, integrator, settings: RenderSettings = RenderSett
     if check is not None:
         check(frame)
     say(f"completing with {method!r}")
-    completion_start = time.perf_counter()
     result = complete(frame, method, **(options or {}))
     timings = {**timings, **result.timings}
-    record_denoise(timings.get("denoise_s", time.perf_counter() - completion_start), frame.mask.size)
+    if "denoise_s" in timings:  # a method without OIDN says nothing of OIDN's pace
+        record_denoise(timings["denoise_s"], frame.mask.size)
     if "sparse_extra_s" in frame.info:  # what this sparse frame added to a dense one's work, the generator's included
         extra = frame.info.pop("sparse_extra_s") + timings.get("pre_completion_s", 0.0)
         if _warm["sparse frames"]:  # the first one in a process loads and compiles the generator

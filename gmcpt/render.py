@@ -336,16 +336,6 @@ def render_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInt
         sampler.set_sample_count(count)
 
 
-def mean_and_variance(total: np.ndarray, squares: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Box estimate (n, 3) and the variance of that mean (n,), channel-averaged unbiased, in float64 (sum of
-    squares minus n mean^2 cancels)."""
-    inverse_count = 1.0 / np.maximum(count, 1)
-    mean = total * inverse_count[:, None]
-    sample_variance = (squares - count * np.einsum("ij,ij->i", mean, mean, dtype=np.float64)) \
-        / (3 * np.maximum(count - 1, 1))
-    return mean, np.maximum(sample_variance, 0.0) * inverse_count
-
-
 class SampleSums:
     """Per-pixel sums of path samples over all of a frame's passes (flat pixels): every strategy traces into one.
 
@@ -397,9 +387,10 @@ class SampleSums:
     def estimate(self, where: np.ndarray | slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """(mean (n, 3), variance of the mean (n,)) of the flat pixels ``where``; the variance comes from the samples
         that brought their squares, scaled to the pixel's whole count."""
-        mean, _ = mean_and_variance(self.total[where], self.squares[where], self.finite[where])
+        inverse_count = 1.0 / np.maximum(self.finite[where], 1)
+        mean = self.total[where] * inverse_count[:, None]
         squared = self.squared_samples[where]
-        finite = self.finite[where]
+        # channel-averaged unbiased, in float64 (sum of squares minus n mean^2 cancels)
         sample_variance = (self.squares[where] - squared * np.einsum("ij,ij->i", mean, mean, dtype=np.float64)) \
             / (3 * np.maximum(squared - 1, 1))
-        return mean, np.maximum(sample_variance, 0.0) / np.maximum(finite, 1)
+        return mean, np.maximum(sample_variance, 0.0) * inverse_count

@@ -109,6 +109,14 @@ class _Trace:
         pixels = self.shape[0] * self.shape[1]
         self.sums, self.traced = SampleSums(pixels), np.zeros(pixels, bool)
 
+    def buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The estimates so far as flat float32 radiance (N, 3) and variance (N,), 0 where untraced, and the traced
+        pixels (N,) bool: a pixel whose every sample was NaN/Inf counts as untraced."""
+        mean, variance = self.sums.estimate()
+        traced = self.traced & (self.sums.finite > 0)
+        return (np.where(traced[:, None], mean, 0.0).astype(np.float32),
+                np.where(traced, variance, 0.0).astype(np.float32), traced)
+
     def timed(self, key: str, start: float) -> None:
         self.timings[key] = self.timings.get(key, 0.0) + time.perf_counter() - start
 
@@ -153,11 +161,8 @@ def _second_pass(trace: _Trace, settings: RenderSettings, features: dict, densit
     height, width = trace.shape
     start = time.perf_counter()
     first = trace.traced.reshape(height, width)
-    mean, variance = trace.sums.estimate()
-    valid = trace.traced & (trace.sums.finite > 0)
-    radiance = np.where(valid[:, None], mean, 0.0).astype(np.float32).reshape(height, width, 3)
-    variance = np.where(valid, variance, 0.0).astype(np.float32).reshape(height, width)
-    errors = error_density(radiance, variance, first, features["albedo"], features["coverage"], density)
+    radiance, variance, _ = trace.buffers()
+    errors = error_density(radiance.reshape(height, width, 3), variance.reshape(height, width), first, features["albedo"], features["coverage"], density)
     second = np.flatnonzero(second_pass_mask(errors, rest, first, settings.seed))
     trace.timed("mask_s", start)
     trace.trace(second, spp, (settings.seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT)
@@ -336,10 +341,7 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
         features = _mask_passes(trace, mask, spp)
 
     sums = trace.sums
-    mean, variance = sums.estimate()
-    traced = trace.traced & (sums.finite > 0)  # pixels whose every sample was NaN/Inf count as untraced
-    radiance = np.where(traced[:, None], mean, 0.0).astype(np.float32)
-    variance = np.where(traced, variance, 0.0).astype(np.float32)
+    radiance, variance, traced = trace.buffers()
     feature_spp = trace.info.get("guide_spp", settings.feature_spp) if trace.info.get("budget_choice") == DENSE \
         else settings.feature_spp
     info = {"mask": settings.pattern, "seed": settings.seed, "feature_spp": feature_spp,

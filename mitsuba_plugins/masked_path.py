@@ -7,7 +7,7 @@ from gmcpt.completion import DEFAULT_METHOD, check_options
 from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
 from gmcpt.errors import GmcptError
 from gmcpt.exr import channel_names, pack
-from gmcpt.limits import check_feature_spp, check_seconds, check_seed
+from gmcpt.limits import check_feature_spp, check_seed
 from gmcpt.masks import DEFAULT_PATTERN, DEFAULT_RATE, check_pattern, check_rate
 from gmcpt.pipeline import Rendered, render_and_complete
 from gmcpt.plugins import constructor
@@ -99,9 +99,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         # no rate and no budget: the default budget, DEFAULT_RATE x the sensor's spp (settings)
         self.rate = check_rate(props["rate"]) if "rate" in props else None
         self.budget = float(props.get("budget", 0.0))
-        self.time = float(props.get("time", 0.0))
-        if self.time:  # 0: none
-            check_seconds(self.time)
+        self.time = float(props.get("time", 0.0))  # 0: none; checked by self.settings() below
         self.mask_pattern = check_pattern(props.get("mask", DEFAULT_PATTERN))
         self.seed = check_seed(props.get("seed", 0))
         self.feature_spp = check_feature_spp(props.get("feature_spp", DEFAULT_FEATURE_SPP))
@@ -109,7 +107,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         self.weights = props.get("weights", "") or None
         self.tile = check_tile(props.get("tile", DEFAULT_TILE))
         check_options(self.completion, self.weights)  # fail at load time on an unknown name, a bad weights file
-        self.settings()  # and on a bad budget, or one beside a mask other than two_pass (RenderSettings checks)
+        self.settings()  # and on a bad budget or time, or a budget beside a mask other than two_pass (RenderSettings)
         nested = [props[name] for name in props.keys() if isinstance(props[name], mi.Integrator)]
         if len(nested) > 1:
             raise GmcptError("masked_path takes at most one nested integrator")
