@@ -5,7 +5,9 @@ the quality figures. Renders are timed ``config.repeats`` times and the
 fastest counts (the first call in a process traces Dr.Jit kernels); in the
 equal-time comparison every contender's whole pipeline runs so, in one warm
 process: guides, probe, placement, render and completion for the completion
-methods; render, guides and OIDN for the baselines. A baseline's guides are the
+methods; render, guides and OIDN for the baselines. Each run there draws seeds of
+its own, and the figures are the means over the runs: one seed's PSNR moves by
+0.1-0.2 dB, as much as 5-10 % more samples buy. A baseline's guides are the
 project's own feature pass at its own samples (:func:`baseline_guides`: OIDN
 prefers it to Mitsuba's albedo on scenes with metals), and it is charged the time
 of Mitsuba's ``aov`` pass (albedo, normal) at those samples (:func:`guide_pass_seconds`).
@@ -160,7 +162,7 @@ def quality(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
 
 
 def _path_oidn(loaded: LoadedScene, spp: int, seed: int, guides: dict) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(noisy, denoised, timings) of path tracing + OIDN with ``guides`` (:func:`baseline_guides`), charged an
+    """(denoised, noisy, timings) of path tracing + OIDN with ``guides`` (:func:`baseline_guides`), charged an
     ``aov`` pass (:func:`guide_pass_seconds`)."""
     timings = {}
     start = time.perf_counter()
@@ -170,20 +172,24 @@ def _path_oidn(loaded: LoadedScene, spp: int, seed: int, guides: dict) -> tuple[
     start = time.perf_counter()
     denoised = denoise_oidn(noisy, guides["albedo"], guides["normal"])
     timings["denoise_s"] = time.perf_counter() - start
-    return noisy, denoised, timings
+    return denoised, noisy, timings
 
 
-def _warm(pipeline: Callable[[], tuple], repeats: int) -> tuple:
-    """The result of the fastest of ``max(2, repeats)`` runs of ``pipeline``, and its wall seconds: the first run
-    in a process compiles kernels and loads weights, later ones do not."""
-    best = None
-    for _ in range(max(2, repeats)):
+def _warm(pipeline: Callable[[int], tuple], repeats: int, reference: np.ndarray) -> tuple[list, float, dict]:
+    """Runs ``pipeline(run)`` ``max(2, repeats)`` times, each run with seeds of its own (``run`` counts them; the
+    pipeline's result starts with its image): (every run's result, the fastest run's wall seconds, the means over
+    the runs of the images' metrics). The first run in a process compiles kernels and loads weights, later ones do not;
+    one seed's PSNR moves by 0.1-0.2 dB, a tenth of a doubling of the samples, so every run's image counts."""
+    results, fastest = [], np.inf
+    for run in range(max(2, repeats)):
         start = time.perf_counter()
-        result = pipeline()
-        seconds = time.perf_counter() - start
-        if best is None or seconds < best[1]:
-            best = (result, seconds)
-    return best
+        results.append(pipeline(run))
+        fastest = min(fastest, time.perf_counter() - start)
+    return results, fastest, _mean_metrics([all_metrics(result[0], reference) for result in results])
+
+
+#: the seeds of a contender's timed runs: ``seed + RUN_SEED_STEP * run``
+RUN_SEED_STEP = 1000
 
 
 def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
@@ -196,41 +202,49 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     """
     rows = []
     base = {"scene": loaded.name}
+
+    def seed(offset: int, run: int) -> int:
+        return config.seed + offset + RUN_SEED_STEP * run
+
     for spp in config.path_spp:
-        guides = baseline_guides(loaded, spp, config.seed + 17)
-        (noisy, denoised, timings), seconds = _warm(lambda: _path_oidn(loaded, spp, config.seed + 17, guides),
-                                                   config.repeats)
-        for contender, image, spent in (("path", noisy, timings["render_s"]), ("path+oidn", denoised, seconds)):
-            rows.append({**base, "contender": contender, "rate": 1.0, "spp": spp, "samples_per_pixel": float(spp),
-                         "seconds": spent, **all_metrics(image, loaded.reference)})
-        say(f"  {loaded.name} path {spp:>3} spp: {rows[-2]['psnr']:6.2f} dB, + OIDN {rows[-1]['psnr']:6.2f} dB "
-            f"({timings['render_s']:.2f} s, {seconds:.2f} s in all)")
+        guides = [baseline_guides(loaded, spp, seed(17, run)) for run in range(max(2, config.repeats))]
+        runs, seconds, metrics = _warm(lambda run: _path_oidn(loaded, spp, seed(17, run), guides[run]),
+                                       config.repeats, loaded.reference)
+        noisy = _mean_metrics([all_metrics(noisy, loaded.reference) for _, noisy, _ in runs])
+        rows.append({**base, "contender": "path", "rate": 1.0, "spp": spp, "samples_per_pixel": float(spp),
+                     "seconds": min(timings["render_s"] for _, _, timings in runs), **noisy})
+        rows.append({**base, "contender": "path+oidn", "rate": 1.0, "spp": spp, "samples_per_pixel": float(spp),
+                     "seconds": seconds, **metrics})
+        say(f"  {loaded.name} path {spp:>3} spp: {noisy['psnr']:6.2f} dB, + OIDN {metrics['psnr']:6.2f} dB "
+            f"({rows[-2]['seconds']:.2f} s, {seconds:.2f} s in all)")
     for budget in config.adaptive_budgets:
-        guides = baseline_guides(loaded, budget, config.seed + 17)
+        guides = [baseline_guides(loaded, budget, seed(17, run)) for run in range(max(2, config.repeats))]
 
-        def adaptive():
-            image, info, timings = adaptive_oidn(loaded, budget, config, guides)
-            return image, info, {**timings, "guides_s": guide_pass_seconds(loaded, budget, config.seed + 17)}
+        def adaptive(run):
+            image, info, _ = adaptive_oidn(loaded, budget, replace(config, seed=seed(0, run)), guides[run])
+            guide_pass_seconds(loaded, budget, seed(17, run))
+            return image, info
 
-        (image, info, _), seconds = _warm(adaptive, config.repeats)
+        _, seconds, metrics = _warm(adaptive, config.repeats, loaded.reference)
         rows.append({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
-                     "samples_per_pixel": float(budget), "seconds": seconds, **all_metrics(image, loaded.reference)})
+                     "samples_per_pixel": float(budget), "seconds": seconds, **metrics})
         say(f"  {loaded.name} adaptive {budget:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB ({seconds:.2f} s)")
     settings = [(label, rate, spp, None) for rate in config.budget_rates for spp in config.budget_spp
                 for label in config.budget_variants if label != DEFAULT_VARIANT]
     if DEFAULT_VARIANT in config.budget_variants:
         settings += [(DEFAULT_VARIANT, budget / SPARSE_SPP, SPARSE_SPP, BUDGET) for budget in config.default_budgets]
     for label, rate, spp, pattern in settings:
-        def pipeline():
+        def pipeline(run):
             from ..pipeline import render_and_complete
 
             variant = VARIANTS[label]
-            rendered = render_and_complete(loaded.scene, loaded.integrator, _settings(rate, spp, config, pattern),
+            rendered = render_and_complete(loaded.scene, loaded.integrator,
+                                           _settings(rate, spp, replace(config, seed=seed(0, run)), pattern),
                                            variant.method, variant.options())
-            return rendered.image, rendered.frame.info, rendered.timings
+            return rendered.image, rendered.frame.info
 
-        (image, info, _), seconds = _warm(pipeline, config.repeats)
-        metrics = all_metrics(image, loaded.reference)
+        runs, seconds, metrics = _warm(pipeline, config.repeats, loaded.reference)
+        image, info = runs[-1]
         rows.append({**base, "contender": label, "rate": rate, "spp": spp,
                      "samples_per_pixel": info["path_samples"] / image.shape[0] / image.shape[1],
                      "seconds": seconds, **({"budget_choice": info["budget_choice"]} if pattern else {}), **metrics})
