@@ -103,12 +103,31 @@ def pack(frame: SparseFrame, image: np.ndarray) -> np.ndarray:
     return np.concatenate([np.asarray(p, dtype=np.float32) for p in parts], axis=-1)
 
 
-def unpack(tensor: np.ndarray, spp: int = 1) -> tuple[SparseFrame, np.ndarray]:
-    """Inverse of :func:`pack`: ``(frame, completed image)``."""
+def _packed(tensor) -> np.ndarray:
+    """``tensor`` (a NumPy array, a Mitsuba tensor) as float32, checked to have :func:`pack`'s channels."""
     array = np.asarray(tensor, dtype=np.float32)
     expected = len(channel_names())
     if array.ndim != 3 or array.shape[-1] != expected:
         raise BadValue(f"expected an (H, W, {expected}) tensor, got shape {array.shape}")
+    return array
+
+
+def named_channels(tensor) -> dict[str, np.ndarray]:
+    """The channels of a :func:`pack` tensor (or of ``mi.render`` with ``masked_path``) by name, as
+    :func:`channel_names` and the EXR name them: ``{"R": (H, W) array, ..., "coverage.Y": ...}``."""
+    array = _packed(tensor)
+    return {name: array[..., index] for index, name in enumerate(channel_names())}
+
+
+def unpack(tensor, spp: int = 1) -> tuple[SparseFrame, np.ndarray]:
+    """Inverse of :func:`pack`: ``(frame, completed image)``; the documented way to read what ``mi.render``
+    returns with ``masked_path``::
+
+        frame, image = unpack(mi.render(scene))  # frame.mask, frame.albedo, ...; image: (H, W, 3)
+
+    :func:`named_channels` gives the same layers by their EXR names, and the sensor's film holds them too
+    (``mi.util.write_bitmap("x.exr", scene.sensors()[0].film().bitmap())``: see :mod:`gmcpt.film`)."""
+    array = _packed(tensor)
     image, sparse, mask, albedo, normal, depth, visibility, variance, coverage = np.split(
         array, np.cumsum([len(c) for _, c in LAYERS])[:-1], axis=-1)
     frame = SparseFrame(radiance=sparse, mask=mask[..., 0] > 0.5, variance=variance[..., 0], albedo=albedo,

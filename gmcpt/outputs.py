@@ -13,7 +13,7 @@ from typing import Callable
 
 import numpy as np
 
-from .exr import channel_names, pack, write_exr, write_png
+from .exr import named_channels, pack, write_exr, write_png
 from .files import json_text, write_together
 from .frame import SparseFrame
 
@@ -41,8 +41,7 @@ def write_outputs(out: str | Path, frame: SparseFrame, image: np.ndarray, record
     """Write ``out`` (EXR), its PNG preview and JSON ``record`` (strict JSON: NaN/Inf as null), as one set;
     ``committed`` runs once all three are in place (:func:`gmcpt.files.write_together`)."""
     exr_path, png_path, json_path = sidecar_paths(out)
-    tensor = pack(frame, image)
-    channels = {name: tensor[..., index] for index, name in enumerate(channel_names())}
+    channels = named_channels(pack(frame, image))
     attributes = {"gmcpt": json_text(record.get("parameters", {}), indent=None)}
     text = json_text(record)
     return write_together([(exr_path, lambda path: write_exr(path, channels, attributes)),

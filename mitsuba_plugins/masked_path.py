@@ -7,6 +7,7 @@ from gmcpt.completion import DEFAULT_METHOD, check_options
 from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
 from gmcpt.errors import GmcptError
 from gmcpt.exr import channel_names, pack
+from gmcpt.film import fill_film
 from gmcpt.limits import check_feature_spp, check_seed
 from gmcpt.masks import DEFAULT_PATTERN, DEFAULT_RATE, check_pattern, check_rate
 from gmcpt.pipeline import Rendered, render_and_complete
@@ -81,7 +82,12 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
     ``mi.render`` returns an ``(H, W, 17)`` tensor: the completed RGB first,
     then the layers named by :meth:`aov_names` (sparse RGB, mask, albedo,
-    normal, depth, visibility, variance); see :mod:`gmcpt.exr`.
+    normal, depth, visibility, variance, coverage); ``gmcpt.exr.unpack`` reads
+    it. The sensor's film holds the same channels, named, as Mitsuba's own
+    integrators leave theirs (see :mod:`gmcpt.film`)::
+
+        image = mi.render(scene)
+        mi.util.write_bitmap("x.exr", scene.sensors()[0].film().bitmap())
 
     .. code-block:: xml
 
@@ -165,12 +171,15 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         if isinstance(sensor, int):
             sensor = scene_sensor(scene, sensor)
         rendered = self.render_frame(scene, sensor, seed, spp)
-        return mi.TensorXf(pack(rendered.frame, rendered.image))
+        tensor = pack(rendered.frame, rendered.image)
+        fill_film(sensor.film(), tensor)  # so that film().bitmap() and film().write() give the named layers
+        return mi.TensorXf(tensor)
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         return self.integrator.sample(scene, sampler, ray, medium, active)
 
     def aov_names(self) -> list[str]:
+        """Names of the channels after R, G, B, as ``mi.render``'s tensor and the film hold them."""
         return channel_names()[3:]
 
     def to_string(self) -> str:
