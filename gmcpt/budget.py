@@ -13,8 +13,9 @@ the default's at rate ``budget / SPARSE_SPP`` x :data:`SPARSE_SPP` spp. A probe'
   is worse than a few samples of its own.
 
 Before the choice the frame traces only what both ways need: guides (albedo, normal, depth, at about the
-budget's samples a pixel, :func:`guide_spp`, without shadow rays) and a probe, :data:`PROBE_SHARE` of the
-pixels at :data:`PROBE_SPP` spread as blue noise. A dense frame then costs what Mitsuba's own render at the
+budget's samples a pixel, :func:`guide_spp`, without shadow rays) and, where the choice waits for it
+(:func:`needs_probe`), a probe, :data:`PROBE_SHARE` of the pixels at :data:`PROBE_SPP` spread as blue noise.
+A probe's reading serves the scene's next frames at the same size (:mod:`gmcpt.costs`). A dense frame then costs what Mitsuba's own render at the
 same samples plus an albedo/normal pass plus OIDN costs: its bulk is ``mi.render`` itself, the probe's samples
 are left out of it so that no pixel has more than ``ceil(budget)`` samples (OIDN expects even noise), and the
 samples left over go one each to blue-noise pixels. A sparse frame tops the guides up to the full feature
@@ -176,6 +177,15 @@ def choose(plan: BudgetPlan, statistic: float, edges: float, pays: bool = True) 
     return DENSE if wanted and plan.dense_after_probe else SPARSE
 
 
+def needs_probe(plan: BudgetPlan, edges: float, pays: bool, reading: float | None) -> bool:
+    """True when the choice waits for a probe: the plan has a choice, and neither the feature ``edges``, time
+    (``pays``) nor an earlier probe's ``reading`` of the scene that still serves
+    (:meth:`gmcpt.costs.FrameCosts.remembered_reading`) choose dense on their own. A dense frame without a probe
+    is Mitsuba's render at the whole budget, in one launch; a sparse frame always probes, as the probe's pixels
+    are part of its first pass (the same seed gives the same sparse frame)."""
+    return not plan.dense_only and choose(plan, reading or 0.0, edges, pays) == SPARSE
+
+
 def guide_spp(budget: float, feature_spp: int) -> int:
     """Primary rays a pixel of a budget's guide pass: about the budget, within :data:`GUIDE_SPP_RANGE` and at most
     ``feature_spp`` (what a baseline's renderer gathers over its own samples)."""
@@ -191,6 +201,12 @@ def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:
     current = np.asarray(current, np.int64)
     if samples < 0:
         raise GmcptError(f"cannot take {-samples} samples back")
+    if current.min() == current.max():  # an even start (a dense frame without a probe): no search
+        level, left = int(current.flat[0]) + samples // current.size, samples % current.size
+        more = np.full(current.shape, level - int(current.flat[0]), np.int64)
+        if left:
+            more += sample_by_density(np.ones(current.shape, np.float32), left, mask_rng(seed))
+        return more
 
     def need(level: int) -> int:
         return int(np.maximum(level - current, 0).sum())

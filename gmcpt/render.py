@@ -377,7 +377,10 @@ class SampleSums:
         finite = np.isfinite(image).all(axis=1)
         if finite.all():  # the usual case, without the masked copies (0.35 s at 1920x1080)
             image *= spp
-            self.total += image
+            if self.samples == 0:  # the first pass is the sums (a dense frame's one launch)
+                self.total = image
+            else:
+                self.total += image
             self.finite += spp
         else:
             self.total[finite] += image[finite] * spp
@@ -390,6 +393,8 @@ class SampleSums:
         inverse_count = 1.0 / np.maximum(self.finite[where], 1)
         mean = self.total[where] * inverse_count[:, None]
         squared = self.squared_samples[where]
+        if not squared.any():  # native passes alone bring no squares
+            return mean, np.zeros(mean.shape[0])
         # channel-averaged unbiased, in float64 (sum of squares minus n mean^2 cancels)
         sample_variance = (self.squares[where] - squared * np.einsum("ij,ij->i", mean, mean, dtype=np.float64)) \
             / (3 * np.maximum(squared - 1, 1))

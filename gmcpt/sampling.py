@@ -22,7 +22,7 @@ import mitsuba as mi
 import numpy as np
 
 from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share, even_fill,
-                     guide_spp, plan_budget, relative_variance, sparse_pays)
+                     guide_spp, needs_probe, plan_budget, relative_variance, sparse_pays)
 from .costs import completion_seconds, frame_costs
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
@@ -114,6 +114,8 @@ class _Trace:
         pixels (N,) bool: a pixel whose every sample was NaN/Inf counts as untraced."""
         mean, variance = self.sums.estimate()
         traced = self.traced & (self.sums.finite > 0)
+        if traced.all():  # a dense frame: nothing to blank (0.1 s at 1920x1080)
+            return mean.astype(np.float32), variance.astype(np.float32), traced
         return (np.where(traced[:, None], mean, 0.0).astype(np.float32),
                 np.where(traced, variance, 0.0).astype(np.float32), traced)
 
@@ -189,46 +191,66 @@ def _mask_passes(trace: _Trace, mask: np.ndarray | None, spp: int) -> dict:
 
 
 def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
-    """The passes of a budget (:mod:`gmcpt.budget`): guides, a probe at ``PROBE_SPP`` unless the plan is dense
-    only, then the sparse way or the dense one. Returns the feature buffers."""
+    """The passes of a budget (:mod:`gmcpt.budget`): guides, a probe where the choice waits for one
+    (:func:`~gmcpt.budget.needs_probe`), then the sparse way or the dense one. Returns the feature buffers."""
     settings, seed = trace.settings, trace.settings.seed
     height, width = trace.shape
     guide_rays = guide_spp(plan.budget, settings.feature_spp)
     guides = trace.features(guide_rays, visibility=False)
     features = guides.buffers()
     probe = np.zeros(plan.pixels, bool)
-    statistic, edges, extra_share, pays = None, None, None, True
+    costs = frame_costs(trace.scene, plan.pixels)
+    reading, edges, extra_share, pays, probed = None, None, None, True, False
     if not plan.dense_only:
-        start = time.perf_counter()
-        probe = sample_by_density(np.ones((height, width), np.float32), plan.probe_pixels,
-                                  mask_rng((seed + PROBE_SEED_OFFSET) % SEED_LIMIT)).ravel()
-        trace.timed("mask_s", start)
-        trace.say(f"path tracing: {int(probe.sum())} px x {PROBE_SPP} spp (probe)")
-        start = time.perf_counter()
-        trace.trace(np.flatnonzero(probe), PROBE_SPP, seed)
-        probe_pace = (time.perf_counter() - start) / (int(probe.sum()) * PROBE_SPP)
-        statistic = relative_variance(*trace.sums.estimate(probe), PROBE_SPP)
-        edges = edge_share(features)
-        costs = frame_costs(trace.scene, plan.pixels)
-        dense_seconds = (time.perf_counter() - trace.started + plan.budget * costs.path_seconds(probe_pace)
-                         + trace.completion_seconds)
-        extra_share = costs.extra_seconds() / dense_seconds
-        pays = sparse_pays(costs.extra_seconds(), dense_seconds)
-    choice = choose(plan, statistic or 0.0, edges or 0.0, pays)
-    trace.info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": statistic,
+        reading = costs.remembered_reading()
+        if costs.seconds_per_spp is not None:
+            extra_share, pays = _sparse_time(trace, plan, costs, costs.seconds_per_spp)
+        if needs_probe(plan, 0.0, pays, reading):  # the edges still could choose dense (0.06 s at 1920x1080)
+            edges = edge_share(features)
+        if edges is not None and needs_probe(plan, edges, pays, reading):
+            probe, probe_pace = _probe(trace, plan)
+            reading, probed = relative_variance(*trace.sums.estimate(probe), PROBE_SPP), True
+            extra_share, pays = _sparse_time(trace, plan, costs, costs.path_seconds(probe_pace))
+        costs.learn_probe(reading if probed else None)
+    choice = choose(plan, reading or 0.0, edges or 0.0, pays)
+    trace.info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": reading,
+                  "probe": "traced" if probed else "remembered" if reading is not None else "none",
                   "edge_share": edges, "sparse_time_share": extra_share, "guide_spp": guide_rays}
-    trace.say(f"budget {plan.budget:g} spp: {choice}" + ("" if statistic is None else
-              f" (relative variance {statistic:.3f}, edge share {edges:.2f}, sparse time +{extra_share:.0%})"))
+    signals = [f"relative variance {reading:.3f}" if reading is not None else "",
+               f"edge share {edges:.2f}" if edges is not None else "",
+               f"sparse time +{extra_share:.0%}" if extra_share is not None else ""]
+    trace.say(f"budget {plan.budget:g} spp: {choice}" + (f" ({', '.join(filter(None, signals))})"
+                                                         if any(signals) else ""))
     if choice == SPARSE:
         features_before = trace.timings["features_s"]
         features = _sparse_after_probe(trace, plan, guides, probe)
-        costs = frame_costs(trace.scene, plan.pixels)
         costs.learn_path(trace.timings["render_s"] / (trace.sums.samples / plan.pixels))
         # the generator's seconds join these in gmcpt.pipeline, after the completion
         trace.info["sparse_extra_s"] = trace.timings["features_s"] - features_before + trace.timings["mask_s"]
         return features
     _dense(trace, plan, probe)
     return features
+
+
+def _probe(trace: _Trace, plan: BudgetPlan) -> tuple[np.ndarray, float]:
+    """Trace the probe: :attr:`~gmcpt.budget.BudgetPlan.probe_pixels` blue-noise pixels at ``PROBE_SPP``. Returns
+    its flat bool mask and its pace (seconds a sample)."""
+    seed = trace.settings.seed
+    start = time.perf_counter()
+    probe = sample_by_density(np.ones(trace.shape, np.float32), plan.probe_pixels,
+                              mask_rng((seed + PROBE_SEED_OFFSET) % SEED_LIMIT)).ravel()
+    trace.timed("mask_s", start)
+    trace.say(f"path tracing: {int(probe.sum())} px x {PROBE_SPP} spp (probe)")
+    start = time.perf_counter()
+    trace.trace(np.flatnonzero(probe), PROBE_SPP, seed)
+    return probe, (time.perf_counter() - start) / (int(probe.sum()) * PROBE_SPP)
+
+
+def _sparse_time(trace: _Trace, plan: BudgetPlan, costs, path_seconds: float) -> tuple[float, bool]:
+    """(the sparse way's extra seconds as a share of a dense frame's, whether they pay: :func:`sparse_pays`), with
+    ``path_seconds`` for a sample a pixel."""
+    dense_seconds = time.perf_counter() - trace.started + plan.budget * path_seconds + trace.completion_seconds
+    return costs.extra_seconds() / dense_seconds, sparse_pays(costs.extra_seconds(), dense_seconds)
 
 
 def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarray) -> dict:

@@ -128,8 +128,11 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     pixels = SIZE[0] * SIZE[1]
     frame = _render(cornell, 4.8)
     plan = plan_budget(4.8, pixels)
-    assert frame.info["budget_choice"] == way and frame.info["relative_variance"] >= 0
-    assert 0 <= frame.info["edge_share"] <= 1
+    assert frame.info["budget_choice"] == way
+    # dense by the edges and by time: no probe to read; sparse: the probe's pixels begin the first pass
+    assert (frame.info["probe"], frame.info["relative_variance"] is None) == (("none", True) if way == "dense"
+                                                                             else ("traced", False))
+    assert frame.info["edge_share"] is None if way == "dense" else 0 <= frame.info["edge_share"] <= 1
     if way == "dense":
         assert frame.info["path_samples"] == round(4.8 * pixels) and frame.mask.all()
     else:
@@ -140,6 +143,24 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     again = _render(cornell, 4.8)
     np.testing.assert_array_equal(frame.radiance, again.radiance)  # same seed, same frame
     assert not np.array_equal(frame.radiance, _render(cornell, 4.8, seed=1).radiance)
+
+
+def test_a_probe_that_reads_dense_serves_the_next_frames(mi, monkeypatch):
+    from gmcpt import budget
+    from gmcpt.costs import PROBE_AGAIN_AFTER
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "DENSE_ABOVE", 1e-12)  # the probe reads dense, nothing else does
+    monkeypatch.setattr(budget, "EDGES_ABOVE", math.inf)
+    monkeypatch.setattr(budget, "SPARSE_GAIN", math.inf)
+    scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: the probe's reading is kept per scene
+    probes = [_render(scene, 4.0).info["probe"] for _ in range(PROBE_AGAIN_AFTER + 1)]
+    assert probes == ["traced"] + ["remembered"] * (PROBE_AGAIN_AFTER - 1) + ["traced"]
+    frame = _render(scene, 4.0)  # the whole budget in Mitsuba's own render, as even as it gets
+    assert frame.info["budget_choice"] == "dense" and frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1]
+    assert frame.info["relative_variance"] is not None and frame.mask.all()
+    other = load_scene(CORNELL, resolution=SIZE)
+    assert _render(other, 4.0).info["probe"] == "traced"  # another scene reads for itself
 
 
 def test_a_budget_of_16_or_more_traces_every_pixel(cornell):
