@@ -19,6 +19,7 @@ from .command import EXIT_BAD_INPUT
 SUBCOMMANDS = {
     "render": ("gmcpt.render_cli", "path trace a fraction of a scene's pixels, complete the image (EXR, PNG, JSON)"),
     "reference": ("gmcpt.reference_cli", "render a converged reference EXR of a scene at N spp"),
+    "compare": ("gmcpt.evaluation.compare", "does the default pay off on your scene? equal samples and equal time"),
     "batch": ("gmcpt.batch", "render many scenes, frames (--frames) or parameter sweeps, here or on Ray"),
     "regress": ("gmcpt.regress.cli", "check a folder of scenes against its golden images"),
     "eval": ("gmcpt.evaluation.cli", "measure the methods, rewrite docs/results.md and the README's results"),

@@ -38,10 +38,11 @@ def test_an_unknown_subcommand_is_one_line_naming_it(argv):
     result = gmcpt(*argv)
     assert result.returncode == 2 and result.stdout == ""
     assert result.stderr.count("\n") == 1 and result.stderr.startswith("error: unknown subcommand 'frobnicate'")
-    assert "render, reference, batch, regress, eval, dataset, train, methods" in result.stderr
+    assert "render, reference, compare, batch, regress, eval, dataset, train, methods" in result.stderr
 
 
-@pytest.mark.parametrize("name", ["render", "reference", "batch", "regress", "eval", "dataset", "train", "methods"])
+@pytest.mark.parametrize("name", ["render", "reference", "compare", "batch", "regress", "eval", "dataset", "train",
+                                  "methods"])
 def test_every_subcommand_reads_gmcpt_name_in_plain_text_and_says_its_defaults(name):
     parser = parsers()[name]
     assert parser.format_usage().startswith(f"usage: gmcpt {name} ")

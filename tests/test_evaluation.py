@@ -130,7 +130,9 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
     for heading in ("Table 1", "Table 2", "Fig. 10", "Fig. 12", "Table 3", "Crossover", "Table 4"):
         assert heading in markdown
     assert "pawnnm - nnm" in markdown
-    for png in ("psnr_vs_time.png", "psnr_vs_rate.png", "grid-cornell-box.png", "grid-proc-2000003.png"):
+    assert markdown.startswith("# Results\n\n## At a glance\n") and "(psnr_vs_time_groups.png)" in markdown
+    for png in ("psnr_vs_time.png", "psnr_vs_rate.png", "psnr_vs_time_groups.png", "grid-cornell-box.png",
+                "grid-proc-2000003.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "docs/psnr_vs_time.png" in readme_section(record)
     json.dumps(record, default=float)  # the record is what results.json holds
@@ -147,6 +149,8 @@ def _eval(*args):
     (["--procedural", "-1"], "--procedural must be >= 0"),
     (["--out", "README.md", "--no-readme"], "--out README.md is not a folder"),
     (["--bogus"], "unrecognized arguments"),
+    (["--from", "nope.json", "--no-readme", "--out", "/tmp"], "--from nope.json: No such file or directory"),
+    (["--from", "README.md", "--no-readme", "--out", "/tmp"], "--from README.md is not JSON"),
 ])
 def test_eval_bad_input_is_one_line(args, message):
     result = _eval(*args)
@@ -192,3 +196,44 @@ def test_readme_means_are_groups_not_scenes():
     rows = [line for line in "\n".join(table).splitlines()[2:]]
     assert len(rows) == 1 and rows[0].startswith("| mean of 3 | 0.3 x 16 = 4.8 | 30.00 | 31.00 | 30.50 | -0.50 |")
     assert "behind the better baseline on a (-0.50 dB), b (-0.50 dB), c (-0.50 dB)" in verdict(run)[0]
+
+
+RESULTS = ROOT / "docs" / "results.json"
+
+
+def test_results_open_at_a_glance_and_the_readme_limits_are_generated():
+    """On the recorded run: the at-a-glance table's equal-time figures are the speed-up table's (one function), the
+    README's limits are what the record gives, between their markers, and the README holds them as generated."""
+    from gmcpt.evaluation.document import results_markdown, rewrite_readme
+    from gmcpt.evaluation.glance import LIMITS_END, LIMITS_START, glance_table, readme_limits
+    from gmcpt.evaluation.report import speedup_table
+
+    run = json.loads(RESULTS.read_text())
+    markdown = results_markdown(run)
+    assert markdown.startswith("# Results\n\n## At a glance\n")
+    assert markdown.index("(psnr_vs_time_groups.png)") < markdown.index("## References and their noise")
+    table = glance_table(run).splitlines()
+    assert [line.split("|")[1].strip() for line in table[2:]] == ["5 real", "4 synthetic", "9"]
+    speedups = speedup_table(run["equal_time"], "gan_oidn").splitlines()
+    for line, group in zip(table[2:], ("5 real", "4 synthetic", "9")):
+        better = next(s for s in speedups if f"mean of {group}**" in s and "better of the two" in s)
+        assert line.split("|")[-2].strip() == better.split("|")[-2].strip()
+    limits = readme_limits(run)
+    assert "0.86-1.15x a scene" in limits and "above 1x on sponza, proc-2000001" in limits
+    assert "sponza 1920x1080 0.83-0.98x" in limits and "trails the better baseline by 0.08 dB (real), 0.60" in limits
+    readme = (ROOT / "README.md").read_text()
+    assert limits in readme, "the README's limits are not the ones docs/results.json gives: gmcpt eval --from"
+    rewritten = rewrite_readme(f"# T\n\n## Limits\n\n{LIMITS_START}\nSTALE\n{LIMITS_END}\n\n## Layout\n", run)
+    assert "STALE" not in rewritten and f"## Limits\n\n{limits}\n\n## Layout\n" in rewritten
+
+
+def test_eval_from_a_record_rewrites_the_documents(tmp_path):
+    readme = tmp_path / "README.md"
+    readme.write_text("# T\n")
+    result = _eval("--from", str(RESULTS), "--out", str(tmp_path), "--readme", str(readme), "-q")
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "results.md").read_text().startswith("# Results\n\n## At a glance")
+    assert (tmp_path / "psnr_vs_time_groups.png").read_bytes()[:4] == b"\x89PNG"
+    text = readme.read_text()
+    assert "## Results" in text and "## Limits" in text and "0.86-1.15x" in text
+    assert not (tmp_path / "results.json").exists()  # a rewrite measures nothing and records nothing new

@@ -3,6 +3,7 @@
     gmcpt eval --quick          # under 10 minutes on 2 CPU cores once references are cached
     gmcpt eval                  # full mode
     gmcpt eval --quick --out /tmp/eval --no-readme
+    gmcpt eval --from docs/results.json   # rewrite results.md, its plots and the README's parts, no measuring
 
 References (4096 spp, and a second independent one per scene for its noise
 level) are rendered on the first run and cached (``gmcpt.evaluation.reference``);
@@ -40,6 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--readme", default=str(ROOT / "README.md"), help="README whose results section to rewrite")
     parser.add_argument("--no-readme", dest="readme", action="store_const", const=None,
                         help="leave the README alone (default: rewrite its results section)")
+    parser.add_argument("--from", dest="record", metavar="RESULTS.json",
+                        help="measure nothing: rewrite the documents and plots from a recorded run (default: measure)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
     return parser
 
@@ -70,6 +73,30 @@ def _versions() -> dict:
 def _write_text(path: Path, text: str) -> None:
     with atomic_output(path) as temporary:
         Path(temporary).write_text(text)
+
+
+def write_documents(record: dict, out: Path, readme: str | None) -> None:
+    """``results.md`` and the README's generated parts (results, limits) from a run's record."""
+    from .document import results_markdown, rewrite_readme
+
+    _write_text(out / "results.md", results_markdown(record))
+    if readme:
+        path = Path(readme)
+        _write_text(path, rewrite_readme(path.read_text() if path.is_file() else "", record))
+
+
+def _recorded(path: str) -> dict:
+    """The record of an earlier run (``--from``), refused in one line if it is not one."""
+    try:
+        record = json.loads(Path(path).read_text())
+    except OSError as error:
+        raise GmcptError(f"--from {path}: {error.strerror}") from None
+    except ValueError as error:
+        raise GmcptError(f"--from {path} is not JSON: {error}") from None
+    missing = [key for key in ("config", "quality", "equal_time", "references", "command") if key not in record]
+    if not isinstance(record, dict) or missing:
+        raise GmcptError(f"--from {path} is not the results.json of an evaluation (no {', '.join(missing)})")
+    return record
 
 
 def evaluate(config, scenes, out: Path, say, quiet: bool = False) -> dict:
@@ -111,8 +138,7 @@ def evaluate(config, scenes, out: Path, say, quiet: bool = False) -> dict:
         timing_scene = next((s for s in scenes if s.name == config.timing_scene), scenes[0])
         say(f"stage timings on {timing_scene.name} at {', '.join(map(str, config.timing_resolutions))} px")
         record["stage_timings"] = measure.stage_timings(timing_scene, config, say)
-    plots.psnr_vs_time(record["equal_time"], out / "psnr_vs_time.png")
-    plots.psnr_vs_rate(record["quality"], list(config.variants), out / "psnr_vs_rate.png")
+    plots.write_plots(record, out)
     record["seconds"] = time.perf_counter() - start
     return record
 
@@ -145,6 +171,15 @@ def main(argv: list[str] | None = None) -> int:
             import pyoidn  # noqa: F401
         except ImportError:
             raise GmcptError("the evaluation's denoiser baseline needs pyoidn: pip install -e '.[dev]'") from None
+        if args.record:
+            from .plots import write_plots
+
+            record = _recorded(args.record)
+            write_plots(record, out)
+            write_documents(record, out, args.readme)
+            say(f"rewrote {out / 'results.md'} and its plots from {args.record}"
+                + (f"; updated {args.readme}" if args.readme else ""))
+            return 0
         for line in skipped:
             say(line)
 
@@ -159,14 +194,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.scenes or args.procedural is not None:
             record["command"] += "".join([f" --scenes {' '.join(args.scenes)}" if args.scenes else "",
                                           f" --procedural {args.procedural}" if args.procedural is not None else ""])
-        from .document import readme_section, replace_readme_section, results_markdown
-
         _write_text(out / "results.json", json.dumps(record, indent=1, default=float) + "\n")
-        _write_text(out / "results.md", results_markdown(record))
-        if args.readme:
-            readme = Path(args.readme)
-            _write_text(readme, replace_readme_section(readme.read_text() if readme.is_file() else "",
-                                                       readme_section(record)))
+        write_documents(record, out, args.readme)
         say(f"wrote {out / 'results.md'}, results.json and plots" + (f"; updated {args.readme}" if args.readme else ""))
         return 0
     except GmcptError as error:

@@ -45,6 +45,12 @@ class LoadedScene:
     images: dict = field(default_factory=dict)  # label -> image at the grid rate, for the image grid
 
 
+def path_integrator(scene):
+    """The scene's own integrator, or the one ``masked_path`` wraps: what every contender traces with."""
+    integrator = scene.integrator()
+    return getattr(integrator, "integrator", integrator)
+
+
 def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     """Load a scene, its cached reference, and measure the reference's noise level (a second reference)."""
     progress = lambda message: say(f"  {message} (cached after the first run)")  # noqa: E731
@@ -54,8 +60,7 @@ def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     noise = {"scene": eval_scene.name, "reference_spp": config.reference_spp,
              **{f"noise_{key}": value for key, value in all_metrics(second, reference).items()}}
     scene = eval_scene.load(config.resolution)
-    integrator = scene.integrator()
-    integrator = getattr(integrator, "integrator", integrator)  # the path tracer masked_path wraps
+    integrator = path_integrator(scene)
     loaded = LoadedScene(eval_scene.name, scene, integrator, reference)
     loaded.images["reference"] = reference
     return loaded, noise
@@ -192,14 +197,17 @@ def _warm(pipeline: Callable[[int], tuple], repeats: int, reference: np.ndarray)
 RUN_SEED_STEP = 1000
 
 
-def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
+def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict | None = None) -> list[dict]:
     """Quality and total wall time of every contender at every setting of the equal-time comparison.
 
     Path tracing: a full-frame render. Path tracing + OIDN: the same render, guides (:func:`baseline_guides`, charged
     :func:`guide_pass_seconds`) and the denoiser. Adaptive path tracing + OIDN: the same with the samples placed adaptively. Completion
     variants: feature pass, placement, masked render and completion, the default at ``config.default_budgets``
     samples a pixel, the others at ``config.budget_rates`` x ``config.budget_spp``. Each timed warm (:func:`_warm`).
+    ``images``: where given, the last run's image of each setting goes in it, keyed ``(contender, rate * spp)``
+    (``gmcpt compare`` shows them side by side); the measurements are the same either way.
     """
+    images = {} if images is None else images
     rows = []
     base = {"scene": loaded.name}
 
@@ -215,6 +223,7 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
                      "seconds": min(timings["render_s"] for _, _, timings in runs), **noisy})
         rows.append({**base, "contender": "path+oidn", "rate": 1.0, "spp": spp, "samples_per_pixel": float(spp),
                      "seconds": seconds, **metrics})
+        images[("path", float(spp))], images[("path+oidn", float(spp))] = runs[-1][1], runs[-1][0]
         say(f"  {loaded.name} path {spp:>3} spp: {noisy['psnr']:6.2f} dB, + OIDN {metrics['psnr']:6.2f} dB "
             f"({rows[-2]['seconds']:.2f} s, {seconds:.2f} s in all)")
     for budget in config.adaptive_budgets:
@@ -225,7 +234,8 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
             guide_pass_seconds(loaded, budget, seed(17, run))
             return image, info
 
-        _, seconds, metrics = _warm(adaptive, config.repeats, loaded.reference)
+        runs, seconds, metrics = _warm(adaptive, config.repeats, loaded.reference)
+        images[("adaptive+oidn", float(budget))] = runs[-1][0]
         rows.append({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
                      "samples_per_pixel": float(budget), "seconds": seconds, **metrics})
         say(f"  {loaded.name} adaptive {budget:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB ({seconds:.2f} s)")
@@ -245,6 +255,7 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
 
         runs, seconds, metrics = _warm(pipeline, config.repeats, loaded.reference)
         image, info = runs[-1]
+        images[(label, rate * spp)] = image
         rows.append({**base, "contender": label, "rate": rate, "spp": spp,
                      "samples_per_pixel": info["path_samples"] / image.shape[0] / image.shape[1],
                      "seconds": seconds, **({"budget_choice": info["budget_choice"]} if pattern else {}), **metrics})
@@ -311,8 +322,7 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     reference = render_reference(eval_scene.path, config.full_size, config.full_reference_spp, pass_spp=32,
                                  progress=progress, without=eval_scene.without, folder=FULL_REFERENCES)
     scene = eval_scene.load(config.full_size)
-    integrator = scene.integrator()
-    integrator = getattr(integrator, "integrator", integrator)
+    integrator = path_integrator(scene)
     loaded = LoadedScene(eval_scene.name, scene, integrator, reference)
     full = replace(config, path_spp=config.full_path_spp, adaptive_budgets=config.full_adaptive_budgets,
                    budget_variants=(DEFAULT_VARIANT,), default_budgets=config.full_budgets)
@@ -327,8 +337,7 @@ def stage_timings(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     rows = []
     for resolution in config.timing_resolutions:
         scene = eval_scene.load(resolution)
-        integrator = scene.integrator()
-        integrator = getattr(integrator, "integrator", integrator)
+        integrator = path_integrator(scene)
         loaded = LoadedScene(eval_scene.name, scene, integrator, np.zeros((resolution, resolution, 3), np.float32))
         frame, render_timings = sparse_frame(loaded, 0.3, config.spp, config)
         for label in config.budget_variants:

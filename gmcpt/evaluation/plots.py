@@ -7,7 +7,11 @@ import numpy as np
 
 from ..exr import atomic_output
 from ..metrics import flip_map, tonemap
-from .report import contender_name, contenders
+from .config import DEFAULT_VARIANT
+from .report import BASELINES, best_within, contender_name, contenders, groups, _in_group, one_spp_seconds
+
+#: the at-a-glance plot: PSNR against time, one panel per group of scenes (real, synthetic)
+GROUPS_PLOT = "psnr_vs_time_groups.png"
 
 STYLE = {"path": ("tab:gray", "o"), "path+oidn": ("tab:blue", "s"), "adaptive+oidn": ("navy", "D"),
          "pawnnm": ("tab:orange", "^"),
@@ -71,6 +75,58 @@ def psnr_vs_time(rows: list[dict], path: Path) -> None:
         axis.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     _save(figure, path)
+
+
+def group_curves(rows: list[dict], where: dict, names: list[str], points: int = 48) -> dict:
+    """contender -> (times, mean PSNR): over the scenes of one group (:func:`groups`), the best PSNR each of ``names``
+    reaches within each time, time in units of each scene's 1-spp render (scenes differ 30-fold in speed, so seconds
+    would not average); a time where some scene has no setting that fits is left out."""
+    scenes = _in_group(rows, where)
+    unit = {s: one_spp_seconds(rows, s) for s in scenes}
+    end = max(r["seconds"] / unit[r["scene"]] for r in rows if r["scene"] in unit)
+    grid = np.geomspace(1.0, end, points)
+    curves = {}
+    for name in names:
+        xs, ys = [], []
+        for budget in grid:
+            best = [best_within([r for r in rows if r["scene"] == s], name, "seconds", budget * unit[s]) for s in scenes]
+            if all(b is not None for b in best):
+                xs.append(float(budget))
+                ys.append(float(np.mean([b["psnr"] for b in best])))
+        if xs:
+            curves[name] = (xs, ys)
+    return curves
+
+
+def psnr_vs_time_groups(rows: list[dict], path: Path, names=(*BASELINES, DEFAULT_VARIANT)) -> None:
+    """One panel per group of scenes (the real and the synthetic means; the mean of all without real scenes): the
+    mean best PSNR of each of ``names`` within a time (:func:`group_curves`; by default the baselines and the
+    default: path tracing without a denoiser would stretch the axis ten-fold)."""
+    from matplotlib.ticker import NullFormatter
+
+    chosen = [(label, where) for label, where in groups(rows) if "scene" not in where]
+    chosen = [group for group in chosen if group[1]] or chosen  # the overall mean only where it is the only one
+    figure, axes = _figure(len(chosen), len(chosen))
+    for axis, (label, where) in zip(axes, chosen):
+        for name, (xs, ys) in group_curves(rows, where, list(names)).items():
+            color, marker = STYLE.get(name, ("black", "."))
+            axis.plot(xs, ys, color=color, drawstyle="steps-post",
+                      label=f"default ({name})" if name == DEFAULT_VARIANT else contender_name(name))
+        axis.set_xscale("log")
+        axis.xaxis.set_minor_formatter(NullFormatter())
+        axis.set_title(label.strip("*"))
+        axis.set_xlabel("wall time, x the scene's 1-spp render (log)")
+        axis.set_ylabel("mean PSNR dB")
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    _save(figure, path)
+
+
+def write_plots(record: dict, out: Path) -> None:
+    """The plots that are functions of an evaluation's rows (the image grids need its images)."""
+    psnr_vs_time(record["equal_time"], out / "psnr_vs_time.png")
+    psnr_vs_time_groups(record["equal_time"], out / GROUPS_PLOT)
+    psnr_vs_rate(record["quality"], list(record["config"]["variants"]), out / "psnr_vs_rate.png")
 
 
 def psnr_vs_rate(rows: list[dict], variants: list[str], path: Path) -> None:

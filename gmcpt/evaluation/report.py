@@ -45,6 +45,14 @@ def groups(rows: list[dict]) -> list[tuple[str, dict]]:
     return out + [(f"**mean of {len(scenes)}**", {})]
 
 
+def equal_samples_lead(rows: list[dict], default: str, rate: float, **where) -> float | None:
+    """The default's mean PSNR over the better of the two baselines' at equal samples (placement rows), on the
+    rows that match ``where``; None where either is missing."""
+    mine = _mean(rows, "psnr", variant=default, rate=rate, **where)
+    theirs = [t for t in (_mean(rows, "psnr", variant=b, rate=rate, **where) for b in BASELINES) if t is not None]
+    return None if mine is None or not theirs else mine - max(theirs)
+
+
 def _in_group(rows: list[dict], where: dict) -> list[str]:
     """The scenes of one group."""
     return [s for s in _scenes(rows) if any(r["scene"] == s and all(r.get(k) == v for k, v in where.items())
@@ -264,38 +272,82 @@ def speedup(rows: list[dict], setting: dict, baseline: str) -> tuple[str, float]
     return None if reached is None else (reached[0], reached[1] / setting["seconds"])
 
 
+def better_speedup(rows: list[dict], setting: dict, baselines=BASELINES) -> tuple[str, float] | None:
+    """:func:`speedup` against whichever of ``baselines`` reaches the setting's PSNR soonest (the smaller ratio):
+    the default is held against the better baseline. None where no baseline ran."""
+    found = [f for f in (speedup(rows, setting, b) for b in baselines) if f is not None]
+    return min(found, key=lambda f: f[1]) if found else None
+
+
+def equal_time_verdict(rows: list[dict], default: str, baselines=BASELINES, scenes=None,
+                       setting: tuple[float, int] | None = None) -> dict | None:
+    """The equal-time verdict: the geometric mean, over every row of ``default`` (on ``scenes``, default all; at
+    one ``(rate, spp)`` ``setting``, default all), of the time the better of ``baselines`` needs for its PSNR over
+    the default's time (:func:`better_speedup`). Above 1 the default is faster. ``gmcpt compare``, the speed-up
+    table and the README's limits all call this, so that they agree by construction.
+
+    Returns ``{"speedup", "settings", "bounds", "ratios"}`` (``ratios``: each row's ``(bound, ratio)``;
+    ``bounds``: how many are only bounds, ``<`` or ``>`` of :func:`time_to_reach`), or None where nothing was
+    measured."""
+    chosen = [r for r in rows if r["contender"] == default and (scenes is None or r["scene"] in scenes)
+              and (setting is None or (r["rate"], r["spp"]) == tuple(setting))]
+    found = [f for f in (better_speedup(rows, r, baselines) for r in chosen) if f is not None]
+    if not found:
+        return None
+    return {"speedup": float(np.exp(np.mean([np.log(f[1]) for f in found]))), "settings": len(found),
+            "bounds": sum(f[0] != "=" for f in found), "ratios": found}
+
+
+def verdict_sentence(verdict: dict | None, default: str, over: str) -> str:
+    """One line: which is faster at equal quality and by how much (``over``: what the mean runs over)."""
+    if verdict is None:
+        return "no verdict: no baseline ran"
+    ratio = verdict["speedup"]
+    count, total = verdict["bounds"], verdict["settings"]
+    bounds = (f"; {count} of {total} ratio{'s' if total > 1 else ''} "
+              f"{'are only bounds' if count > 1 else 'is only a bound'}") if count else ""
+    if ratio >= 1:
+        return (f"{default} is {ratio:.2f}x faster than the better baseline at equal quality "
+                f"(geometric mean over {over}{bounds})")
+    return (f"the better baseline is {1 / ratio:.2f}x faster than {default} at equal quality "
+            f"(geometric mean over {over}{bounds})")
+
+
 def _ratio(value: tuple[str, float] | None) -> str:
     if value is None:
         return "-"
     return {"=": "", "<": "<", ">": ">"}[value[0]] + f"{value[1]:.2f}x"
 
 
+def _verdict_cell(verdict: dict | None, single: bool) -> str:
+    """A cell of the speed-up table: one scene's one setting keeps its bound sign, a mean counts its bounds."""
+    if verdict is None:
+        return "-"
+    if single and verdict["settings"] == 1:
+        return _ratio(verdict["ratios"][0])
+    bounds = verdict["bounds"]
+    return f"{verdict['speedup']:.2f}x" + (f" ({bounds} bound{'s' if bounds > 1 else ''})" if bounds else "")
+
+
 def speedup_table(rows: list[dict], default: str) -> str:
-    """Per scene and group mean, for each setting of ``default``: how much time each baseline needs to match its
-    PSNR, as a multiple of the default's time (geometric means over scenes; ``<``/``>``: a bound)."""
+    """Per scene and group mean, for each setting of ``default``: how much time each baseline, and the better of
+    the two, needs to match its PSNR, as a multiple of the default's time (geometric means over scenes and, in the
+    last column, over settings too: :func:`equal_time_verdict`; ``<``, ``>``, ``(n bounds)``: bounds)."""
     settings = list(dict.fromkeys((r["rate"], r["spp"]) for r in rows if r["contender"] == default))
     baselines = [b for b in BASELINES if any(r["contender"] == b for r in rows)]
     budgets = {(r["rate"], r["spp"]) for r in rows if r["contender"] == default and "budget_choice" in r}
     header = ["scene", "baseline"] + [f"budget {rate * spp:g}" if (rate, spp) in budgets else f"{rate:g} x {spp} spp"
-                                      for rate, spp in settings]
+                                      for rate, spp in settings] + ["all settings"]
+    against = [(contender_name(b), (b,)) for b in baselines] + ([("the better of the two", tuple(baselines))]
+                                                                 if len(baselines) > 1 else [])
     table = []
     for label, where in groups(rows):
         scenes = _in_group(rows, where)
-        for baseline in baselines:
-            cells = []
-            for rate, spp in settings:
-                found = [speedup(rows, r, baseline) for r in rows if r["contender"] == default and r["rate"] == rate
-                         and r["spp"] == spp and r["scene"] in scenes]
-                found = [f for f in found if f is not None]
-                if not found:
-                    cells.append("-")
-                elif len(scenes) == 1:
-                    cells.append(_ratio(found[0]))
-                else:
-                    bounds = sum(f[0] != "=" for f in found)
-                    mean = float(np.exp(np.mean([np.log(f[1]) for f in found])))
-                    cells.append(f"{mean:.2f}x" + (f" ({bounds} bound{'s' if bounds > 1 else ''})" if bounds else ""))
-            table.append([label, contender_name(baseline), *cells])
+        for name, chosen in against:
+            cells = [_verdict_cell(equal_time_verdict(rows, default, chosen, scenes, setting), len(scenes) == 1)
+                     for setting in settings]
+            cells.append(_verdict_cell(equal_time_verdict(rows, default, chosen, scenes), False))
+            table.append([label, name, *cells])
     return _table(header, table)
 
 
