@@ -34,12 +34,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("scene", help="Mitsuba 3 scene XML (any integrator; masked_path's nested one is used)")
     parser.add_argument("--reference", metavar="REF.exr",
                         help="reference EXR at the film size (default: render one at --reference-spp, cached)")
-    parser.add_argument("--reference-spp", type=int, default=REFERENCE_SPP, help="samples a pixel of the reference")
+    parser.add_argument("--reference-spp", type=int, default=REFERENCE_SPP, metavar="N",
+                        help="samples a pixel of the reference it renders")
     parser.add_argument("--budgets", type=float, nargs="+", default=list(DEFAULT_BUDGETS), metavar="B",
-                        help=f"the default's samples a pixel, each in [{MIN_BUDGET:g}, {MAX_BUDGET:g}]")
+                        help=f"samples a pixel of gan_oidn, each in [{MIN_BUDGET:g}, {MAX_BUDGET:g}] "
+                        f"(default: {' '.join(f'{b:g}' for b in DEFAULT_BUDGETS)})")
     parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"), help="film resolution (default: the scene's)")
-    parser.add_argument("--out", help="folder of compare.json, psnr_vs_time.png, images.png (default: compare-SCENE)")
-    parser.add_argument("--seed", type=int, default=0, help="first seed of the contenders' runs")
+    parser.add_argument("--out", metavar="DIR",
+                        help="folder of compare.json, psnr_vs_time.png, images.png (default: compare-SCENE)")
+    parser.add_argument("--seed", type=int, default=0, metavar="N", help="first seed of the contenders' runs")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress")
     return parser
 

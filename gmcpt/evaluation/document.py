@@ -226,7 +226,9 @@ def results_markdown(run: dict) -> str:
         f"For each setting of the default (`{DEFAULT_VARIANT}`), the time each baseline needs to reach its PSNR "
         "(interpolated in log time on the baseline's best-PSNR-within-time curve), as a multiple of the default's "
         "time: above 1x the default is faster. `>`: even the baseline's slowest setting falls short; `<`: its "
-        "fastest already does better. Means are geometric.",
+        "fastest already does better. Means are geometric. *The better of the two* takes, for each setting, the "
+        "baseline that needs less time; its *all settings* column is the equal-time verdict of the table at a glance "
+        "and of `gmcpt compare` (one function, `report.equal_time_verdict`).",
         "",
         report.speedup_table(budget, DEFAULT_VARIANT),
         "",
