@@ -140,6 +140,32 @@ def test_compare_on_a_scene_that_is_not_shipped(tmp_path):
     assert better.split("|")[-2].strip().startswith(cell)
 
 
+def test_the_verdict_agrees_with_the_evaluation_on_a_shipped_scene(tmp_path):
+    """On the Cornell box: compare runs the evaluation's settings but for the budgets, and the evaluation's
+    documents (the speed-up table, the table at a glance) give its rows the verdict compare printed."""
+    from conftest import CORNELL
+    from gmcpt.evaluation.config import QUICK
+    from gmcpt.evaluation.glance import glance_table
+    from gmcpt.evaluation.report import equal_time_verdict, speedup_table
+
+    result = _compare(tmp_path, CORNELL, "--res", "32", "32", "--budgets", "1", "2", "--reference-spp", "16",
+                      "--out", "c")
+    assert result.returncode == 0, result.stderr[-3000:]
+    record = json.loads((tmp_path / "c" / "compare.json").read_text())
+    quick = json.loads(json.dumps(asdict(QUICK)))
+    changed = {key for key, value in record["config"].items() if quick[key] != value}
+    assert changed <= {"name", "default_budgets", "path_spp", "adaptive_budgets", "budget_variants"}
+    rows = record["rows"]
+    assert json.loads(json.dumps(equal_time_verdict(rows, "gan_oidn"))) == record["verdict"]
+    cell = f"{record['verdict']['speedup']:.2f}x"
+    better = next(line for line in speedup_table(rows, "gan_oidn").splitlines() if "better of the two" in line)
+    assert better.split("|")[-2].strip().startswith(cell)
+    run = {"config": record["config"], "equal_time": [dict(r, real=False) for r in rows], "placement": []}
+    assert glance_table(run).splitlines()[2].split("|")[-2].strip().startswith(cell)
+    ratio = record["verdict"]["speedup"]
+    assert f"{ratio if ratio >= 1 else 1 / ratio:.2f}x faster" in result.stdout.splitlines()[-1]
+
+
 def test_readme_example_is_this_one():
     readme = (ROOT / "README.md").read_text()
     if "gmcpt compare" not in readme:

@@ -207,8 +207,12 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
     ``images``: where given, the last run's image of each setting goes in it, keyed ``(contender, rate * spp)``
     (``gmcpt compare`` shows them side by side); the measurements are the same either way.
     """
-    images = {} if images is None else images
     rows = []
+
+    def keep(key: tuple[str, float], image: np.ndarray) -> None:  # nothing held when not asked: 25 MB at 1080p
+        if images is not None:
+            images[key] = image
+
     base = {"scene": loaded.name}
 
     def seed(offset: int, run: int) -> int:
@@ -223,7 +227,8 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
                      "seconds": min(timings["render_s"] for _, _, timings in runs), **noisy})
         rows.append({**base, "contender": "path+oidn", "rate": 1.0, "spp": spp, "samples_per_pixel": float(spp),
                      "seconds": seconds, **metrics})
-        images[("path", float(spp))], images[("path+oidn", float(spp))] = runs[-1][1], runs[-1][0]
+        keep(("path", float(spp)), runs[-1][1])
+        keep(("path+oidn", float(spp)), runs[-1][0])
         say(f"  {loaded.name} path {spp:>3} spp: {noisy['psnr']:6.2f} dB, + OIDN {metrics['psnr']:6.2f} dB "
             f"({rows[-2]['seconds']:.2f} s, {seconds:.2f} s in all)")
     for budget in config.adaptive_budgets:
@@ -235,7 +240,7 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
             return image, info
 
         runs, seconds, metrics = _warm(adaptive, config.repeats, loaded.reference)
-        images[("adaptive+oidn", float(budget))] = runs[-1][0]
+        keep(("adaptive+oidn", float(budget)), runs[-1][0])
         rows.append({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
                      "samples_per_pixel": float(budget), "seconds": seconds, **metrics})
         say(f"  {loaded.name} adaptive {budget:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB ({seconds:.2f} s)")
@@ -255,7 +260,7 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
 
         runs, seconds, metrics = _warm(pipeline, config.repeats, loaded.reference)
         image, info = runs[-1]
-        images[(label, rate * spp)] = image
+        keep((label, rate * spp), image)
         rows.append({**base, "contender": label, "rate": rate, "spp": spp,
                      "samples_per_pixel": info["path_samples"] / image.shape[0] / image.shape[1],
                      "seconds": seconds, **({"budget_choice": info["budget_choice"]} if pattern else {}), **metrics})
