@@ -104,7 +104,7 @@ def table(budgets: list[dict]) -> str:
     names = {"path+oidn": "path+OIDN", "adaptive+oidn": "adaptive+OIDN"}
     baselines = [b for b in report.BASELINES if budgets and b in budgets[0]["equal_samples"]]
     header = ["budget (spp)", f"{DEFAULT_VARIANT} PSNR (time, frame)",
-              *(f"{names[b]} same spp" for b in baselines), *(f"{names[b]} within its time" for b in baselines),
+              *(f"{names[b]} same spp" for b in baselines), *(f"{names[b]} within {DEFAULT_VARIANT}'s time" for b in baselines),
               "speed-up over the better"]
     lines = []
     for entry in budgets:
