@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 from . import report
-from .glance import LIMITS_END, LIMITS_START, default_placement, glance_section, mean_groups, readme_limits
+from .glance import LIMITS_END, LIMITS_START, default_placement, glance_section, glance_table, readme_limits
+from .plots import GROUPS_PLOT
 from .config import DEFAULT_VARIANT
 
 README_START = "<!-- results:start (written by python -m gmcpt eval; do not edit) -->"
@@ -52,57 +53,6 @@ def placement_section(run: dict) -> list[str]:
         placement_table(run),
         "",
     ]
-
-
-def readme_placement(run: dict) -> list[str]:
-    """Equal samples in the README: both baselines and the default, mean PSNR of the real and synthetic scenes."""
-    rows = run.get("placement", [])
-    if not rows:
-        return []
-    c = run["config"]
-    default = default_placement(c)
-    columns = [v for v in [*report.BASELINES, default] if any(r["variant"] == v for r in rows)]
-    table = []
-    for label, where in mean_groups(rows):
-        for rate in c["rates"]:
-            lead = report.equal_samples_lead(rows, default, rate, **where)
-            table.append([label.strip("*"), f"{rate:g} x {c['spp']} = {rate * c['spp']:g}",
-                          *(f"{report._mean(rows, 'psnr', variant=v, rate=rate, **where):.2f}" for v in columns),
-                          "-" if lead is None else f"{lead:+.2f}"])
-    names = [report.contender_name(v) if v in report.CONTENDER_NAMES else f"default ({c['placement_variant']})"
-             for v in columns]
-    return ["Mean PSNR (dB) at equal samples per pixel:", "",
-            report._table(["scenes", "samples / pixel", *names, "default - better baseline"], table), ""]
-
-
-def verdict(run: dict) -> list[str]:
-    """Plain sentences: where the default wins and where it loses, at equal samples and at equal time."""
-    rows, c = run.get("placement", []), run["config"]
-    if not rows:
-        return []
-    default = default_placement(c)
-    middle = c["rates"][len(c["rates"]) // 2]
-    behind = [(s, report.equal_samples_lead(rows, default, middle, scene=s)) for s in report._scenes(rows)]
-    behind = [f"{s} ({lead:+.2f} dB)" for s, lead in behind if lead is not None and lead < -0.005]
-    lines = [f"At {middle * c['spp']:g} samples per pixel the default is behind the better baseline on "
-             + (", ".join(behind) if behind else "no scene") + "."]
-    timed = run.get("equal_time", [])
-    counts = []
-    for _, where in mean_groups(timed):
-        ahead = total = 0
-        for scene in report._in_group(timed, where):
-            scene_rows = [r for r in timed if r["scene"] == scene]
-            for setting in (r for r in scene_rows if r["contender"] == c.get("placement_variant", "gan_oidn")):
-                rivals = [report.best_within(scene_rows, b, "seconds", setting["seconds"]) for b in report.BASELINES]
-                rivals = [r["psnr"] for r in rivals if r is not None]
-                total += 1
-                ahead += not rivals or setting["psnr"] > max(rivals)
-        kind = {True: "real", False: "synthetic"}.get(where.get("real"), "all")
-        counts.append(f"{ahead} of its {total} settings on {kind} scenes")
-    if counts:
-        lines.append("At equal time (warm, every stage counted) it is ahead of both baselines at "
-                     + (", ".join(counts[:-1]) + " and " if len(counts) > 1 else "") + counts[-1] + ".")
-    return [" ".join(lines), ""]
 
 
 def full_resolution_section(run: dict) -> list[str]:
@@ -261,9 +211,12 @@ def readme_section(run: dict) -> str:
         f"{len({r['scene'] for r in run['quality']}) - len(run.get('real_scenes', []))} synthetic scenes "
         f"({_settings_line(run)}), from `{run['command']}` on {run['date']}.",
         "",
-        *readme_placement(run),
-        *verdict(run),
-        "![PSNR against wall time: path tracing, path tracing + OIDN, and the completion methods](docs/psnr_vs_time.png)",
+        "The default against the better of path tracing + OIDN and adaptive path tracing + OIDN (above 0 dB, above "
+        "1x: the default is better):",
+        "",
+        glance_table(run),
+        "",
+        f"![Mean PSNR against wall time, real and synthetic scenes](docs/{GROUPS_PLOT})",
         "",
         "Every table (the paper's, equal time, timings) and plot: [docs/results.md](docs/results.md).",
         "",

@@ -24,7 +24,9 @@ def mean_groups(rows: list[dict]) -> list[tuple[str, dict]]:
 
 
 def _group_name(label: str) -> str:
-    return label.strip("*").removeprefix("mean of ")
+    """``**mean of 5 real**`` -> ``5 real``; the mean of every scene -> ``all 9``."""
+    name = label.strip("*").removeprefix("mean of ")
+    return name if " " in name else f"all {name}"
 
 
 def _equal_samples(run: dict, where: dict) -> float | None:
