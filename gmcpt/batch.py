@@ -29,8 +29,10 @@ import re
 import sys
 import time
 from pathlib import Path
+from typing import Callable
 
-from .command import Parser, exit_status, stamped_say, start_mitsuba
+from . import interrupts
+from .command import Parser, mitsuba_command, stamped_say, start_mitsuba
 from .errors import GmcptError
 from .render_cli import add_render_options, run, validate
 
@@ -105,12 +107,12 @@ def request_key(scene: Path, options: dict) -> str:
 
 def plan(args) -> list[dict]:
     """One job (a dict; it travels to Ray workers) per scene and sweep point, in order."""
+    from .scene import check_scene_file
+
     options = {dest: getattr(args, dest) for dest in _render_dests()}
     jobs, seen = [], {}
     for scene in args.scenes:
-        path = Path(scene)
-        if not path.is_file():
-            raise GmcptError(f"scene file not found: {path}")
+        path = check_scene_file(scene)
         for point in sweep_points(args.sweep, args.frames):
             name = frame_name(scene_name(path), point)
             if name in seen or name == Path(SUMMARY).stem:
@@ -235,8 +237,11 @@ def _results(args, todo: list[dict]):
         yield from run_tasks(render_job, todo, cpus=args.threads, gpus=gpus, max_retries=args.retries)
 
 
-def batch(args, say=lambda message: None) -> dict:
-    """Run the batch ``args`` describes; returns the summary (also written to ``DIR/batch-summary.json``)."""
+def batch(args, say=lambda message: None, committed: Callable[[], None] | None = None) -> dict:
+    """Run the batch ``args`` describes; returns the summary (also written to ``DIR/batch-summary.json``).
+
+    ``committed`` runs once the summary, the batch's last output, is in place.
+    """
     from .exr import atomic_output
     from .progress import Progress
 
@@ -262,7 +267,7 @@ def batch(args, say=lambda message: None) -> dict:
                "wall_s": round(time.perf_counter() - started, 3),
                "frame_seconds": round(sum(row["seconds"] for row in ordered if row["status"] != "skipped"), 3),
                "items": ordered}
-    with atomic_output(Path(args.out) / SUMMARY) as temporary:
+    with atomic_output(Path(args.out) / SUMMARY, committed) as temporary:
         Path(temporary).write_text(json.dumps(summary, indent=1) + "\n")
     return summary
 
@@ -271,13 +276,12 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of ``gmcpt batch``; returns the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
 
-    def body() -> int:
-        args = build_parser().parse_args(argv)
+    def work(args) -> int:
         args.argv = argv
-        summary = batch(args, stamped_say("batch", args.quiet))
+        summary = batch(args, stamped_say("batch", args.quiet), committed=interrupts.settle)
         print(json.dumps({key: value for key, value in summary.items() if key != "items"}))
         return 0
-    return exit_status(body)
+    return mitsuba_command(argv, build_parser, work)
 
 
 if __name__ == "__main__":

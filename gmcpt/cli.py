@@ -13,6 +13,7 @@ import importlib
 import sys
 from pathlib import Path
 
+from . import interrupts
 from .command import EXIT_BAD_INPUT
 
 #: name -> (module, one line for ``gmcpt --help``)
@@ -43,8 +44,8 @@ def subcommand(argv: list[str]) -> tuple[str | None, list[str]]:
     """(subcommand, its arguments); None for a first argument that is neither a subcommand nor a scene."""
     if argv and argv[0] in SUBCOMMANDS:
         return argv[0], argv[1:]
-    if argv and (argv[0].lower().endswith(".xml") or argv[0].startswith("-") or Path(argv[0]).is_file()):
-        return DEFAULT, argv  # yesterday's command lines: a scene file (any name), or options, first
+    if argv and (argv[0].lower().endswith(".xml") or argv[0].startswith("-") or Path(argv[0]).exists()):
+        return DEFAULT, argv  # a scene file (any name) or options first, as before; a folder, render refuses
     return None, argv
 
 
@@ -58,6 +59,9 @@ def main(argv: list[str] | None = None) -> int:
     if name is None:
         print(f"error: unknown subcommand {argv[0]!r}; choose from {', '.join(SUBCOMMANDS)} "
               f"(or give a scene file)", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if interrupts.startup_error is not None and not {"-h", "--help"} & set(rest):  # help needs no variant
+        print(f"error: {interrupts.startup_error}", file=sys.stderr)
         return EXIT_BAD_INPUT
     return importlib.import_module(SUBCOMMANDS[name][0]).main(rest)
 

@@ -55,27 +55,34 @@ def exit_status(body: Callable[[], int], start_up: Callable[[], None] | None = N
             start_up()
         handlers = interrupts.install()  # from here a signal raises, and no temporary file is left behind
         return body()
-    except GmcptError as error:
-        print(f"error: {error}", file=sys.stderr)
-        return EXIT_BAD_INPUT
     except (KeyboardInterrupt, interrupts.Terminated) as error:
         return interrupts.report(error)
-    except MemoryError:  # the estimate (gmcpt.limits) let through a run this machine cannot hold
+    except Exception as error:
+        if (interruption := interrupts.interruption()) is not None:  # the signal, under another name
+            return interrupts.report(interruption)
+        return _refusal(error)
+    finally:
+        interrupts.restore(handlers)
+
+
+def _refusal(error: Exception) -> int:
+    """Print the one line for ``error``, raised by a command; its exit status."""
+    if isinstance(error, GmcptError):
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if isinstance(error, MemoryError):  # the estimate (gmcpt.limits) let through a run this machine cannot hold
         print("error: out of memory; lower the resolution (--res), or free memory", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except OSError as error:  # the environment: a file that cannot be read, a device that fails
+    if isinstance(error, OSError):  # the environment: a file that cannot be read, a device that fails
         where = f" ({error.filename})" if error.filename else ""
         print(f"error: {error.strerror or error}{where}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except Exception as error:  # an internal error is still one line, unless debugging
-        if os.environ.get("GMCPT_DEBUG"):
-            raise
-        message = " ".join(str(error).split()) or type(error).__name__
-        print(f"error: internal error ({type(error).__name__}): {message} (set GMCPT_DEBUG=1 for a traceback)",
-              file=sys.stderr)
-        return EXIT_INTERNAL
-    finally:
-        interrupts.restore(handlers)
+    if os.environ.get("GMCPT_DEBUG"):  # an internal error is still one line, unless debugging
+        raise error
+    message = " ".join(str(error).split()) or type(error).__name__
+    print(f"error: internal error ({type(error).__name__}): {message} (set GMCPT_DEBUG=1 for a traceback)",
+          file=sys.stderr)
+    return EXIT_INTERNAL
 
 
 def stamped_say(label: str, quiet: bool = False) -> Callable[[str], None]:

@@ -66,11 +66,12 @@ def _write_error(path: Path, error: BaseException, temporary: str | None = None)
 
 
 @contextlib.contextmanager
-def atomic_output(path: str | os.PathLike):
+def atomic_output(path: str | os.PathLike, committed: Callable[[], None] | None = None):
     """Yield a temporary path next to ``path``; rename it over ``path`` on success.
 
     An ``OSError`` while creating, writing or renaming (a read-only file system, a full disk)
     becomes a one-line :class:`GmcptError` naming ``path``; ``path`` itself is left as it was.
+    ``committed`` runs once ``path`` is in place, before a signal deferred meanwhile arrives.
     """
     path = Path(path)
     temporary = _temporary(path)
@@ -78,6 +79,8 @@ def atomic_output(path: str | os.PathLike):
         yield temporary
         with held():
             os.replace(temporary, path)
+            if committed is not None:
+                committed()
     except OSError as error:
         raise _write_error(path, error, temporary) from None
     finally:

@@ -14,7 +14,9 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Callable
 
+from . import interrupts
 from .command import Parser, mitsuba_command, stamped_say
 from .errors import GmcptError
 
@@ -57,8 +59,8 @@ def _validate(args) -> dict:
     return dict(define.split("=", 1) for define in args.defines)
 
 
-def render(args, say=lambda message: None) -> None:
-    """Render the reference ``args`` describe and write it to ``args.out``."""
+def render(args, say=lambda message: None, committed: Callable[[], None] | None = None) -> None:
+    """Render the reference ``args`` describe and write it to ``args.out``; ``committed`` runs once it is there."""
     from pathlib import Path
 
     from .evaluation.reference import render_full
@@ -85,7 +87,7 @@ def render(args, say=lambda message: None) -> None:
         image = render_full(scene, args.spp, args.seed, args.pass_spp, on_pass, Path(args.scene).parent.name)
         bar.update()
     make_folder(args.out)
-    with atomic_output(args.out) as temporary:
+    with atomic_output(args.out, committed) as temporary:
         write_exr(temporary, {c: image[..., i] for i, c in enumerate("RGB")},
                   {"spp": spp, "seed": args.seed, "scene": str(Path(args.scene).resolve()), "parameters": parameters})
     say(f"wrote {args.out}")
@@ -94,7 +96,7 @@ def render(args, say=lambda message: None) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``gmcpt reference``; returns the exit status."""
     def work(args) -> int:
-        render(args, stamped_say("reference", args.quiet))
+        render(args, stamped_say("reference", args.quiet), committed=interrupts.settle)
         return 0
     return mitsuba_command(sys.argv[1:] if argv is None else list(argv), build_parser, work)
 
