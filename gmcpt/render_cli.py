@@ -16,6 +16,7 @@ from typing import Callable
 
 from . import interrupts
 from .command import Parser, mitsuba_command, stamped_say
+from .completion.tiles import MIN_TILE
 from .device import DEVICE_ENV, PRECISION_ENV, completion_device, generator_precision
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP
@@ -40,8 +41,8 @@ def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
     parser.add_argument("--method", help="completion method, see gmcpt methods (default: the scene's, else gan_oidn)")
     parser.add_argument("--weights", help="generator of the GAN methods: a shipped name or a .pt file "
                         "(default: the scene's, else gan-cpu)")
-    parser.add_argument("--tile", type=int, help="complete frames larger than N x N in blended tiles (bounded "
-                        "memory); 0: whole (default: the scene's, else 1024)")
+    parser.add_argument("--tile", type=int, metavar="N", help=f"complete frames larger than N x N in blended tiles "
+                        f"(bounded memory), N >= {MIN_TILE}; 0: whole (default: the scene's, else 1024)")
     parser.add_argument("--res", type=int, nargs=2, metavar=("W", "H"),
                         help="film resolution (default: the scene's)")
     parser.add_argument("--feature-spp", type=int, help=f"primary samples per pixel of the feature pass "

@@ -107,6 +107,18 @@ def scene_sensor(scene: mi.Scene, index: int = 0, path: str | Path | None = None
     return sensors[index]
 
 
+def check_scene_file(path: str | Path) -> Path:
+    """``path`` if it is a file; else one line: a folder (and its ``scene.xml``, if it has one), or not found."""
+    path = Path(path)
+    if path.is_dir():
+        inside = path / "scene.xml"
+        hint = f", e.g. {inside}" if inside.is_file() else ""
+        raise GmcptError(f"{path} is a folder, not a scene file; give the scene's XML file{hint}")
+    if not path.is_file():
+        raise GmcptError(f"scene file not found: {path}")
+    return path
+
+
 def scene_inputs(path: str | Path) -> list[Path]:
     """The files a scene reads: itself, the files it includes and the files it names (meshes, textures)."""
     path = Path(path)
@@ -145,9 +157,7 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
     edit : called with the parsed ``<scene>`` (includes inlined) last, to change it before loading
         (e.g. the dataset's camera jitter, :mod:`gmcpt.dataset.real`).
     """
-    path = Path(path)
-    if not path.is_file():
-        raise GmcptError(f"scene file not found: {path}")
+    path = check_scene_file(path)
     try:
         root = ET.parse(path).getroot()
     except ET.ParseError as error:

@@ -17,6 +17,8 @@ from ..frame import PIXEL_BUFFERS, SparseFrame
 
 #: Default overlap between neighbouring tiles, in pixels: a few patches of the matching stage.
 DEFAULT_OVERLAP = 32
+#: the smallest tile: twice the overlap, so that a tile is more than its blended edges
+MIN_TILE = 2 * DEFAULT_OVERLAP
 #: Default largest tile side of the command line and ``masked_path``: frames up to 1024x1024 complete
 #: whole; larger ones in tiles, so memory stays bounded (0: always the whole frame).
 DEFAULT_TILE = 1024
@@ -26,8 +28,8 @@ def check_tile(tile: int) -> int:
     """``tile`` as an int: 0 (the whole frame) or a side of at least twice the overlap; else one-line error."""
     from ..errors import GmcptError
 
-    if isinstance(tile, bool) or int(tile) != tile or (tile != 0 and tile < 2 * DEFAULT_OVERLAP):
-        raise GmcptError(f"tile must be 0 (the whole frame) or at least {2 * DEFAULT_OVERLAP} pixels, got {tile}")
+    if isinstance(tile, bool) or int(tile) != tile or (tile != 0 and tile < MIN_TILE):
+        raise GmcptError(f"tile must be 0 (the whole frame) or at least {MIN_TILE} pixels, got {tile}")
     return int(tile)
 
 

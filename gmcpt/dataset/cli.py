@@ -23,7 +23,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--train", type=int, default=200, help="training scenes (seeds 0..)")
     parser.add_argument("--val", type=int, default=10, help="validation scenes (seeds 1000000..)")
     parser.add_argument("--test", type=int, default=0, help="held-out evaluation scenes (seeds 2000000..)")
-    parser.add_argument("--res", type=int, default=128, help="train/val resolution")
+    parser.add_argument("--res", type=int, nargs="+", default=[128], metavar="N",
+                        help="train/val resolution: N, or W H as elsewhere (the scenes are square: W = H)")
     parser.add_argument("--ref-spp", type=int, default=512, help="train/val reference spp")
     parser.add_argument("--test-res", type=int, default=256, help="test resolution")
     parser.add_argument("--test-ref-spp", type=int, default=4096, help="test reference spp")
@@ -44,10 +45,19 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _square_side(res: list[int]) -> int:
+    """The side ``--res N`` or ``--res W H`` gives: every other --res takes W H, the dataset's images are square."""
+    if len(res) > 2 or len(set(res)) != 1:
+        given = " ".join(map(str, res))
+        raise GmcptError(f"--res takes N, or W H with W = H (the dataset's scenes are square), got {given}")
+    return res[0]
+
+
 def spec_from_args(args) -> "DatasetSpec":  # noqa: F821
     from .build import DatasetSpec, SplitSpec
 
-    splits = [SplitSpec("val", args.val, args.res, args.ref_spp), SplitSpec("train", args.train, args.res, args.ref_spp),
+    side = _square_side(args.res)
+    splits = [SplitSpec("val", args.val, side, args.ref_spp), SplitSpec("train", args.train, side, args.ref_spp),
               SplitSpec("test", args.test, args.test_res, args.test_ref_spp)]
     if not 0 < args.rate[0] <= args.rate[1] <= 1:
         raise GmcptError(f"--rate must satisfy 0 < LOW <= HIGH <= 1, got {args.rate}")

@@ -58,6 +58,10 @@ class PatchSampler:
         self.scenes = []
         for path in paths:
             example = load_example(path)
+            height, width = example["reference"].shape[:2]
+            if min(height, width) < crop:  # else the first batch fails with numpy's "high <= 0"
+                raise ValueError(f"the training crops are {crop} px, {path} is {width}x{height}: build the dataset "
+                                 f"at --res {crop} or more, or train with --set train.crop={min(height, width)}")
             traced = np.ones(example["full_radiance"].shape[:2], bool)
             full = dataclasses.replace(example_frame(example), radiance=example["full_radiance"], mask=traced,
                                        variance=example["full_variance"])

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shlex
 import warnings
 from pathlib import Path
 
@@ -103,9 +104,11 @@ def load_generator(name_or_path: str | Path | None = None, check_hash: bool = Tr
         does not match its recorded hash.
     """
     path = weights_path(name_or_path)
-    hint = RETRAIN_HINT.format(name=path.stem)
+    # --export NAME writes into the package's folder: a file given by path is retrained to that path
+    hint = RETRAIN_HINT.format(name=path.stem if path.parent == WEIGHTS_DIR else shlex.quote(str(path)))
     if not path.is_file():
-        raise GmcptError(f"GAN weights not found: {path}; {hint}")
+        shipped = ", ".join(sorted(p.stem for p in WEIGHTS_DIR.glob("*.pt")))
+        raise GmcptError(f"GAN weights not found: {path} (the shipped ones: {shipped}); {hint}")
     key = (str(path.resolve()), path.stat().st_mtime)
     if key in _cache:
         return _cache[key]
