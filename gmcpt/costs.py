@@ -8,10 +8,11 @@ and a per-pixel guess of the sparse way's extra work (:data:`SPARSE_EXTRA_SECOND
 """
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 
 import numpy as np
+
+from .held import scene_state
 
 #: The sparse way's extra seconds a pixel before the process has seen a sparse frame: the rest of the feature
 #: pass, the placement and the generator took 1.6 us a pixel on the bundled scenes at 256x256 (2 cores).
@@ -73,13 +74,7 @@ def record_denoise(seconds: float, pixels: int) -> None:
     _denoise_pace["seconds_per_pixel"] = min(_denoise_pace["seconds_per_pixel"], seconds / max(pixels, 1))
 
 
-#: (id of the scene, pixels) -> (the scene, its costs); held while someone else holds the scene, so that no
-#: other scene takes its id and its readings
-_COSTS: dict[tuple[int, int], tuple[object, FrameCosts]] = {}
-
-
 def frame_costs(scene, pixels: int) -> FrameCosts:
-    """The costs of ``scene`` at ``pixels`` pixels learnt so far in this process."""
-    for key in [key for key in _COSTS if sys.getrefcount(_COSTS[key][0]) <= 2]:  # the tuple and the argument
-        del _COSTS[key]
-    return _COSTS.setdefault((id(scene), pixels), (scene, FrameCosts(pixels)))[1]
+    """The costs of ``scene`` at ``pixels`` pixels learnt so far in this process (kept in its
+    :func:`~gmcpt.held.scene_state`, let go with the scene)."""
+    return scene_state(scene).setdefault("costs", {}).setdefault(pixels, FrameCosts(pixels))

@@ -25,7 +25,6 @@ scene's integrator at its full speed; the pixel-list kernel only tops it up.
 from __future__ import annotations
 
 import hashlib
-import sys
 from dataclasses import dataclass
 from typing import Callable
 
@@ -35,6 +34,7 @@ import numpy as np
 
 from .domain import ALBEDO_MIN
 from .frame import DEFAULT_FEATURE_SPP
+from .held import scene_state
 from .limits import SEED_LIMIT
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
@@ -53,9 +53,8 @@ class FrozenKernel:
 
     Each scene gets recordings of its own: replaying one scene's recording for another scene of the
     same layout read the first scene's freed objects (a batch that loads the scene again for every
-    frame got garbage features now and then). :data:`_SCENES` holds each scene beside its recordings, so
-    no other scene can take its ``id`` while they live; both are let go at the first call after nobody
-    else holds the scene. Dr.Jit cannot record a virtual call when objects of another live scene share
+    frame got garbage features now and then). The recordings live in the scene's
+    :func:`~gmcpt.held.scene_state`, let go with it. Dr.Jit cannot record a virtual call when objects of another live scene share
     the call's registry (seen with the breakfast room loaded beside another scene): the recording
     raises, and that scene runs the plain function, with the same result. Call with a function that
     builds the arguments, so a failed recording leaves none dirty.
@@ -65,8 +64,7 @@ class FrozenKernel:
         self.function = function
 
     def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple]):
-        _let_go_of_released_scenes()
-        recordings = _SCENES.setdefault(id(scene), (scene, {}))[1]
+        recordings = scene_state(scene).setdefault("recordings", {})
         if self not in recordings:
             recordings[self] = dr.freeze(self.function, **FREEZE_OPTIONS)
         if recordings[self] is not None:
@@ -77,16 +75,6 @@ class FrozenKernel:
         outputs = self.function(scene, *arguments())
         dr.eval(outputs)  # one kernel for all of them, as a replay gives (else one kernel a column read)
         return outputs
-
-
-#: id -> (scene, {kernel: its recordings, or None where Dr.Jit refused to record}) of the scenes traced so far
-_SCENES: dict[int, tuple[mi.Scene, dict]] = {}
-
-
-def _let_go_of_released_scenes() -> None:
-    """Drop the scenes that only :data:`_SCENES` holds (``sys.getrefcount``: its tuple and the argument)."""
-    for key in [key for key in _SCENES if sys.getrefcount(_SCENES[key][0]) <= 2]:
-        del _SCENES[key]
 
 
 def pass_seed(seed: int, index: int, passes: int) -> int:

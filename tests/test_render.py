@@ -58,6 +58,7 @@ def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, 
     """A recording that Dr.Jit refuses (a virtual call it cannot follow) falls back to the plain
     function for that scene: same sums, and no second try at recording it."""
     from gmcpt import render
+    from gmcpt.held import scene_state
 
     kernel = render.FrozenKernel(render._pixel_sums)
     refusals = []
@@ -66,7 +67,8 @@ def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, 
         refusals.append(1)
         raise RuntimeError("no such object instance was found in the function's inputs")
 
-    render._SCENES.setdefault(id(cornell), (cornell, {}))[1][kernel] = refuse
+    recordings = scene_state(cornell).setdefault("recordings", {})
+    recordings[kernel] = refuse
     monkeypatch.setattr(render, "_frozen_pixel_sums", kernel)
     pixels = np.arange(0, 48 * 40, 3)
     for _ in range(2):
@@ -74,15 +76,17 @@ def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, 
         plain_total, plain_squares = _plain_pixel_sums(mi, cornell, path_tracer, pixels, 4, 2)
         np.testing.assert_array_equal(total, plain_total)
         np.testing.assert_array_equal(squares, plain_squares)
-    assert len(refusals) == 1 and render._SCENES[id(cornell)][1][kernel] is None
+    assert len(refusals) == 1 and recordings[kernel] is None
 
 
 def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
     """A scene loaded again (a batch does it for every frame) gets its own recording: replaying another
-    scene's read that scene's freed objects. A scene nobody else holds is let go at the next call."""
+    scene's read that scene's freed objects. A scene nobody else holds is let go at the next call, with
+    everything the process kept of it (its costs too)."""
     import gc
 
-    from gmcpt import render
+    from gmcpt import held, render
+    from gmcpt.costs import frame_costs
     from gmcpt.scene import load_scene
 
     kernel = render.FrozenKernel(render._pixel_sums)
@@ -94,10 +98,11 @@ def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
         render.dr.opaque(mi.UInt32, seed), 4, render._camera_key(scene.sensors()[0]),
         [render.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
     kernel(first, arguments(first, 1))
-    recording = render._SCENES[id(first)][1][kernel]
+    recording = held.scene_state(first)["recordings"][kernel]
+    frame_costs(first, 24 * 20).learn_probe(0.5)
     second = load_scene(CORNELL, resolution=(24, 20))
     sums = kernel(second, arguments(second, 2))
-    assert render._SCENES[id(second)][1][kernel] is not recording
+    assert held.scene_state(second)["recordings"][kernel] is not recording
     plain = render._pixel_sums(second, *arguments(second, 2)())
     for column, expected in zip(sums, plain):
         np.testing.assert_array_equal(np.asarray(column), np.asarray(expected))
@@ -105,7 +110,7 @@ def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
     del first
     gc.collect()
     kernel(second, arguments(second, 3))
-    assert first_id not in render._SCENES and id(second) in render._SCENES
+    assert first_id not in held._HELD and id(second) in held._HELD
 
 
 def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
