@@ -250,7 +250,7 @@ def _sparse_time(trace: _Trace, plan: BudgetPlan, costs, path_seconds: float) ->
     """(the sparse way's extra seconds as a share of a dense frame's, whether they pay: :func:`sparse_pays`), with
     ``path_seconds`` for a sample a pixel."""
     dense_seconds = time.perf_counter() - trace.started + plan.budget * path_seconds + trace.completion_seconds
-    return costs.extra_seconds() / dense_seconds, sparse_pays(costs.extra_seconds(), dense_seconds)
+    return costs.extra_seconds() / dense_seconds, sparse_pays(costs.extra_seconds(), path_seconds, plan.budget)
 
 
 def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarray) -> dict:

@@ -67,9 +67,11 @@ def test_choice_follows_either_signal_and_needs_a_sample_for_every_pixel():
 def test_the_sparse_way_pays_when_its_extra_time_is_worth_less_than_its_gain():
     from gmcpt.budget import DENSE_GAIN_PER_DOUBLING, SPARSE_GAIN, sparse_pays
 
-    break_even = 2 ** (SPARSE_GAIN / DENSE_GAIN_PER_DOUBLING) - 1  # extra seconds over a dense frame's
-    assert sparse_pays(0.0, 1.0) and sparse_pays(0.9 * break_even, 1.0)
-    assert not sparse_pays(1.1 * break_even, 1.0) and not sparse_pays(10.0, 1.0)
+    break_even = 2 ** (SPARSE_GAIN / DENSE_GAIN_PER_DOUBLING) - 1  # more samples a pixel, over the budget's
+    for budget in (2.0, 8.0):  # the extra seconds buy samples at the path tracer's pace: 0.01 s a sample a pixel
+        assert sparse_pays(0.0, 0.01, budget) and sparse_pays(0.9 * break_even * budget * 0.01, 0.01, budget)
+        assert not sparse_pays(1.1 * break_even * budget * 0.01, 0.01, budget)
+    assert sparse_pays(0.06, 0.03, 8.0) and not sparse_pays(0.06, 0.004, 8.0)  # a cheap scene's samples come cheap
 
 
 def test_edge_share_counts_the_frame_near_feature_edges():
