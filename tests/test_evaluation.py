@@ -234,6 +234,8 @@ def test_eval_from_a_record_rewrites_the_documents(tmp_path):
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "results.md").read_text().startswith("# Results\n\n## At a glance")
     assert (tmp_path / "psnr_vs_time_groups.png").read_bytes()[:4] == b"\x89PNG"
+    from gmcpt.evaluation.glance import readme_limits
+
     text = readme.read_text()
-    assert "## Results" in text and "## Limits" in text and "0.86-1.15x" in text
+    assert "## Results" in text and "## Limits" in text and readme_limits(json.loads(RESULTS.read_text())) in text
     assert not (tmp_path / "results.json").exists()  # a rewrite measures nothing and records nothing new

@@ -180,17 +180,41 @@ def _path_oidn(loaded: LoadedScene, spp: int, seed: int, guides: dict) -> tuple[
     return denoised, noisy, timings
 
 
-def _warm(pipeline: Callable[[int], tuple], repeats: int, reference: np.ndarray) -> tuple[list, float, dict]:
-    """Runs ``pipeline(run)`` ``max(2, repeats)`` times, each run with seeds of its own (``run`` counts them; the
-    pipeline's result starts with its image): (every run's result, the fastest run's wall seconds, the means over
-    the runs of the images' metrics). The first run in a process compiles kernels and loads weights, later ones do not;
-    one seed's PSNR moves by 0.1-0.2 dB, a tenth of a doubling of the samples, so every run's image counts."""
-    results, fastest = [], np.inf
-    for run in range(max(2, repeats)):
-        start = time.perf_counter()
-        results.append(pipeline(run))
-        fastest = min(fastest, time.perf_counter() - start)
-    return results, fastest, _mean_metrics([all_metrics(result[0], reference) for result in results])
+@dataclass
+class _Setting:
+    """One setting of the equal-time table: ``run(index)`` (seeds of its own per run) gives a result whose first
+    item is the image; ``row`` its row without the measurements; ``noisy``: the result's unfiltered image too."""
+
+    row: dict
+    run: Callable[[int], tuple]
+    noisy: Callable[[tuple], np.ndarray] | None = None
+    seconds: float = np.inf
+    metrics: list = field(default_factory=list)
+    noisy_metrics: list = field(default_factory=list)
+    render_seconds: float = np.inf
+    last: tuple = ()
+
+
+def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray, done: Callable[[_Setting], None]) -> None:
+    """Run every setting ``max(2, repeats)`` times, one round over all of them after another, each run timed alone
+    (its metrics after the clock): a setting's time is its fastest run, its quality the mean over its runs. Rounds,
+    not a setting's runs back to back, so that a machine whose pace drifts over minutes (this one's moved by 10%)
+    slows every contender alike. The first round compiles kernels and loads weights. ``done(setting)`` after a
+    setting's last run."""
+    rounds = max(2, repeats)
+    for index in range(rounds):
+        for setting in settings:
+            start = time.perf_counter()
+            result = setting.run(index)
+            setting.seconds = min(setting.seconds, time.perf_counter() - start)
+            setting.metrics.append(all_metrics(result[0], reference))
+            if setting.noisy is not None:
+                setting.noisy_metrics.append(all_metrics(setting.noisy(result), reference))
+                setting.render_seconds = min(setting.render_seconds, result[2]["render_s"])
+            if index == rounds - 1:  # only the last round's result is kept, and only until it is reported
+                setting.last = result
+                done(setting)
+                setting.last = ()
 
 
 #: the seeds of a contender's timed runs: ``seed + RUN_SEED_STEP * run``
@@ -201,55 +225,42 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
     """Quality and total wall time of every contender at every setting of the equal-time comparison.
 
     Path tracing: a full-frame render. Path tracing + OIDN: the same render, guides (:func:`baseline_guides`, charged
-    :func:`guide_pass_seconds`) and the denoiser. Adaptive path tracing + OIDN: the same with the samples placed adaptively. Completion
-    variants: feature pass, placement, masked render and completion, the default at ``config.default_budgets``
-    samples a pixel, the others at ``config.budget_rates`` x ``config.budget_spp``. Each timed warm (:func:`_warm`).
-    ``images``: where given, the last run's image of each setting goes in it, keyed ``(contender, rate * spp)``
-    (``gmcpt compare`` shows them side by side); the measurements are the same either way.
+    :func:`guide_pass_seconds`) and the denoiser. Adaptive path tracing + OIDN: the same with the samples placed
+    adaptively. Completion variants: feature pass, placement, masked render and completion, the default at
+    ``config.default_budgets`` samples a pixel, the others at ``config.budget_rates`` x ``config.budget_spp``.
+    Each timed warm, in rounds (:func:`_in_rounds`). ``images``: where given, the last run's image of each setting
+    goes in it, keyed ``(contender, rate * spp)`` (``gmcpt compare`` shows them side by side); the measurements
+    are the same either way.
     """
-    rows = []
-
-    def keep(key: tuple[str, float], image: np.ndarray) -> None:  # nothing held when not asked: 25 MB at 1080p
-        if images is not None:
-            images[key] = image
-
     base = {"scene": loaded.name}
+    runs = max(2, config.repeats)
 
     def seed(offset: int, run: int) -> int:
         return config.seed + offset + RUN_SEED_STEP * run
 
+    settings = []
     for spp in config.path_spp:
-        guides = [baseline_guides(loaded, spp, seed(17, run)) for run in range(max(2, config.repeats))]
-        runs, seconds, metrics = _warm(lambda run: _path_oidn(loaded, spp, seed(17, run), guides[run]),
-                                       config.repeats, loaded.reference)
-        noisy = _mean_metrics([all_metrics(noisy, loaded.reference) for _, noisy, _ in runs])
-        rows.append({**base, "contender": "path", "rate": 1.0, "spp": spp, "samples_per_pixel": float(spp),
-                     "seconds": min(timings["render_s"] for _, _, timings in runs), **noisy})
-        rows.append({**base, "contender": "path+oidn", "rate": 1.0, "spp": spp, "samples_per_pixel": float(spp),
-                     "seconds": seconds, **metrics})
-        keep(("path", float(spp)), runs[-1][1])
-        keep(("path+oidn", float(spp)), runs[-1][0])
-        say(f"  {loaded.name} path {spp:>3} spp: {noisy['psnr']:6.2f} dB, + OIDN {metrics['psnr']:6.2f} dB "
-            f"({rows[-2]['seconds']:.2f} s, {seconds:.2f} s in all)")
+        guides = [baseline_guides(loaded, spp, seed(17, run)) for run in range(runs)]
+        settings.append(_Setting({**base, "contender": "path+oidn", "rate": 1.0, "spp": spp,
+                                  "samples_per_pixel": float(spp)},
+                                 lambda run, spp=spp, guides=guides: _path_oidn(loaded, spp, seed(17, run), guides[run]),
+                                 noisy=lambda result: result[1]))
     for budget in config.adaptive_budgets:
-        guides = [baseline_guides(loaded, budget, seed(17, run)) for run in range(max(2, config.repeats))]
+        guides = [baseline_guides(loaded, budget, seed(17, run)) for run in range(runs)]
 
-        def adaptive(run):
+        def adaptive(run, budget=budget, guides=guides):
             image, info, _ = adaptive_oidn(loaded, budget, replace(config, seed=seed(0, run)), guides[run])
             guide_pass_seconds(loaded, budget, seed(17, run))
             return image, info
 
-        runs, seconds, metrics = _warm(adaptive, config.repeats, loaded.reference)
-        keep(("adaptive+oidn", float(budget)), runs[-1][0])
-        rows.append({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
-                     "samples_per_pixel": float(budget), "seconds": seconds, **metrics})
-        say(f"  {loaded.name} adaptive {budget:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB ({seconds:.2f} s)")
-    settings = [(label, rate, spp, None) for rate in config.budget_rates for spp in config.budget_spp
+        settings.append(_Setting({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
+                                  "samples_per_pixel": float(budget)}, adaptive))
+    variants = [(label, rate, spp, None) for rate in config.budget_rates for spp in config.budget_spp
                 for label in config.budget_variants if label != DEFAULT_VARIANT]
     if DEFAULT_VARIANT in config.budget_variants:
-        settings += [(DEFAULT_VARIANT, budget / SPARSE_SPP, SPARSE_SPP, BUDGET) for budget in config.default_budgets]
-    for label, rate, spp, pattern in settings:
-        def pipeline(run):
+        variants += [(DEFAULT_VARIANT, budget / SPARSE_SPP, SPARSE_SPP, BUDGET) for budget in config.default_budgets]
+    for label, rate, spp, pattern in variants:
+        def pipeline(run, label=label, rate=rate, spp=spp, pattern=pattern):
             from ..pipeline import render_and_complete
 
             variant = VARIANTS[label]
@@ -258,14 +269,35 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
                                            variant.method, variant.options())
             return rendered.image, rendered.frame.info
 
-        runs, seconds, metrics = _warm(pipeline, config.repeats, loaded.reference)
-        image, info = runs[-1]
-        keep((label, rate * spp), image)
-        rows.append({**base, "contender": label, "rate": rate, "spp": spp,
-                     "samples_per_pixel": info["path_samples"] / image.shape[0] / image.shape[1],
-                     "seconds": seconds, **({"budget_choice": info["budget_choice"]} if pattern else {}), **metrics})
-        setting = f"budget {rate * spp:g} ({info['budget_choice']})" if pattern else f"rate {rate:.3f} x {spp:>2} spp"
-        say(f"  {loaded.name} {label} {setting}: {metrics['psnr']:6.2f} dB ({seconds:.2f} s)")
+        settings.append(_Setting({**base, "contender": label, "rate": rate, "spp": spp, "pattern": pattern}, pipeline))
+
+    rows = []
+
+    def done(setting: _Setting) -> None:
+        row, metrics = dict(setting.row), _mean_metrics(setting.metrics)
+        image, info = setting.last[0], setting.last[1]
+        contender, pattern = row["contender"], row.pop("pattern", None)
+        if setting.noisy is not None:
+            noisy = _mean_metrics(setting.noisy_metrics)
+            rows.append({**row, "contender": "path", "seconds": setting.render_seconds, **noisy})
+            if images is not None:
+                images[("path", float(row["spp"]))] = setting.noisy(setting.last)
+            say(f"  {loaded.name} path {row['spp']:>3} spp: {noisy['psnr']:6.2f} dB, + OIDN {metrics['psnr']:6.2f} dB "
+                f"({setting.render_seconds:.2f} s, {setting.seconds:.2f} s in all)")
+        elif contender == "adaptive+oidn":
+            say(f"  {loaded.name} adaptive {row['spp']:g} spp + OIDN: {metrics['psnr']:6.2f} dB ({setting.seconds:.2f} s)")
+        else:
+            row["samples_per_pixel"] = info["path_samples"] / image.shape[0] / image.shape[1]
+            if pattern:
+                row["budget_choice"] = info["budget_choice"]
+            where = (f"budget {row['rate'] * row['spp']:g} ({info['budget_choice']})" if pattern
+                     else f"rate {row['rate']:.3f} x {row['spp']:>2} spp")
+            say(f"  {loaded.name} {contender} {where}: {metrics['psnr']:6.2f} dB ({setting.seconds:.2f} s)")
+        rows.append({**row, "seconds": setting.seconds, **metrics})
+        if images is not None:
+            images[(contender, row["rate"] * row["spp"])] = image
+
+    _in_rounds(settings, config.repeats, loaded.reference, done)
     return rows
 
 
