@@ -288,8 +288,9 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
     if level:
         start = time.perf_counter()
         trace.say(f"path tracing: {plan.pixels} px x {level} spp (Mitsuba's own render)")
-        trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, level,
-                                            (seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT), level)
+        # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
+        # drawn with it too, are left out of the image)
+        trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, level, seed), level)
         trace.timed("render_s", start)
         frame_costs(trace.scene, plan.pixels).learn_path((time.perf_counter() - start) / level)
     trace.trace(np.flatnonzero(counts > level), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the samples left over

@@ -165,6 +165,17 @@ def test_a_probe_that_reads_dense_serves_the_next_frames(mi, monkeypatch):
     assert _render(other, 4.0).info["probe"] == "traced"  # another scene reads for itself
 
 
+def test_a_dense_frame_at_an_integral_budget_is_mitsubas_render_of_its_seed(mi, cornell, monkeypatch):
+    from gmcpt import budget
+
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense without a probe
+    frame = _render(cornell, 4.0, seed=3)
+    integrator = cornell.integrator()
+    native = np.asarray(mi.render(cornell, integrator=integrator.integrator, spp=4, seed=3))[..., :3]
+    assert frame.info["probe"] == "none" and frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1]
+    np.testing.assert_allclose(frame.radiance, native, rtol=1e-5, atol=1e-6)
+
+
 def test_a_budget_of_16_or_more_traces_every_pixel(cornell):
     frame = _render(cornell, 17.5)
     assert frame.info["budget_choice"] == "dense" and frame.info["relative_variance"] is None
