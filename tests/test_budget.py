@@ -165,13 +165,14 @@ def test_a_probe_that_reads_dense_serves_the_next_frames(mi, monkeypatch):
     assert _render(other, 4.0).info["probe"] == "traced"  # another scene reads for itself
 
 
-def test_a_dense_frame_at_an_integral_budget_is_mitsubas_render_of_its_seed(mi, cornell, monkeypatch):
+def test_a_dense_frame_at_an_integral_budget_is_mitsubas_render_of_its_seed(mi, monkeypatch):
     from gmcpt import budget
+    from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense without a probe
-    frame = _render(cornell, 4.0, seed=3)
-    integrator = cornell.integrator()
-    native = np.asarray(mi.render(cornell, integrator=integrator.integrator, spp=4, seed=3))[..., :3]
+    scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: no earlier probe's reading
+    frame = _render(scene, 4.0, seed=3)
+    native = np.asarray(mi.render(scene, integrator=scene.integrator().integrator, spp=4, seed=3))[..., :3]
     assert frame.info["probe"] == "none" and frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1]
     np.testing.assert_allclose(frame.radiance, native, rtol=1e-5, atol=1e-6)
 
