@@ -109,17 +109,20 @@ def _reference(args, size: tuple[int, int], say) -> tuple:
 
 
 class _Eta:
-    """A ``say`` for :func:`measure.equal_time`: each line it says ends a setting; the time left is the time so far
-    scaled by the samples still to trace (:func:`compare_report.setting_weight`)."""
+    """A ``say`` for :func:`measure.equal_time`: each line it says ends a setting, in the last of ``rounds`` rounds
+    over all of them; the time left is the time so far scaled by the samples still to trace
+    (:func:`compare_report.setting_weight`)."""
 
-    def __init__(self, weights: list[float], say):
-        self.weights, self.say, self.done, self.start = weights, say, 0, time.perf_counter()
+    def __init__(self, weights: list[float], say, rounds: int):
+        self.weights, self.say, self.rounds, self.done, self.start = weights, say, rounds, 0, time.perf_counter()
 
     def __call__(self, message: str) -> None:
         from ..progress import format_seconds
 
         self.done = min(self.done + 1, len(self.weights))
-        spent, left = sum(self.weights[:self.done]), sum(self.weights[self.done:])
+        # the rounds before the last ran every setting once each
+        spent = (self.rounds - 1) * sum(self.weights) + sum(self.weights[:self.done])
+        left = sum(self.weights[self.done:])
         elapsed = time.perf_counter() - self.start
         self.say(f"{message.strip()}  [{self.done}/{len(self.weights)} settings, "
                  f"{format_seconds(elapsed * left / spent)} left]")
@@ -155,10 +158,11 @@ def compare(args, say) -> dict:
     loaded = measure.LoadedScene(scene_name(args.scene), scene, measure.path_integrator(scene), reference)
     weights = [compare_report.setting_weight(s) * 3 for s in (*config.path_spp, *config.adaptive_budgets)]
     weights += [compare_report.setting_weight(b) * 2 for b in config.default_budgets]
-    say(f"{args.scene}: {size[0]}x{size[1]}, {len(weights)} settings, each timed warm {max(2, config.repeats)} times")
+    runs = measure.timed_runs(config.repeats)
+    say(f"{args.scene}: {size[0]}x{size[1]}, {len(weights)} settings, each timed warm {runs} times")
     images = {}
     measured = time.perf_counter()
-    rows = measure.equal_time(loaded, config, _Eta(weights, say), images)
+    rows = measure.equal_time(loaded, config, _Eta(weights, say, runs), images)
     budgets = compare_report.per_budget(rows)
     found, line = compare_report.verdict(rows)
     record = {"command": "gmcpt compare " + " ".join(args.argv),

@@ -5,6 +5,7 @@ from . import report
 from .glance import LIMITS_END, LIMITS_START, default_placement, glance_section, glance_table, readme_limits
 from .plots import GROUPS_PLOT
 from .config import DEFAULT_VARIANT
+from .measure import timed_runs
 
 README_START = "<!-- results:start (written by python -m gmcpt eval; do not edit) -->"
 README_END = "<!-- results:end -->"
@@ -149,7 +150,7 @@ def results_markdown(run: dict) -> str:
         f"methods at rates {', '.join(f'{r:g}' for r in c['budget_rates'])} x {', '.join(map(str, c['budget_spp']))} spp "
         "(guides or feature pass, probe, placement, render and completion counted; the default's dense frames are "
         "Mitsuba's own render and its guides a pass of about the budget's samples without shadow rays). Timed warm, in one process: each "
-        f"contender's whole pipeline runs {max(2, c['repeats'])} times, each run with seeds of its own: the "
+        f"contender's whole pipeline runs {timed_runs(c['repeats'])} times, each run with seeds of its own: the "
         "fastest run is its time (kernels compiled, weights loaded), the mean over the runs its quality. For each budget, each contender's best setting that fits it: "
         "PSNR dB / SSIM / FLIP. Path tracing cannot spend less than 1 sample per pixel.",
         "",

@@ -183,7 +183,8 @@ def _path_oidn(loaded: LoadedScene, spp: int, seed: int, guides: dict) -> tuple[
 @dataclass
 class _Setting:
     """One setting of the equal-time table: ``run(index)`` (seeds of its own per run) gives a result whose first
-    item is the image; ``row`` its row without the measurements; ``noisy``: the result's unfiltered image too."""
+    item is the image; ``row`` its row without the measurements. ``noisy`` (path tracing + OIDN): the result's
+    unfiltered image too, whose render time is the result's third item's ``render_s``."""
 
     row: dict
     run: Callable[[int], tuple]
@@ -192,16 +193,21 @@ class _Setting:
     metrics: list = field(default_factory=list)
     noisy_metrics: list = field(default_factory=list)
     render_seconds: float = np.inf
-    last: tuple = ()
 
 
-def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray, done: Callable[[_Setting], None]) -> None:
-    """Run every setting ``max(2, repeats)`` times, one round over all of them after another, each run timed alone
+def timed_runs(repeats: int) -> int:
+    """Runs of each equal-time setting for a config's ``repeats``: two at least, as the first compiles kernels."""
+    return max(2, repeats)
+
+
+def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
+               done: Callable[[_Setting, tuple], None]) -> None:
+    """Run every setting :func:`timed_runs` times, one round over all of them after another, each run timed alone
     (its metrics after the clock): a setting's time is its fastest run, its quality the mean over its runs. Rounds,
     not a setting's runs back to back, so that a machine whose pace drifts over minutes (this one's moved by 10%)
-    slows every contender alike. The first round compiles kernels and loads weights. ``done(setting)`` after a
-    setting's last run."""
-    rounds = max(2, repeats)
+    slows every contender alike. The first round compiles kernels and loads weights. ``done(setting, result)``
+    after a setting's last run, with that run's result (no earlier result is kept)."""
+    rounds = timed_runs(repeats)
     for index in range(rounds):
         for setting in settings:
             start = time.perf_counter()
@@ -211,10 +217,8 @@ def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray, do
             if setting.noisy is not None:
                 setting.noisy_metrics.append(all_metrics(setting.noisy(result), reference))
                 setting.render_seconds = min(setting.render_seconds, result[2]["render_s"])
-            if index == rounds - 1:  # only the last round's result is kept, and only until it is reported
-                setting.last = result
-                done(setting)
-                setting.last = ()
+            if index == rounds - 1:
+                done(setting, result)
 
 
 #: the seeds of a contender's timed runs: ``seed + RUN_SEED_STEP * run``
@@ -233,7 +237,7 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
     are the same either way.
     """
     base = {"scene": loaded.name}
-    runs = max(2, config.repeats)
+    runs = timed_runs(config.repeats)
 
     def seed(offset: int, run: int) -> int:
         return config.seed + offset + RUN_SEED_STEP * run
@@ -273,15 +277,15 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
 
     rows = []
 
-    def done(setting: _Setting) -> None:
+    def done(setting: _Setting, last: tuple) -> None:
         row, metrics = dict(setting.row), _mean_metrics(setting.metrics)
-        image, info = setting.last[0], setting.last[1]
+        image, info = last[0], last[1]
         contender, pattern = row["contender"], row.pop("pattern", None)
         if setting.noisy is not None:
             noisy = _mean_metrics(setting.noisy_metrics)
             rows.append({**row, "contender": "path", "seconds": setting.render_seconds, **noisy})
             if images is not None:
-                images[("path", float(row["spp"]))] = setting.noisy(setting.last)
+                images[("path", float(row["spp"]))] = setting.noisy(last)
             say(f"  {loaded.name} path {row['spp']:>3} spp: {noisy['psnr']:6.2f} dB, + OIDN {metrics['psnr']:6.2f} dB "
                 f"({setting.render_seconds:.2f} s, {setting.seconds:.2f} s in all)")
         elif contender == "adaptive+oidn":
