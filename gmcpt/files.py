@@ -74,8 +74,10 @@ def atomic_output(path: str | os.PathLike, committed: Callable[[], None] | None 
     ``committed`` runs once ``path`` is in place, before a signal deferred meanwhile arrives.
     """
     path = Path(path)
-    temporary = _temporary(path)
+    temporary = None
     try:
+        with held():  # a signal between making the temporary and knowing its name would leave it behind
+            temporary = _temporary(path)
         yield temporary
         with held():
             os.replace(temporary, path)
@@ -84,7 +86,8 @@ def atomic_output(path: str | os.PathLike, committed: Callable[[], None] | None 
     except OSError as error:
         raise _write_error(path, error, temporary) from None
     finally:
-        _remove(temporary)
+        if temporary is not None:
+            _remove(temporary)
 
 
 def _backup(path: Path) -> Path | None:
@@ -140,7 +143,8 @@ def write_together(writers: Sequence[tuple[str | os.PathLike, Callable[[str], No
     try:
         for path, write in writers:
             path = Path(path)
-            pairs.append((path, _temporary(path)))
+            with held():
+                pairs.append((path, _temporary(path)))
             try:
                 write(pairs[-1][1])
             except (OSError, RuntimeError) as error:  # RuntimeError: OpenEXR and Mitsuba report I/O errors so
@@ -167,9 +171,10 @@ def check_writable(path: str | os.PathLike) -> Path:
     if not os.access(parent, os.W_OK | os.X_OK):
         raise GmcptError(f"output directory {parent} is not writable")
     try:  # access() says yes to root, and on /proc: try it
-        handle, probe = tempfile.mkstemp(prefix=f".{path.name}.", dir=parent)
-        os.close(handle)
-        os.unlink(probe)
+        with held():
+            handle, probe = tempfile.mkstemp(prefix=f".{path.name}.", dir=parent)
+            os.close(handle)
+            os.unlink(probe)
     except OSError as error:
         raise _write_error(path, error) from None
     return path

@@ -71,3 +71,34 @@ def test_check_writable_tries_the_directory_rather_than_trusting_access():
 def test_check_writable_leaves_nothing_behind(tmp_path):
     assert check_writable(tmp_path / "x.exr") == tmp_path / "x.exr"
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("write", ["check_writable", "atomic_output", "write_together"])
+def test_a_signal_just_after_a_temporary_is_made_leaves_none_behind(tmp_path, monkeypatch, write):
+    """CI's failure: SIGTERM between check_writable's mkstemp and its unlink left the hidden probe file."""
+    import signal
+    import tempfile
+
+    from gmcpt import files, interrupts
+
+    made = tempfile.mkstemp
+
+    def mkstemp_then_signal(*args, **kwargs):
+        result = made(*args, **kwargs)
+        signal.raise_signal(signal.SIGTERM)  # the handler runs here unless the signal is held
+        return result
+
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp_then_signal)
+    previous = interrupts.install()
+    try:
+        with pytest.raises(interrupts.Terminated):
+            if write == "check_writable":
+                files.check_writable(tmp_path / "x.exr")
+            elif write == "atomic_output":
+                with files.atomic_output(tmp_path / "x.exr") as temporary:
+                    Path(temporary).write_bytes(b"new")
+            else:
+                files.write_together([(tmp_path / "x.exr", lambda name: Path(name).write_bytes(b"new"))])
+    finally:
+        interrupts.restore(previous)
+    assert list(tmp_path.iterdir()) == []

@@ -44,7 +44,6 @@ where it stopped. Splits draw seeds from disjoint ranges
 from __future__ import annotations
 
 import json
-import os
 import sys
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -52,6 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..files import atomic_output
 from ..frame import DEFAULT_FEATURE_SPP
 
 DATASET_VERSION = 3
@@ -210,9 +210,8 @@ def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
 def save_example(path: Path, example: dict) -> None:
     """Write atomically (temporary name, then rename)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(path.stem + f".tmp{os.getpid()}.npz")
-    np.savez_compressed(temporary, meta=np.array(json.dumps(example["meta"])), **example["arrays"])
-    os.replace(temporary, path)
+    with atomic_output(path) as temporary:
+        np.savez_compressed(temporary, meta=np.array(json.dumps(example["meta"])), **example["arrays"])
 
 
 def load_example(path: str | Path) -> dict:

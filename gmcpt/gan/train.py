@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import time
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
@@ -35,6 +34,7 @@ import numpy as np
 import torch
 
 from ..domain import WorkingDomain
+from ..files import atomic_output
 from .losses import (FixedFeatureExtractor, LossWeights, critic_loss, gradient_penalty, hybrid_loss, l2_loss,
                      wasserstein_distance)
 from . import distributed
@@ -196,10 +196,9 @@ def plot_curves(history: list[dict], path: Path, title: str = "") -> None:
     axes[3].set_xlabel("step")
     figure.suptitle(title)
     figure.tight_layout()
-    temporary = path.with_name(path.stem + ".tmp.png")
-    figure.savefig(temporary, dpi=90)
+    with atomic_output(path) as temporary:
+        figure.savefig(temporary, dpi=90)
     plt.close(figure)
-    os.replace(temporary, path)
 
 
 class Trainer:
@@ -289,9 +288,8 @@ class Trainer:
             state.update(world_size=self.ranks.world, rank_torch_rng=[r[0] for r in rngs],
                          rank_numpy_rng=json.dumps([r[1] for r in rngs]))
         self.out.mkdir(parents=True, exist_ok=True)
-        temporary = self.checkpoint_path.with_suffix(".tmp")
-        torch.save(state, temporary)
-        os.replace(temporary, self.checkpoint_path)
+        with atomic_output(self.checkpoint_path) as temporary:
+            torch.save(state, temporary)
 
     def load_checkpoint(self) -> bool:
         if not self.checkpoint_path.is_file():

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import shlex
 import warnings
 from pathlib import Path
@@ -20,6 +19,7 @@ from pathlib import Path
 import torch
 
 from ..errors import GmcptError
+from ..files import atomic_output
 from .model import Generator, GeneratorConfig
 
 FORMAT = 1
@@ -58,9 +58,8 @@ def save_weights(path: str | Path, generator: Generator, metadata: dict) -> dict
     path.parent.mkdir(parents=True, exist_ok=True)
     state = {k: _stored(v) for k, v in generator.state_dict().items()}
     payload = {"format": FORMAT, "generator_config": json.dumps(generator.config.to_dict()), "state_dict": state}
-    temporary = path.with_name(path.name + f".tmp{os.getpid()}")
-    torch.save(payload, temporary)
-    os.replace(temporary, path)
+    with atomic_output(path) as temporary:
+        torch.save(payload, temporary)
     record = {**metadata, "file": path.name, "format": FORMAT, "generator_config": generator.config.to_dict(),
               "stored_dtype": str(STORED_DTYPE).removeprefix("torch."), "sha256": sha256(path),
               "bytes": path.stat().st_size}
