@@ -7,8 +7,10 @@ the default's at rate ``budget / SPARSE_SPP`` x :data:`SPARSE_SPP` spp. A probe'
   completion fills the untraced pixels. It wins where the feature buffers predict the radiance, and a
   pixel's 16-spp mean is already close to converged: the synthetic scenes.
 - **dense**: every pixel is traced, as evenly as integers allow: uniform path tracing at the budget; OIDN
-  denoises the whole frame. Placing some of the samples as adaptive path tracing does (:mod:`gmcpt.adaptive`)
-  did worse on the real scenes (docs/experiments.md).
+  denoises the whole frame. From :data:`ADAPTIVE_FROM_BUDGET` samples a pixel, where a first pass of every
+  pixel finds the error concentrated (:func:`adaptive_pays`), the rest of the budget goes where the
+  displayed image is noisiest, as adaptive path tracing places it (:mod:`gmcpt.adaptive`); below that budget,
+  and where the error is spread, adaptive placement lost to even samples (docs/experiments.md).
   It wins on real interiors, where indirect light leaves even the 16-spp means noisy and a filled pixel
   is worse than a few samples of its own.
 
@@ -69,6 +71,13 @@ DENSE_GAIN_PER_DOUBLING = 2.0
 #: dB the sparse way is expected to gain over a dense frame at the same samples where the signals choose it:
 #: the mean over the 4 synthetic evaluation scenes at 3.2, 4.8 and 8 samples a pixel (0.0-2.8; docs/experiments.md).
 SPARSE_GAIN = 1.4
+#: From this budget a dense frame may place part of its samples adaptively: at 4 to 6.4 adaptive placement lost
+#: to even samples on the real scenes, at 8 and 16 it gained up to 1.2 dB where the error is concentrated.
+ADAPTIVE_FROM_BUDGET = 8
+#: The share of the first pass's display error held by its noisiest :data:`TOP_SHARE` of pixels above which
+#: adaptive placement pays (the evaluation scenes read 0.13-0.29; the gain at budget 16 grows with it).
+ADAPTIVE_ABOVE = 0.2
+TOP_SHARE = 0.05
 #: The largest budget, as the largest spp of a masked render.
 MAX_BUDGET = 4096
 #: The chooser's outcomes, as the sidecar records them.
@@ -183,7 +192,7 @@ def choose(plan: BudgetPlan, statistic: float, edges: float, pays: bool = True) 
 def needs_probe(plan: BudgetPlan, edges: float, pays: bool, reading: float | None) -> bool:
     """True when the choice waits for a probe: the plan has a choice, and neither the feature ``edges``, time
     (``pays``) nor an earlier probe's ``reading`` of the scene that still serves
-    (:meth:`gmcpt.costs.FrameCosts.remembered_reading`) choose dense on their own. A dense frame without a probe
+    (:attr:`gmcpt.costs.FrameCosts.probe`) choose dense on their own. A dense frame without a probe
     is Mitsuba's render at the whole budget, in one launch; a sparse frame always probes, as the probe's pixels
     are part of its first pass (the same seed gives the same sparse frame)."""
     return not plan.dense_only and choose(plan, reading or 0.0, edges, pays) == SPARSE
@@ -224,3 +233,27 @@ def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:
         at_level = (current + more) == low
         more += sample_by_density(np.ones(current.shape, np.float32), left, mask_rng(seed), exclude=~at_level)
     return more
+
+
+def adaptive_first_spp(budget: float) -> int:
+    """Samples of every pixel in a dense frame's first pass when the rest may be placed adaptively
+    (:data:`~gmcpt.adaptive.FIRST_SHARE` of the budget), 0 below :data:`ADAPTIVE_FROM_BUDGET`: no first pass."""
+    from .adaptive import FIRST_SHARE
+
+    return max(1, int(FIRST_SHARE * budget)) if budget >= ADAPTIVE_FROM_BUDGET else 0
+
+
+def error_concentration(error: np.ndarray) -> float:
+    """The share of ``error``'s sum (:func:`gmcpt.adaptive.display_error`) its largest :data:`TOP_SHARE` of
+    pixels hold, in [0, 1]: :data:`TOP_SHARE` for an even error, 1 for one noisy spot."""
+    error = np.asarray(error, np.float64).ravel()
+    total = error.sum()
+    if not total > 0:
+        return 0.0
+    top = max(1, int(round(TOP_SHARE * error.size)))
+    return float(np.partition(error, error.size - top)[error.size - top:].sum() / total)
+
+
+def adaptive_pays(concentration: float) -> bool:
+    """True when a dense frame's first pass reads its error as concentrated enough for adaptive placement."""
+    return concentration >= ADAPTIVE_ABOVE

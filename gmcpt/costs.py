@@ -2,13 +2,14 @@
 
 Per scene and frame size, :class:`FrameCosts` keeps the seconds one sample a pixel of path tracing takes,
 the seconds the sparse way adds to a dense frame (the rest of the feature pass, the placement, the generator),
-and what the last probe read of the scene's noise, so that the next frames can skip the probe.
+and what the last probe read of the scene's noise and the last dense frame of its error's concentration, so that
+the next frames can skip the probe, and a dense frame's second launch where its samples stay even.
 Before a scene's first frame it knows only the probe's pace (an upper bound: a small launch pays its set-up)
 and a per-pixel guess of the sparse way's extra work (:data:`SPARSE_EXTRA_SECONDS_PER_PIXEL`).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,20 +18,39 @@ from .held import scene_state
 #: The sparse way's extra seconds a pixel before the process has seen a sparse frame: the rest of the feature
 #: pass, the placement and the generator took 1.6 us a pixel on the bundled scenes at 256x256 (2 cores).
 SPARSE_EXTRA_SECONDS_PER_PIXEL = 1.6e-6
-#: Frames a probe's reading serves before the chooser probes again (a camera that moves may change it): the
-#: readings sit far from the threshold, 0.007-0.057 on the synthetic scenes and 0.23-0.26 on the real ones.
-PROBE_AGAIN_AFTER = 8
+#: Frames a reading of the scene serves before the frame reads again (a camera that moves may change it): the
+#: probe's readings sit far from their threshold, 0.007-0.057 on the synthetic scenes and 0.23-0.26 on the real ones.
+READ_AGAIN_AFTER = 8
+
+
+@dataclass
+class Reading:
+    """The last reading of one of a scene's signals, which serves the next :data:`READ_AGAIN_AFTER` frames."""
+
+    value: float | None = None
+    frames: int = 0  # frames since it was read
+
+    def remembered(self) -> float | None:
+        """The reading while it serves, else None."""
+        return self.value if self.frames < READ_AGAIN_AFTER else None
+
+    def learn(self, value: float | None) -> None:
+        """Count a frame, and keep ``value`` when the frame read the signal (not None)."""
+        if value is not None:
+            self.value, self.frames = value, 0
+        self.frames += 1
 
 
 @dataclass
 class FrameCosts:
-    """Seconds of one frame's parts on one scene at one size (the last measured, or None)."""
+    """Seconds of one frame's parts on one scene at one size (the last measured, or None), and the readings of
+    the scene's signals that let its next frames skip a pass."""
 
     pixels: int
     seconds_per_spp: float | None = None  # path tracing, one sample for every pixel
     sparse_extra_seconds: float | None = None  # what the sparse way adds to a dense frame's work
-    probe_reading: float | None = None  # the last probe's relative variance (gmcpt.budget.relative_variance)
-    frames_since_probe: int = 0
+    probe: Reading = field(default_factory=Reading)  # relative variance (gmcpt.budget.relative_variance)
+    concentration: Reading = field(default_factory=Reading)  # of a dense frame's error (budget.error_concentration)
 
     def path_seconds(self, probe_seconds_per_sample: float) -> float:
         """Seconds of one sample a pixel: measured, else the probe's pace times the pixels."""
@@ -39,16 +59,6 @@ class FrameCosts:
     def extra_seconds(self) -> float:
         return (self.sparse_extra_seconds if self.sparse_extra_seconds is not None
                 else SPARSE_EXTRA_SECONDS_PER_PIXEL * self.pixels)
-
-    def remembered_reading(self) -> float | None:
-        """The last probe's reading while it serves (:data:`PROBE_AGAIN_AFTER` frames), else None."""
-        return self.probe_reading if self.frames_since_probe < PROBE_AGAIN_AFTER else None
-
-    def learn_probe(self, reading: float | None) -> None:
-        """Count a frame, and keep ``reading`` when the frame probed (not None)."""
-        if reading is not None:
-            self.probe_reading, self.frames_since_probe = reading, 0
-        self.frames_since_probe += 1
 
     # the fewest seconds seen: a scene's first frame in a process compiles kernels and loads the generator
     def learn_path(self, seconds_per_spp: float) -> None:

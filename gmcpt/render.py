@@ -359,6 +359,13 @@ class SampleSums:
             done += this_spp
         self.samples += pixels.size * spp
 
+    def trace_counts(self, scene, sensor, integrator, counts: np.ndarray, seed: int) -> None:
+        """``counts[p]`` more samples of each flat pixel ``p`` (:func:`trace_counts`)."""
+        total, squares, finite = trace_counts(scene, sensor, integrator, counts, seed)
+        self.total, self.squares = self.total + total, self.squares + squares
+        self.finite, self.squared_samples = self.finite + finite, self.squared_samples + finite
+        self.samples += int(counts.sum())
+
     def add_native(self, image: np.ndarray, spp: int) -> None:
         """A :func:`render_native` image of ``spp`` samples a pixel (scaled in place); a non-finite pixel's samples
         count as dropped."""

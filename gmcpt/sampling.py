@@ -21,8 +21,10 @@ from typing import Callable
 import mitsuba as mi
 import numpy as np
 
-from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share, even_fill,
-                     guide_spp, needs_probe, plan_budget, relative_variance, sparse_pays)
+from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
+from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, adaptive_first_spp, adaptive_pays,
+                     check_budget, choose, edge_share, error_concentration, even_fill, guide_spp, needs_probe,
+                     plan_budget, relative_variance, sparse_pays)
 from .costs import completion_seconds, frame_costs
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
@@ -193,7 +195,7 @@ def _mask_passes(trace: _Trace, mask: np.ndarray | None, spp: int) -> dict:
 def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
     """The passes of a budget (:mod:`gmcpt.budget`): guides, a probe where the choice waits for one
     (:func:`~gmcpt.budget.needs_probe`), then the sparse way or the dense one. Returns the feature buffers."""
-    settings, seed = trace.settings, trace.settings.seed
+    settings = trace.settings
     height, width = trace.shape
     guide_rays = guide_spp(plan.budget, settings.feature_spp)
     guides = trace.features(guide_rays, visibility=False)
@@ -202,7 +204,7 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
     costs = frame_costs(trace.scene, plan.pixels)
     reading, edges, extra_share, pays, probed = None, None, None, True, False
     if not plan.dense_only:
-        reading = costs.remembered_reading()
+        reading = costs.probe.remembered()
         if costs.seconds_per_spp is not None:
             extra_share, pays = _sparse_time(trace, plan, costs, costs.seconds_per_spp)
         if needs_probe(plan, 0.0, pays, reading):  # the edges still could choose dense (0.06 s at 1920x1080)
@@ -211,7 +213,7 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
             probe, probe_pace = _probe(trace, plan)
             reading, probed = relative_variance(*trace.sums.estimate(probe), PROBE_SPP), True
             extra_share, pays = _sparse_time(trace, plan, costs, costs.path_seconds(probe_pace))
-        costs.learn_probe(reading if probed else None)
+        costs.probe.learn(reading if probed else None)
     choice = choose(plan, reading or 0.0, edges or 0.0, pays)
     trace.info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": reading,
                   "probe": "traced" if probed else "remembered" if reading is not None else "none",
@@ -276,26 +278,70 @@ def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarr
 
 def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
     """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
-    render at ``level`` spp, the rest one sample each on blue-noise pixels. The probe's samples are left out of
-    the image, so that no pixel has more than ``ceil(budget)``."""
+    render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
+    that no pixel has more than ``ceil(budget)``. From :data:`~gmcpt.budget.ADAPTIVE_FROM_BUDGET` the bulk is
+    two renders, and where the first finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the
+    second is adaptive path tracing's placement instead (:func:`_adaptive_rest`). A recent frame's reading of
+    the scene that says even (:attr:`gmcpt.costs.FrameCosts.concentration`) keeps the one launch."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
     trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
-    start = time.perf_counter()
-    counts = even_fill(np.zeros(trace.shape, np.int64), left, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT).ravel()
-    trace.timed("mask_s", start)
-    level = int(counts.min())
-    if level:
-        start = time.perf_counter()
-        trace.say(f"path tracing: {plan.pixels} px x {level} spp (Mitsuba's own render)")
-        # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
-        # drawn with it too, are left out of the image)
-        trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, level, seed), level)
-        trace.timed("render_s", start)
-        frame_costs(trace.scene, plan.pixels).learn_path((time.perf_counter() - start) / level)
-    trace.trace(np.flatnonzero(counts > level), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the samples left over
-    trace.traced[:] = True
     trace.first_pass_pixels = int(probe.sum())
+    current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget)
+    reading = frame_costs(trace.scene, plan.pixels).concentration
+    if first and reading.remembered() is not None and not adaptive_pays(reading.remembered()):
+        trace.info.update(error_concentration=reading.remembered(), dense_placement="even")
+        reading.learn(None)
+        first = 0
+    if first:
+        _native(trace, first, seed)
+        if _adaptive_rest(trace, left - first * plan.pixels, seed):
+            trace.traced[:] = True
+            return
+        current[:], left, seed = first, left - first * plan.pixels, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
+    start = time.perf_counter()
+    counts = even_fill(current, left, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT).ravel()
+    trace.timed("mask_s", start)
+    # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
+    # drawn with it too, are left out of the image)
+    _native(trace, int(counts.min()), seed)
+    trace.trace(np.flatnonzero(counts > counts.min()), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the rest
+    trace.traced[:] = True
+
+
+def _native(trace: _Trace, spp: int, seed: int) -> None:
+    """Mitsuba's own render of every pixel at ``spp`` (none at 0) into the frame's sums; its pace is learnt."""
+    if not spp:
+        return
+    start = time.perf_counter()
+    trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render)")
+    trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, spp, seed), spp)
+    trace.timed("render_s", start)
+    frame_costs(trace.scene, trace.sums.size).learn_path((time.perf_counter() - start) / spp)
+
+
+def _adaptive_rest(trace: _Trace, samples: int, seed: int) -> bool:
+    """After a dense frame's first pass, ``samples`` more where the displayed image is noisiest, as
+    :func:`gmcpt.adaptive.render_adaptive` places them, if its error is concentrated enough to pay
+    (:func:`~gmcpt.budget.adaptive_pays`). Returns whether it traced them; ``info`` records the reading."""
+    start = time.perf_counter()
+    mean, _ = trace.sums.estimate()
+    error = display_error(mean.reshape(*trace.shape, 3))
+    concentration = error_concentration(error)
+    frame_costs(trace.scene, trace.sums.size).concentration.learn(concentration)
+    adaptive = adaptive_pays(concentration)
+    trace.info.update(error_concentration=concentration, dense_placement="adaptive" if adaptive else "even")
+    if adaptive:
+        cap = max(MAX_EXTRA, 2 * -(-samples // trace.sums.size))  # room for the rest at budgets above 64
+        counts = allocate(error ** EXPONENT, samples, cap)
+    trace.timed("mask_s", start)
+    if adaptive:
+        start = time.perf_counter()
+        trace.say(f"path tracing: {samples} samples where the image is noisiest (adaptive placement)")
+        trace.sums.trace_counts(trace.scene, trace.sensor, trace.integrator, counts,
+                                (seed + EXTRA_SEED_OFFSET) % SEED_LIMIT)
+        trace.timed("render_s", start)
+    return adaptive
 
 
 def _time_passes(trace: _Trace) -> dict:

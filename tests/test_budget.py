@@ -149,15 +149,15 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
 
 def test_a_probe_that_reads_dense_serves_the_next_frames(mi, monkeypatch):
     from gmcpt import budget
-    from gmcpt.costs import PROBE_AGAIN_AFTER
+    from gmcpt.costs import READ_AGAIN_AFTER
     from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "DENSE_ABOVE", 1e-12)  # the probe reads dense, nothing else does
     monkeypatch.setattr(budget, "EDGES_ABOVE", math.inf)
     monkeypatch.setattr(budget, "SPARSE_GAIN", math.inf)
     scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: the probe's reading is kept per scene
-    probes = [_render(scene, 4.0).info["probe"] for _ in range(PROBE_AGAIN_AFTER + 1)]
-    assert probes == ["traced"] + ["remembered"] * (PROBE_AGAIN_AFTER - 1) + ["traced"]
+    probes = [_render(scene, 4.0).info["probe"] for _ in range(READ_AGAIN_AFTER + 1)]
+    assert probes == ["traced"] + ["remembered"] * (READ_AGAIN_AFTER - 1) + ["traced"]
     frame = _render(scene, 4.0)  # the whole budget in Mitsuba's own render, as even as it gets
     assert frame.info["budget_choice"] == "dense" and frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1]
     assert frame.info["relative_variance"] is not None and frame.mask.all()
@@ -259,3 +259,43 @@ def test_cli_without_a_rate_spends_the_default_budget(tmp_path):
     assert result.returncode == 0, result.stderr
     record = json.loads(out.with_suffix(".json").read_text())
     assert record["parameters"]["rate"] == 0.3 and record["parameters"]["budget"] is None
+
+
+def test_error_concentration_is_the_share_of_the_noisiest_pixels():
+    from gmcpt.budget import TOP_SHARE, adaptive_first_spp, error_concentration
+
+    assert error_concentration(np.ones((40, 50))) == pytest.approx(TOP_SHARE)
+    spot = np.zeros((40, 50))
+    spot[3, 4] = 2.0
+    assert error_concentration(spot) == 1.0 and error_concentration(np.zeros((4, 4))) == 0.0
+    ramp = np.arange(2000.0).reshape(40, 50)
+    assert TOP_SHARE < error_concentration(ramp) < error_concentration(ramp ** 4) < 1
+    assert [adaptive_first_spp(budget) for budget in (4.8, 7.9, 8, 16, 100)] == [0, 0, 5, 10, 62]
+
+
+@pytest.mark.parametrize("threshold,placement", [(0.0, "adaptive"), (math.inf, "even")])
+def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monkeypatch, threshold, placement):
+    from gmcpt import budget, sampling
+    from gmcpt.costs import READ_AGAIN_AFTER
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", threshold)
+    scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: no earlier frame's reading
+    launches = []
+    native = sampling.render_native
+    monkeypatch.setattr(sampling, "render_native", lambda *args: launches.append(args[3]) or native(*args))
+    frame = _render(scene, 10.5)
+    pixels = SIZE[0] * SIZE[1]
+    assert frame.info["budget_choice"] == "dense" and frame.info["dense_placement"] == placement
+    assert frame.info["path_samples"] == round(10.5 * pixels) and frame.mask.all()  # the total exact
+    assert launches == ([6] if placement == "adaptive" else [6, 4])  # 5/8 of the budget first, then the rest
+    again = _render(load_scene(CORNELL, resolution=SIZE), 10.5)  # same seed and readings, same frame
+    np.testing.assert_array_equal(frame.radiance, again.radiance)
+    launches.clear()
+    for _ in range(READ_AGAIN_AFTER - 1):
+        _render(scene, 10.5)
+    # an even reading keeps the next frames in one launch (the whole level), until it is read again
+    assert launches == ([6] * (READ_AGAIN_AFTER - 1) if placement == "adaptive" else [10] * (READ_AGAIN_AFTER - 1))
+    launches.clear()
+    _render(scene, 10.5)
+    assert launches == ([6] if placement == "adaptive" else [6, 4])

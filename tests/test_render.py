@@ -99,7 +99,7 @@ def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
         [render.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
     kernel(first, arguments(first, 1))
     recording = held.scene_state(first)["recordings"][kernel]
-    frame_costs(first, 24 * 20).learn_probe(0.5)
+    frame_costs(first, 24 * 20).probe.learn(0.5)
     second = load_scene(CORNELL, resolution=(24, 20))
     sums = kernel(second, arguments(second, 2))
     assert held.scene_state(second)["recordings"][kernel] is not recording
