@@ -33,8 +33,8 @@ frame would buy with it are worth:
   is traced. Sponza's courtyard is lit directly, so it reads 0.03 on the first signal, but its columns,
   arches and textures leave a fill from 30% of the pixels too little to go on: it reads 0.32, the other
   real scenes 0.15-0.26 and the synthetic ones 0.08-0.17 (256x256, guides of 5 rays a pixel, budget 4.8;
-  docs/experiments.md). The share falls as the resolution grows, as the fill's difficulty does, and rises
-  with a noisier guide pass.
+  docs/experiments.md). The share falls as the resolution grows, faster than the fill's difficulty does, so
+  its threshold falls with the frame's size (:func:`edges_above`); it rises with a noisier guide pass.
 
 A budget of :data:`SPARSE_SPP` or more, or one that buys every pixel a sample but not a probe beside
 that (1 to about 1.04), is dense without a probe (:attr:`BudgetPlan.dense_only`).
@@ -64,8 +64,12 @@ PROBE_SHARE = 0.01
 GUIDE_SPP_RANGE = (4, 16)
 #: Above this :func:`relative_variance` the frame is traced dense (set in docs/experiments.md).
 DENSE_ABOVE = 0.15
-#: Above this :func:`edge_share` too (docs/experiments.md).
+#: Above this :func:`edge_share` too, at 256x256 (docs/experiments.md); at other sizes :func:`edges_above`.
 EDGES_ABOVE = 0.25
+#: The edge share of a scene falls as its frame grows, as (side / 256) ** -EDGE_FALLOFF with the side the square
+#: root of the pixels: sponza 0.32 / 0.23 / 0.19 and the still life 0.13 / 0.11 / 0.08 at 256x256 / 960x540 /
+#: 1920x1080. The fill's difficulty falls less: at 1920x1080 the sparse way still lost on sponza.
+EDGE_FALLOFF = 0.38
 #: dB a dense frame gains after OIDN when its samples double (cornell-box, 3.2 -> 10 samples a pixel: 2.0-2.3).
 DENSE_GAIN_PER_DOUBLING = 2.0
 #: dB the sparse way is expected to gain over a dense frame at the same samples where the signals choose it:
@@ -178,14 +182,19 @@ def sparse_pays(extra_seconds: float, seconds_per_spp: float, budget: float) -> 
     return SPARSE_GAIN > DENSE_GAIN_PER_DOUBLING * math.log2(1 + more / budget)
 
 
+def edges_above(pixels: int) -> float:
+    """:data:`EDGES_ABOVE` for a frame of ``pixels`` pixels, scaled as the edge share falls with the size."""
+    return EDGES_ABOVE * (math.sqrt(pixels) / 256) ** -EDGE_FALLOFF
+
+
 def choose(plan: BudgetPlan, statistic: float, edges: float, pays: bool = True) -> str:
-    """:data:`DENSE` when the probe reads above :data:`DENSE_ABOVE`, the feature edges above :data:`EDGES_ABOVE`
+    """:data:`DENSE` when the probe reads above :data:`DENSE_ABOVE`, the feature edges above :func:`edges_above`
     or the sparse way would not pay for its time (``pays``: :func:`sparse_pays`), and what the probe leaves of
     the budget gives every pixel a sample (:attr:`BudgetPlan.dense_after_probe`); :data:`DENSE` too when the
     plan is :attr:`~BudgetPlan.dense_only`; else :data:`SPARSE`."""
     if plan.dense_only:
         return DENSE
-    wanted = statistic > DENSE_ABOVE or edges > EDGES_ABOVE or not pays
+    wanted = statistic > DENSE_ABOVE or edges > edges_above(plan.pixels) or not pays
     return DENSE if wanted and plan.dense_after_probe else SPARSE
 
 

@@ -48,12 +48,17 @@ def test_relative_variance_is_the_median_over_lit_pixels_scaled_to_16_spp():
 
 
 def test_choice_follows_either_signal_and_needs_a_sample_for_every_pixel():
-    from gmcpt.budget import DENSE, DENSE_ABOVE, EDGES_ABOVE, SPARSE, choose, plan_budget
+    from gmcpt.budget import DENSE, DENSE_ABOVE, EDGES_ABOVE, SPARSE, choose, edges_above, plan_budget
 
     plan = plan_budget(4.8, 1000)
-    quiet, flat = DENSE_ABOVE / 2, EDGES_ABOVE / 2
+    quiet, flat = DENSE_ABOVE / 2, edges_above(1000) / 2
     assert choose(plan, DENSE_ABOVE * 2, flat) == DENSE
-    assert choose(plan, quiet, min(1.0, EDGES_ABOVE * 1.5)) == DENSE
+    assert choose(plan, quiet, min(1.0, edges_above(1000) * 1.2)) == DENSE
+    # the edge share of a scene falls as its frame grows: so does its threshold, from the 256x256 one
+    assert edges_above(256 * 256) == pytest.approx(EDGES_ABOVE)
+    assert edges_above(1920 * 1080) < edges_above(960 * 540) < EDGES_ABOVE < edges_above(1000)
+    assert choose(plan_budget(4.8, 1920 * 1080), quiet, 0.19) == DENSE  # sponza at 1920x1080
+    assert choose(plan_budget(4.8, 256 * 256), quiet, 0.19) == SPARSE
     assert choose(plan, quiet, flat) == SPARSE
     # 4.8 on 1000 pixels: a probe of 10 pixels at 4 spp leaves 4760 samples for a dense frame of 1000
     assert plan.probe_pixels == 10 and plan.dense_after_probe
@@ -280,6 +285,7 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
     from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", threshold)
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense
     scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: no earlier frame's reading
     launches = []
     native = sampling.render_native

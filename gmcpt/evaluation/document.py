@@ -150,7 +150,9 @@ def results_markdown(run: dict) -> str:
         f"methods at rates {', '.join(f'{r:g}' for r in c['budget_rates'])} x {', '.join(map(str, c['budget_spp']))} spp "
         "(guides or feature pass, probe, placement, render and completion counted; the default's dense frames are "
         "Mitsuba's own render and its guides a pass of about the budget's samples without shadow rays). Timed warm, in one process: each "
-        f"contender's whole pipeline runs {timed_runs(c['repeats'])} times, each run with seeds of its own: the "
+        f"contender's whole pipeline runs {timed_runs(c['repeats'])} times, each run with seeds of its own (path "
+        "tracing's the default's: a dense frame at an integral budget is the same render, so the two differ by their "
+        "guides and time, not by one seed's luck), in rounds of every setting once: the "
         "fastest run is its time (kernels compiled, weights loaded), the mean over the runs its quality. For each budget, each contender's best setting that fits it: "
         "PSNR dB / SSIM / FLIP. Path tracing cannot spend less than 1 sample per pixel.",
         "",
