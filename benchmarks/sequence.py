@@ -1,0 +1,190 @@
+#!/usr/bin/env python3
+"""Sequences: the sequence mode against per-frame path tracing + OIDN and temporal accumulation + OIDN.
+
+An evaluation scene's camera moves over ``--frames`` frames (``--motion``: ``pan`` turns it about its own up
+axis by ``--step`` degrees a frame, ``dolly`` moves it along its view by ``--step`` hundredths of a scene unit,
+``still`` keeps it); each frame has a reference (``--reference-spp``, cached). Contenders, each at a ladder of samples a pixel a frame:
+
+- ``path+oidn``: every frame on its own, ``mi.render`` + guides (charged an ``aov`` pass) + OIDN;
+- ``accumulation+oidn``: the same samples averaged with the previous frames' accumulated image, reprojected
+  to the nearest pixel with the depth and normal tests of :mod:`gmcpt.temporal`, an exponential moving average
+  (weight ``max(1 / n, 0.2)`` for the new samples, n the pixel's history length), then OIDN: SVGF's
+  accumulation, the strongest simple alternative;
+- ``sequence``: :class:`gmcpt.sequence.SequenceRenderer` at the same budget.
+
+Printed: mean PSNR over the frames after the first ``--warm`` (history needs frames to build), mean warm time
+a frame, the flicker figure (root mean square over frames of the error of frame-to-frame differences in the
+displayed image against the references' differences, x100), and the equal-time speed-up of the sequence mode
+over the better baseline (:func:`gmcpt.evaluation.report.equal_time_verdict`).
+
+    python benchmarks/sequence.py [--scenes living-room] [--frames 12] [--res 128] [--motion pan]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+ACCUMULATION_MIN_WEIGHT = 0.2
+
+
+def moved(base, motion: str, step: float, frame: int):
+    """The sensor's to_world at ``frame``: ``base`` turned or moved in the camera's own frame."""
+    import mitsuba as mi
+
+    if motion == "pan":
+        return base @ mi.ScalarTransform4f().rotate([0, 1, 0], step * frame)
+    if motion == "dolly":
+        return base @ mi.ScalarTransform4f().translate([0, 0, step / 100 * frame])
+    return base
+
+
+def reference(loaded_scene, name: str, motion: str, step: float, frame: int, spp: int, res: int) -> np.ndarray:
+    """The frame's reference, cached under the gmcpt cache."""
+    from gmcpt.files import cache_folder
+    from gmcpt.render import render_native
+
+    path = cache_folder("sequence-references") / f"{name}-{motion}{step:g}-{frame:03d}-{res}-{spp}.npy"
+    if path.exists():
+        return np.load(path)
+    scene, integrator = loaded_scene
+    total, chunk = 0.0, 128
+    for index in range(spp // chunk):
+        total = total + render_native(scene, scene.sensors()[0], integrator, chunk, 7_000_000 + frame * 97 + index)
+    image = (total / (spp // chunk)).reshape(res, res, 3).astype(np.float32)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.save(path, image)
+    return image
+
+
+def flicker(images: list[np.ndarray], references: list[np.ndarray]) -> float:
+    from gmcpt.metrics import tonemap
+
+    shown, truth = [tonemap(i) for i in images], [tonemap(r) for r in references]
+    errors = [np.mean(((a1 - a0) - (r1 - r0)) ** 2) for a0, a1, r0, r1 in zip(shown, shown[1:], truth, truth[1:])]
+    return 100 * float(np.sqrt(np.mean(errors)))
+
+
+class Accumulation:
+    """Temporal accumulation + OIDN (see the module's docstring)."""
+
+    def __init__(self):
+        self.previous = None
+
+    def render(self, scene, integrator, spp: int, seed: int, aov_seconds) -> tuple[np.ndarray, float]:
+        from gmcpt.denoise import denoise_oidn
+        from gmcpt.render import _sensor_film_size, render_features, render_native
+        from gmcpt.sequence import geometry
+        from gmcpt.temporal import PastFrame, reproject
+
+        start = time.perf_counter()
+        sensor = scene.sensors()[0]
+        height, width = _sensor_film_size(sensor)
+        image = render_native(scene, sensor, integrator, spp, seed)
+        positions, normals, projection = geometry(scene, sensor)
+        length = np.ones(image.shape[0])
+        if self.previous is not None:
+            past, past_length = self.previous
+            source, valid = reproject(past, positions, normals)
+            weight = np.maximum(1 / (past_length[source] + 1), ACCUMULATION_MIN_WEIGHT)
+            image = np.where(valid[:, None], weight[:, None] * image + (1 - weight[:, None]) * past.total[source], image)
+            length = np.where(valid, past_length[source] + 1, 1)
+        self.previous = (PastFrame(0, image, length, positions, normals, projection), length)
+        guides = render_features(scene, sensor, max(1, spp), seed)
+        seconds = time.perf_counter() - start
+        start = time.perf_counter()
+        denoised = denoise_oidn(image.reshape(height, width, 3).astype(np.float32), guides["albedo"], guides["normal"])
+        return denoised, seconds + time.perf_counter() - start + aov_seconds(spp)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenes", nargs="+", default=["living-room"])
+    parser.add_argument("--frames", type=int, default=12)
+    parser.add_argument("--warm", type=int, default=4, help="frames left out of the means (history builds up)")
+    parser.add_argument("--res", type=int, default=128)
+    parser.add_argument("--motion", choices=["pan", "dolly", "still"], default="pan")
+    parser.add_argument("--step", type=float, default=0.5, help="degrees (pan) or hundredths of a unit (dolly)")
+    parser.add_argument("--budgets", type=float, nargs="+", default=[1, 2, 4])
+    parser.add_argument("--path-spp", type=int, nargs="+", default=[1, 2, 4, 8])
+    parser.add_argument("--reference-spp", type=int, default=1024)
+    args = parser.parse_args()
+
+    import gmcpt  # noqa: F401  (variant, LLVM)
+    import mitsuba as mi
+
+    from gmcpt.denoise import denoise_oidn
+    from gmcpt.evaluation.measure import path_integrator
+    from gmcpt.evaluation.report import equal_time_verdict
+    from gmcpt.evaluation.scenes import evaluation_scenes
+    from gmcpt.metrics import all_metrics
+    from gmcpt.render import render_features, render_native
+    from gmcpt.sequence import SequenceRenderer, SequenceSettings
+
+    rows = []
+    for eval_scene in [s for s in evaluation_scenes(None, 2) if s.name in args.scenes]:
+        scene = eval_scene.load(args.res)
+        integrator = path_integrator(scene)
+        sensor = scene.sensors()[0]
+        parameters = mi.traverse(sensor)
+        base = mi.ScalarTransform4f(np.array(parameters["to_world"].matrix).reshape(4, 4))
+        def at(frame: int):
+            parameters["to_world"] = moved(base, args.motion, args.step, frame)
+            parameters.update()
+
+        def aov_seconds(spp: int) -> float:
+            start = time.perf_counter()
+            np.asarray(mi.render(scene, integrator=mi.load_dict({"type": "aov", "aovs": "a:albedo,n:sh_normal"}),
+                                 spp=max(1, spp)))
+            return time.perf_counter() - start
+
+        references = []
+        for frame in range(args.frames):
+            at(frame)
+            references.append(reference((scene, integrator), eval_scene.name, args.motion, args.step, frame,
+                                        args.reference_spp, args.res))
+        contenders = [("path+oidn", spp) for spp in args.path_spp] + [("accumulation+oidn", spp) for spp in args.path_spp] \
+            + [("sequence", budget) for budget in args.budgets]
+        for contender, amount in contenders:
+            accumulation, sequence = Accumulation(), SequenceRenderer(SequenceSettings(budget=amount, seed=3))
+            images, seconds = [], []
+            for frame in range(args.frames):
+                at(frame)
+                seed = 1000 + frame
+                if contender == "path+oidn":
+                    start = time.perf_counter()
+                    noisy = render_native(scene, sensor, integrator, int(amount), seed)
+                    guides = render_features(scene, sensor, int(amount), seed)
+                    image = denoise_oidn(noisy.reshape(args.res, args.res, 3).astype(np.float32), guides["albedo"],
+                                         guides["normal"])
+                    spent = time.perf_counter() - start + aov_seconds(int(amount))
+                elif contender == "accumulation+oidn":
+                    image, spent = accumulation.render(scene, integrator, int(amount), seed, aov_seconds)
+                else:
+                    start = time.perf_counter()
+                    image, _, _ = sequence.render(scene, frame, integrator)
+                    spent = time.perf_counter() - start
+                images.append(image)
+                seconds.append(spent)
+            kept = slice(args.warm, None)
+            psnr = float(np.mean([all_metrics(i, r)["psnr"] for i, r in zip(images[kept], references[kept])]))
+            row = {"scene": eval_scene.name, "contender": contender, "rate": 1.0, "spp": amount, "psnr": psnr,
+                   "seconds": float(np.mean(seconds[kept])), "flicker": flicker(images[kept], references[kept])}
+            rows.append(row)
+            print(f"{eval_scene.name:20s} {contender:18s} {amount:4g}: {psnr:6.2f} dB  {row['seconds']:.3f} s a frame  "
+                  f"flicker {row['flicker']:.3f}", flush=True)
+        for baseline in ("path+oidn", "accumulation+oidn"):
+            verdict = equal_time_verdict([r for r in rows if r["scene"] == eval_scene.name], "sequence", (baseline,))
+            if verdict:
+                print(f"{eval_scene.name}: sequence vs {baseline}: {verdict['speedup']:.2f}x at equal time "
+                      f"({verdict['bounds']} bounds of {verdict['settings']})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

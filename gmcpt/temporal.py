@@ -1,0 +1,151 @@
+"""Reusing the samples of earlier frames: projection, reprojection and the history's weights, pure numpy.
+
+Each earlier frame is kept as it was traced (:class:`PastFrame`: its own samples' sums, where each pixel's
+centre ray hit, and its camera) and is reprojected straight into the current frame, never through the frames
+between: a sample is moved once, to the nearest pixel, so the history is neither blurred nor its noise
+correlated as repeated bilinear resampling does (issue 49's trap). A past pixel serves a current one only where
+the current pixel's surface point lands within :data:`MAX_OFFSET` pixels of the past pixel's centre, on the same
+surface (positions within :data:`DEPTH_TOLERANCE` of the distance, normals within :data:`NORMAL_COSINE`), so
+disocclusions and camera cuts get no history; and only while it agrees with the current frame's own samples
+(:func:`agreement`), so moving lights and objects do not smear.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import GmcptError
+
+#: Most distance, in pixels, from a past pixel's centre to where the current surface point lands in it.
+MAX_OFFSET = 0.5
+#: Largest gap between the past and current surface points, relative to the current point's distance.
+DEPTH_TOLERANCE = 0.02
+#: Least cosine between the past and current shading normals.
+NORMAL_COSINE = 0.9
+#: History whose luminance over a 15x15 neighbourhood differs from the current samples' by more than this factor
+#: is left out (a light or an object that changed).
+DISAGREE_RATIO = 3.0
+DISAGREE_RADIUS = 7
+
+
+@dataclass(frozen=True)
+class Projection:
+    """A pinhole camera as a 3x4 matrix from world points to film pixels (x right, y down, pixel centres at
+    +0.5), fitted from its rays (:func:`fit_projection`)."""
+
+    matrix: np.ndarray  # (3, 4)
+    width: int
+    height: int
+
+    @property
+    def centre(self) -> np.ndarray:
+        """The pinhole: the null vector of the matrix (infinite for a camera without one)."""
+        _, _, vt = np.linalg.svd(self.matrix)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return vt[-1][:3] / vt[-1][3]
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(film coordinates (N, 2), in front of the camera (N,) bool) of world ``points`` (N, 3)."""
+        homogeneous = np.concatenate([points, np.ones((points.shape[0], 1))], axis=1) @ self.matrix.T
+        depth = homogeneous[:, 2]
+        front = depth > 1e-9
+        safe = np.where(front, depth, 1.0)
+        return homogeneous[:, :2] / safe[:, None], front
+
+
+def fit_projection(film: np.ndarray, origins: np.ndarray, directions: np.ndarray, width: int,
+                   height: int) -> Projection:
+    """The :class:`Projection` through rays from ``origins`` along ``directions`` (N, 3 each) that leave the
+    camera at film coordinates ``film`` (N, 2): a direct linear fit on two points along each ray.
+
+    Raises a one-line :class:`GmcptError` when the rays do not meet in one point as a pinhole camera's do (a
+    thin lens, an orthographic or a panoramic camera): sequences need a pinhole camera.
+    """
+    points = np.concatenate([origins + directions, origins + 4.0 * directions])
+    pixels = np.concatenate([film, film])
+    rows = []
+    for (x, y, z), (u, v) in zip(points, pixels):
+        rows.append([x, y, z, 1, 0, 0, 0, 0, -u * x, -u * y, -u * z, -u])
+        rows.append([0, 0, 0, 0, x, y, z, 1, -v * x, -v * y, -v * z, -v])
+    _, _, vt = np.linalg.svd(np.asarray(rows, np.float64))
+    matrix = vt[-1].reshape(3, 4)
+    if (points @ matrix[2, :3] + matrix[2, 3]).mean() < 0:
+        matrix = -matrix
+    projection = Projection(matrix, width, height)
+    landed, front = projection.project(points)
+    pinhole = np.isfinite(projection.centre).all() and np.abs(projection.centre).max() < 1e12
+    if not pinhole or not front.all() or np.abs(landed - pixels).max() > 1e-3 * max(width, height):
+        raise GmcptError("a sequence needs a pinhole (perspective) camera: this sensor's rays do not meet in a point")
+    return projection
+
+
+@dataclass
+class PastFrame:
+    """One earlier frame as it was traced: its own samples only (flat sums), and its geometry."""
+
+    index: int  # the frame's number in the sequence
+    total: np.ndarray  # (N, 3) sum of its radiance samples
+    count: np.ndarray  # (N,) its finite samples
+    positions: np.ndarray  # (N, 3) where each pixel's centre ray hit (NaN on a miss)
+    normals: np.ndarray  # (N, 3)
+    projection: Projection
+
+
+def reproject(past: PastFrame, positions: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each current pixel (``positions``, ``normals``: (N, 3), NaN on a miss), the past pixel that saw the
+    same surface point: (flat index (N,), valid (N,) bool). Invalid: a miss, off the past film, farther than
+    :data:`MAX_OFFSET` from the past pixel's centre, or another surface there (depth or normal)."""
+    width, height = past.projection.width, past.projection.height
+    hit = np.isfinite(positions).all(axis=1)
+    film, front = past.projection.project(np.where(hit[:, None], positions, 0.0))
+    column, row = np.floor(film[:, 0]).astype(np.int64), np.floor(film[:, 1]).astype(np.int64)
+    inside = hit & front & (column >= 0) & (column < width) & (row >= 0) & (row < height)
+    index = np.where(inside, row * width + column, 0)
+    offset = np.abs(film - np.stack([column, row], axis=1) - 0.5).max(axis=1)
+    seen = past.positions[index]
+    gap = np.linalg.norm(np.where(inside[:, None], seen - positions, np.inf), axis=1)
+    scale = np.linalg.norm(positions - past.projection.centre, axis=1)
+    same_surface = (gap <= DEPTH_TOLERANCE * scale) & \
+        ((past.normals[index] * normals).sum(axis=1) >= NORMAL_COSINE)
+    valid = inside & (offset <= MAX_OFFSET) & same_surface
+    return index, valid
+
+
+def agreement(current_mean: np.ndarray, history_mean: np.ndarray, has_history: np.ndarray) -> np.ndarray:
+    """(H, W) bool: where the history's luminance (H, W, 3 means) over a 15x15 neighbourhood is within a factor
+    :data:`DISAGREE_RATIO` of the current frame's there (``current_mean``), or there is no history to judge
+    (``has_history`` False).
+
+    Wide neighbourhoods and a ratio, not a pixel's own samples against a few standard deviations: a test that
+    reads a pixel's own few samples keeps history where they happen to be dark and drops it where they are
+    bright, and that selection alone lost 4 dB over five frames of a still camera (docs/experiments.md); a
+    15x15 neighbourhood and a factor of 3 dropped 1% of a still camera's history at 2 spp.
+    """
+    current, past = _luminance(current_mean), _luminance(history_mean)
+    floor = 0.05 * max(float(current.mean()), 1e-12)  # dark regions: noise, not a changed light
+    near, far = _box(np.where(has_history, current, 0.0)), _box(np.where(has_history, past, 0.0))
+    near, far = near + floor, far + floor
+    return ~has_history | ((near <= DISAGREE_RATIO * far) & (far <= DISAGREE_RATIO * near))
+
+
+def _luminance(image: np.ndarray) -> np.ndarray:
+    return np.maximum(np.asarray(image, np.float64).mean(axis=-1), 0.0)
+
+
+def _box(plane: np.ndarray, radius: int = DISAGREE_RADIUS) -> np.ndarray:
+    """Sum over a (2 radius + 1)^2 neighbourhood, edges replicated (a summed-area table)."""
+    padded = np.pad(plane, radius, mode="edge")
+    table = np.pad(padded.cumsum(0).cumsum(1), ((1, 0), (1, 0)))
+    size = 2 * radius + 1
+    height, width = plane.shape
+    return (table[size:size + height, size:size + width] - table[:height, size:size + width]
+            - table[size:size + height, :width] + table[:height, :width])
+
+
+def history_weights(ages: list[int], decay: float) -> list[float]:
+    """The weight of each past frame's samples by its age in frames (1: the frame before): ``decay ** age``,
+    so recent frames count most."""
+    if not 0 < decay <= 1:
+        raise GmcptError(f"history decay must be in (0, 1], got {decay}")
+    return [decay ** age for age in ages]

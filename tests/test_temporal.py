@@ -1,0 +1,106 @@
+"""Reprojection of past frames (gmcpt.temporal): a pinhole fit, exact reuse, and the tests that refuse history."""
+import numpy as np
+import pytest
+
+from gmcpt.errors import GmcptError
+from gmcpt.temporal import PastFrame, agreement, fit_projection, history_weights, reproject
+
+WIDTH, HEIGHT = 24, 16
+
+
+def _camera(centre, yaw_degrees=0.0, focal=20.0):
+    """A pinhole at ``centre`` looking down -z (turned by ``yaw``): film coordinates -> (origins, directions)."""
+    yaw = np.radians(yaw_degrees)
+    turn = np.array([[np.cos(yaw), 0, np.sin(yaw)], [0, 1, 0], [-np.sin(yaw), 0, np.cos(yaw)]])
+
+    def rays(film):
+        local = np.stack([(film[:, 0] - WIDTH / 2) / focal, -(film[:, 1] - HEIGHT / 2) / focal,
+                          -np.ones(len(film))], axis=1)
+        directions = local @ turn.T
+        return np.tile(centre, (len(film), 1)).astype(float), directions / np.linalg.norm(directions, axis=1)[:, None]
+    return rays
+
+
+def _centres():
+    rows, columns = np.mgrid[0:HEIGHT, 0:WIDTH]
+    return np.stack([columns.ravel() + 0.5, rows.ravel() + 0.5], axis=1).astype(float)
+
+
+def _frame(rays, wall_z=-5.0):
+    """A frame of a wall at z = wall_z seen through ``rays``: the projection, hit points, normals."""
+    film = _centres()
+    origins, directions = rays(film)
+    t = (wall_z - origins[:, 2]) / directions[:, 2]
+    positions = origins + directions * t[:, None]
+    normals = np.tile([0.0, 0.0, 1.0], (len(film), 1))
+    return fit_projection(film, origins, directions, WIDTH, HEIGHT), positions, normals
+
+
+def _past(projection, positions, normals, index=0):
+    pixels = WIDTH * HEIGHT
+    return PastFrame(index, np.arange(pixels * 3, dtype=float).reshape(pixels, 3), np.full(pixels, 2.0),
+                     positions, normals, projection)
+
+
+def test_the_fit_projects_every_pixel_centre_onto_itself():
+    projection, positions, _ = _frame(_camera([0.0, 0.0, 0.0], yaw_degrees=7))
+    landed, front = projection.project(positions)
+    assert front.all()
+    np.testing.assert_allclose(landed, _centres(), atol=1e-6)
+
+
+def test_a_camera_whose_rays_do_not_meet_is_refused():
+    film = _centres()
+    origins = np.stack([film[:, 0], -film[:, 1], np.zeros(len(film))], axis=1)  # orthographic: parallel rays
+    directions = np.tile([0.0, 0.0, -1.0], (len(film), 1))
+    with pytest.raises(GmcptError, match="pinhole"):
+        fit_projection(film, origins, directions, WIDTH, HEIGHT)
+
+
+def test_a_still_camera_reuses_every_pixel_of_the_past_frame_as_it_was():
+    projection, positions, normals = _frame(_camera([0.0, 0.0, 0.0]))
+    source, valid = reproject(_past(projection, positions, normals), positions, normals)
+    assert valid.all()
+    np.testing.assert_array_equal(source, np.arange(WIDTH * HEIGHT))
+
+
+def test_a_pan_reuses_only_pixels_that_land_near_a_past_centre_and_never_off_the_film():
+    past_projection, past_positions, normals = _frame(_camera([0.0, 0.0, 0.0]))
+    _, positions, _ = _frame(_camera([0.0, 0.0, 0.0], yaw_degrees=3))  # the wall moves by about a pixel
+    past = _past(past_projection, past_positions, normals)
+    source, valid = reproject(past, positions, normals)
+    assert 0 < valid.mean() < 1
+    landed, _ = past_projection.project(positions[valid])
+    assert np.abs(landed - _centres()[source[valid]]).max() <= 0.5 + 1e-9  # the nearest past pixel, no farther
+    np.testing.assert_allclose(past_positions[source[valid]], positions[valid], atol=0.5 * 5 / 20 * 2)
+
+
+def test_another_surface_or_a_miss_gets_no_history():
+    projection, positions, normals = _frame(_camera([0.0, 0.0, 0.0]))
+    past = _past(projection, positions, normals)
+    nearer = positions * 0.5  # a surface in front of the wall (same pixels, half the distance)
+    assert not reproject(past, nearer, normals)[1].any()
+    turned = np.tile([1.0, 0.0, 0.0], (len(normals), 1))
+    assert not reproject(past, positions, turned)[1].any()
+    missed = positions.copy()
+    missed[:5] = np.nan
+    assert not reproject(past, missed, normals)[1][:5].any() and reproject(past, missed, normals)[1][5:].all()
+
+
+def test_history_that_disagrees_with_the_current_samples_is_left_out():
+    rng = np.random.default_rng(0)
+    current = 0.3 * rng.exponential(size=(48, 48, 3))  # a noisy frame of few samples: heavy-tailed
+    agreeing = 0.3 * rng.exponential(size=(48, 48, 3))
+    moved_light = agreeing.copy()
+    moved_light[:, 24:] *= 8  # the right half was lit far more before
+    has = np.ones((48, 48), bool)
+    assert agreement(current, agreeing, has).mean() > 0.99  # noise alone drops (almost) nothing
+    kept = agreement(current, moved_light, has)
+    assert not kept[:, 32:].any() and kept[:, :16].all()
+    assert agreement(current, moved_light, np.zeros((48, 48), bool)).all()  # nothing to judge: no refusal
+
+
+def test_recent_frames_weigh_most():
+    assert history_weights([1, 2, 3], 0.5) == [0.5, 0.25, 0.125]
+    with pytest.raises(GmcptError, match="decay"):
+        history_weights([1], 0.0)
