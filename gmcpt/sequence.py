@@ -176,8 +176,9 @@ class SequenceRenderer:
         weights = history_weights([index - past.index for past in usable], self.settings.decay)
         for past, weight in zip(usable, weights):
             source, valid = reproject(past, positions, normals)
-            total += np.where(valid[:, None], past.total[source], 0.0) * weight
-            count += np.where(valid, past.count[source], 0.0) * weight
+            pixels_seen = np.flatnonzero(valid)
+            total[pixels_seen] += past.total[source[pixels_seen]] * weight
+            count[pixels_seen] += past.count[source[pixels_seen]] * weight
         return total, count
 
     def state(self) -> dict:

@@ -4,21 +4,20 @@ Each earlier frame is kept as it was traced (:class:`PastFrame`: its own samples
 centre ray hit, and its camera) and is reprojected straight into the current frame, never through the frames
 between: a sample is moved once, to the nearest pixel, so the history is neither blurred nor its noise
 correlated as repeated bilinear resampling does (issue 49's trap). A past pixel serves a current one only where
-the current pixel's surface point lands within :data:`MAX_OFFSET` pixels of the past pixel's centre, on the same
+the current pixel's surface point lands in the past pixel (within half a pixel of its centre), on the same
 surface (positions within :data:`DEPTH_TOLERANCE` of the distance, normals within :data:`NORMAL_COSINE`), so
 disocclusions and camera cuts get no history; and only while it agrees with the current frame's own samples
 (:func:`agreement`), so moving lights and objects do not smear.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from .errors import GmcptError
 
-#: Most distance, in pixels, from a past pixel's centre to where the current surface point lands in it.
-MAX_OFFSET = 0.5
 #: Largest gap between the past and current surface points, relative to the current point's distance.
 DEPTH_TOLERANCE = 0.02
 #: Least cosine between the past and current shading normals.
@@ -38,7 +37,7 @@ class Projection:
     width: int
     height: int
 
-    @property
+    @functools.cached_property
     def centre(self) -> np.ndarray:
         """The pinhole: the null vector of the matrix (infinite for a camera without one)."""
         _, _, vt = np.linalg.svd(self.matrix)
@@ -94,21 +93,23 @@ class PastFrame:
 
 def reproject(past: PastFrame, positions: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For each current pixel (``positions``, ``normals``: (N, 3), NaN on a miss), the past pixel that saw the
-    same surface point: (flat index (N,), valid (N,) bool). Invalid: a miss, off the past film, farther than
-    :data:`MAX_OFFSET` from the past pixel's centre, or another surface there (depth or normal)."""
-    width, height = past.projection.width, past.projection.height
-    hit = np.isfinite(positions).all(axis=1)
-    film, front = past.projection.project(np.where(hit[:, None], positions, 0.0))
-    column, row = np.floor(film[:, 0]).astype(np.int64), np.floor(film[:, 1]).astype(np.int64)
-    inside = hit & front & (column >= 0) & (column < width) & (row >= 0) & (row < height)
-    index = np.where(inside, row * width + column, 0)
-    offset = np.abs(film - np.stack([column, row], axis=1) - 0.5).max(axis=1)
-    seen = past.positions[index]
-    gap = np.linalg.norm(np.where(inside[:, None], seen - positions, np.inf), axis=1)
-    scale = np.linalg.norm(positions - past.projection.centre, axis=1)
-    same_surface = (gap <= DEPTH_TOLERANCE * scale) & \
-        ((past.normals[index] * normals).sum(axis=1) >= NORMAL_COSINE)
-    valid = inside & (offset <= MAX_OFFSET) & same_surface
+    same surface point: (flat index (N,), valid (N,) bool). The past pixel is the one the point lands in, so
+    its centre is within half a pixel; invalid: a miss, off the past film, or another surface there (depth or
+    normal)."""
+    projection = past.projection
+    index, valid = np.zeros(positions.shape[0], np.int64), np.zeros(positions.shape[0], bool)
+    candidates = np.flatnonzero(np.isfinite(positions[:, 0]))
+    points = positions[candidates]
+    film, front = projection.project(points)
+    column, row = np.floor(film[:, 0]), np.floor(film[:, 1])
+    inside = front & (column >= 0) & (column < projection.width) & (row >= 0) & (row < projection.height)
+    candidates, points = candidates[inside], points[inside]
+    source = (row[inside] * projection.width + column[inside]).astype(np.int64)
+    gap = np.einsum("ij,ij->i", past.positions[source] - points, past.positions[source] - points)
+    away = points - projection.centre
+    same = (gap <= DEPTH_TOLERANCE ** 2 * np.einsum("ij,ij->i", away, away)) & \
+        (np.einsum("ij,ij->i", past.normals[source], normals[candidates]) >= NORMAL_COSINE)
+    index[candidates], valid[candidates] = source, same
     return index, valid
 
 
