@@ -58,6 +58,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "--sweep frame=START,...,STOP-1 (default: none)")
     parser.add_argument("--sweep", action="append", default=[], metavar="NAME=V1,V2,...",
                         help="one frame per value of scene parameter $NAME; several sweeps multiply (default: none)")
+    parser.add_argument("--history", type=int, metavar="N", help="a sequence: the frames in order, each reusing "
+                        "the samples of the N frames before it, then OIDN; spends --budget (default: none)")
     parser.add_argument("--threads", type=int, default=1,
                         help="CPU threads of one frame: torch's everywhere, Dr.Jit's and the Ray task's CPUs on Ray")
     parser.add_argument("--ray", metavar="ADDRESS", help="run frames as Ray tasks: local (start a cluster here), "
@@ -212,6 +214,9 @@ def _validate_batch(args) -> list[dict]:
         raise GmcptError(f"--threads must be >= 1, got {args.threads}")
     if args.retries < 0 or (args.gpus is not None and args.gpus < 0):
         raise GmcptError("--retries and --gpus must be >= 0")
+    if args.history is not None:
+        from .sequence_batch import check
+        check(args)
     jobs = plan(args)
     if args.ray is not None:
         check_reachable(check_address(args.ray))
@@ -242,11 +247,17 @@ def batch(args, say=lambda message: None, committed: Callable[[], None] | None =
 
     ``committed`` runs once the summary, the batch's last output, is in place.
     """
-    from .exr import atomic_output
     from .progress import Progress
 
     started = time.perf_counter()
     jobs = _validate_batch(args)
+    if args.history is not None:
+        from . import sequence_batch
+
+        say(f"{len(jobs)} frames as a sequence, each reusing up to {args.history} earlier frames")
+        with Progress(len(jobs), "sequence", unit="frame", say=say, quiet=args.quiet) as bar:
+            rows = sequence_batch.run(args, jobs, say, bar)
+        return _summary(args, jobs, rows, started, committed)
     rows = {}
     for job in jobs:
         record = finished_record(job)
@@ -259,6 +270,13 @@ def batch(args, say=lambda message: None, committed: Callable[[], None] | None =
         for row in _results(args, todo):
             rows[row["name"]] = row
             bar.update(note=f"{row['name']} {row['seconds']:.1f}s")
+    return _summary(args, jobs, rows, started, committed)
+
+
+def _summary(args, jobs: list[dict], rows: dict, started: float, committed) -> dict:
+    """Write and return ``DIR/batch-summary.json`` of ``rows`` (by frame name), in the jobs' order."""
+    from .exr import atomic_output
+
     ordered = [rows[job["name"]] for job in jobs]
     summary = {"command": "gmcpt batch " + " ".join(getattr(args, "argv", [])), "ray": args.ray,
                "threads": args.threads, "frames": len(jobs),
