@@ -34,9 +34,10 @@ from .render import _sensor_film_size, feature_means, render_native, trace_count
 from .scene import scene_sensor
 from .temporal import PastFrame, Projection, agreement, fit_projection, history_weights, reproject
 
-#: Frames of history kept by default, and the weight of a frame's samples per frame of age.
+#: Frames of history kept by default, and the weight of a frame's samples per frame of age (0.9 over 0.8: +0.1-0.2
+#: dB on a pan; 16 frames another +0.1 for twice the reprojection time; docs/experiments.md).
 HISTORY_FRAMES = 8
-HISTORY_DECAY = 0.8
+HISTORY_DECAY = 0.9
 #: A frame's sampler seeds: ``seed + index * FRAME_SEED_STEP`` (a frame draws samples of its own).
 FRAME_SEED_STEP = 0x9E37
 #: History counts are levelled up to this many times the budget: pixels with less (disocclusions, the edge a pan
