@@ -81,8 +81,9 @@ def centre_rays(sensor: mi.Sensor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     film = mi.Point2f(mi.Float(index % width) + 0.5, mi.Float(index // width) + 0.5)
     ray, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
                                sample2=film / mi.ScalarVector2f(width, height), sample3=mi.Point2f(0.5))
-    return (np.stack([np.asarray(film.x), np.asarray(film.y)], axis=1).astype(np.float64), _columns(ray.o),
-            _columns(ray.d))
+    rays = height * width  # a camera whose rays share an origin or a direction gives one lane of it
+    return (np.stack([np.asarray(film.x), np.asarray(film.y)], axis=1).astype(np.float64),
+            np.broadcast_to(_columns(ray.o), (rays, 3)), np.broadcast_to(_columns(ray.d), (rays, 3)))
 
 
 def geometry(scene: mi.Scene, sensor: mi.Sensor) -> tuple[np.ndarray, np.ndarray, Projection]:
@@ -143,7 +144,7 @@ class SequenceRenderer:
         if (counts > level).any():
             more, _, finite = trace_counts(scene, sensor, integrator, counts - level, (seed + 1) % SEED_LIMIT)
             total, count = total + more, count + finite
-        finite = np.isfinite(total).all(axis=1)
+        finite = np.isfinite(total).all(axis=1)  # a pixel with a NaN/Inf sample: its frame's samples dropped
         total, count = np.where(finite[:, None], total, 0.0), np.where(finite, count, 0.0)
         timings["render_s"] = time.perf_counter() - start
 
@@ -166,7 +167,8 @@ class SequenceRenderer:
         info = {"frame": index, "seed": seed, "budget": settings.budget, "path_samples": int(counts.sum()),
                 "history_frames": len(self.past) - 1 if settings.history else 0,
                 "history_pixels": float((kept > 0).mean()), "history_samples": float(kept.mean()),
-                "history_dropped": float(((history_count > 0) & ~agrees).mean())}
+                "history_dropped": float(((history_count > 0) & ~agrees).mean()),
+                "nonfinite_pixels": int((~finite).sum())}
         return denoised, info, timings
 
     def _history(self, index: int, positions: np.ndarray, normals: np.ndarray,

@@ -92,7 +92,13 @@ def run(args, jobs: list[dict], say, bar) -> dict:
             rows[job["name"]] = {"name": job["name"], "output": job["out"], "status": "skipped", "seconds": 0.0}
             continue
         say(f"frame {frame}: {renderer.settings.budget:g} samples a pixel, {len(renderer.past)} past frames")
-        image, info, timings = renderer.render(scene, frame)
+        try:
+            image, info, timings = renderer.render(scene, frame)
+        except GmcptError as error:  # the frame's name on the one line: the frames before it are written
+            raise GmcptError(f"frame {frame} ({job['name']}): {error}") from None
+        if info["nonfinite_pixels"] and not args.allow_nonfinite:
+            raise GmcptError(f"frame {frame} ({job['name']}): {info['nonfinite_pixels']} pixels had NaN/Inf radiance "
+                             "samples (broken scene data?); --allow-nonfinite drops them and goes on")
         record = {"scene": job["scene"], "output": str(Path(job["out"]).resolve()),
                   "parameters": {"sequence": True, "budget": renderer.settings.budget, "seed": info["seed"],
                                  "history": renderer.settings.history, "decay": renderer.settings.decay,

@@ -32,3 +32,12 @@ def test_a_sequence_the_options_cannot_make_gets_one_line(tmp_path, options, mes
     result = gmcpt("batch", CORNELL, *options, *SEQUENCE, "--out", tmp_path / "out", check=False)
     assert result.returncode == 2 and result.stderr.strip().count("\n") == 0 and message in result.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_a_frame_that_fails_is_one_line_naming_it(tmp_path):
+    scene = tmp_path / "flat.xml"
+    scene.write_text(CORNELL.read_text().replace('<sensor type="perspective">', '<sensor type="orthographic">')
+                     .replace('<float name="fov" value="39.3"/>', "").replace('<string name="fov_axis" value="x"/>', ""))
+    result = gmcpt("batch", scene, "--frames", "0:2", *SEQUENCE, "--out", tmp_path / "out", check=False)
+    assert result.returncode == 2 and result.stderr.strip().count("\n") == 0, result.stderr
+    assert "frame 0 (flat_frame-0000)" in result.stderr and "pinhole" in result.stderr
