@@ -32,7 +32,7 @@ from .frame import DEFAULT_FEATURE_SPP
 from .limits import SEED_LIMIT, check_seed
 from .render import _sensor_film_size, feature_means, render_native, trace_counts
 from .scene import scene_sensor
-from .temporal import PastFrame, Projection, agreement, fit_projection, history_weights, reproject
+from .temporal import PastFrame, Projection, agreement, fit_projection, history_weights, matches, surfaces
 
 #: Frames of history kept by default, and the weight of a frame's samples per frame of age (0.9 over 0.8: +0.1-0.2
 #: dB on a pan; 16 frames another +0.1 for twice the reprojection time; docs/experiments.md).
@@ -177,11 +177,11 @@ class SequenceRenderer:
         total, count = np.zeros((pixels, 3)), np.zeros(pixels)
         usable = [past for past in self.past if past.index < index and past.total.shape[0] == pixels]
         weights = history_weights([index - past.index for past in usable], self.settings.decay)
+        current = surfaces(positions, normals)
         for past, weight in zip(usable, weights):
-            source, valid = reproject(past, positions, normals)
-            pixels_seen = np.flatnonzero(valid)
-            total[pixels_seen] += past.total[source[pixels_seen]] * weight
-            count[pixels_seen] += past.count[source[pixels_seen]] * weight
+            seen, source = matches(past, current)
+            total[seen] += past.total[source] * weight
+            count[seen] += past.count[source] * weight
         return total, count
 
     def state(self) -> dict:

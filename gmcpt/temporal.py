@@ -67,7 +67,7 @@ def fit_projection(film: np.ndarray, origins: np.ndarray, directions: np.ndarray
     for (x, y, z), (u, v) in zip(points, pixels):
         rows.append([x, y, z, 1, 0, 0, 0, 0, -u * x, -u * y, -u * z, -u])
         rows.append([0, 0, 0, 0, x, y, z, 1, -v * x, -v * y, -v * z, -v])
-    _, _, vt = np.linalg.svd(np.asarray(rows, np.float64))
+    _, _, vt = np.linalg.svd(np.asarray(rows, np.float64), full_matrices=False)
     matrix = vt[-1].reshape(3, 4)
     if (points @ matrix[2, :3] + matrix[2, 3]).mean() < 0:
         matrix = -matrix
@@ -91,25 +91,49 @@ class PastFrame:
     projection: Projection
 
 
-def reproject(past: PastFrame, positions: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For each current pixel (``positions``, ``normals``: (N, 3), NaN on a miss), the past pixel that saw the
-    same surface point: (flat index (N,), valid (N,) bool). The past pixel is the one the point lands in, so
-    its centre is within half a pixel; invalid: a miss, off the past film, or another surface there (depth or
-    normal)."""
+@dataclass(frozen=True)
+class Surfaces:
+    """The current frame's centre-ray hits, made once (:func:`surfaces`) for every past frame's :func:`matches`."""
+
+    pixels: np.ndarray  # (M,) flat indices of the pixels whose ray hit
+    points: np.ndarray  # (M, 4) where, homogeneous
+    normals: np.ndarray  # (M, 3)
+    size: int  # pixels in the frame
+
+
+def surfaces(positions: np.ndarray, normals: np.ndarray) -> Surfaces:
+    """:class:`Surfaces` of ``positions`` and ``normals`` ((N, 3) each, NaN on a miss)."""
+    pixels = np.flatnonzero(np.isfinite(positions[:, 0]))
+    points = np.concatenate([positions[pixels], np.ones((pixels.size, 1))], axis=1)
+    return Surfaces(pixels, points, normals[pixels], positions.shape[0])
+
+
+def matches(past: PastFrame, current: Surfaces) -> tuple[np.ndarray, np.ndarray]:
+    """(current pixels (K,), the past pixels (K,) that saw the same surface points). The past pixel is the one
+    the point lands in, so its centre is within half a pixel; no match for a miss, a point off the past film
+    or behind its camera, or another surface there (depth or normal)."""
     projection = past.projection
-    index, valid = np.zeros(positions.shape[0], np.int64), np.zeros(positions.shape[0], bool)
-    candidates = np.flatnonzero(np.isfinite(positions[:, 0]))
-    points = positions[candidates]
-    film, front = projection.project(points)
-    column, row = np.floor(film[:, 0]), np.floor(film[:, 1])
-    inside = front & (column >= 0) & (column < projection.width) & (row >= 0) & (row < projection.height)
-    candidates, points = candidates[inside], points[inside]
+    homogeneous = current.points @ projection.matrix.T
+    depth = homogeneous[:, 2]
+    front = depth > 1e-9
+    safe = np.where(front, depth, 1.0)
+    column, row = np.floor(homogeneous[:, 0] / safe), np.floor(homogeneous[:, 1] / safe)
+    inside = np.flatnonzero(front & (column >= 0) & (column < projection.width) & (row >= 0)
+                            & (row < projection.height))
     source = (row[inside] * projection.width + column[inside]).astype(np.int64)
-    gap = np.einsum("ij,ij->i", past.positions[source] - points, past.positions[source] - points)
+    points = current.points[inside, :3]
+    step = past.positions[source] - points
     away = points - projection.centre
-    same = (gap <= DEPTH_TOLERANCE ** 2 * np.einsum("ij,ij->i", away, away)) & \
-        (np.einsum("ij,ij->i", past.normals[source], normals[candidates]) >= NORMAL_COSINE)
-    index[candidates], valid[candidates] = source, same
+    same = (np.einsum("ij,ij->i", step, step) <= DEPTH_TOLERANCE ** 2 * np.einsum("ij,ij->i", away, away)) & \
+        (np.einsum("ij,ij->i", past.normals[source], current.normals[inside]) >= NORMAL_COSINE)
+    return current.pixels[inside[same]], source[same]
+
+
+def reproject(past: PastFrame, positions: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`matches` as full arrays: for each current pixel, (the past pixel's flat index, valid) (N,) each."""
+    pixels, source = matches(past, surfaces(positions, normals))
+    index, valid = np.zeros(positions.shape[0], np.int64), np.zeros(positions.shape[0], bool)
+    index[pixels], valid[pixels] = source, True
     return index, valid
 
 
