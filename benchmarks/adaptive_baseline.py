@@ -51,6 +51,7 @@ def main(argv=None) -> int:
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.metrics import psnr
     from gmcpt.render import render_features
+    from gmcpt.scene import path_integrator
 
     scenes = [s for s in evaluation_scenes(args.scenes, args.procedural, print)]
     names = ["path+oidn", "shipped", *args.alternatives]
@@ -58,8 +59,7 @@ def main(argv=None) -> int:
     for eval_scene in scenes:
         reference = eval_scene.reference(256, 4096)
         scene = eval_scene.load(256)
-        integrator = scene.integrator()
-        integrator = getattr(integrator, "integrator", integrator)
+        integrator = path_integrator(scene)
         sensor = scene.sensors()[0]
         features = render_features(scene, sensor, 4)
         for budget in args.budgets:

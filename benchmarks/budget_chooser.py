@@ -53,6 +53,7 @@ def main(argv=None) -> int:
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.metrics import psnr
     from gmcpt.render import render_features
+    from gmcpt.scene import path_integrator
     from gmcpt.sampling import RenderSettings, render_sparse_frame
     from gmcpt.scene import scene_sensor
 
@@ -71,8 +72,7 @@ def main(argv=None) -> int:
     for eval_scene in evaluation_scenes(args.scenes, args.procedural, print):
         reference = eval_scene.reference(256, 4096)
         scene = eval_scene.load(256)
-        integrator = scene.integrator()
-        integrator = getattr(integrator, "integrator", integrator)
+        integrator = path_integrator(scene)
         for amount in args.budgets:
             runs = []
             for seed in args.seeds:

@@ -46,6 +46,7 @@ def main() -> int:
     from gmcpt.denoise import denoise_oidn
     from gmcpt.evaluation.scenes import by_name
     from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.scene import path_integrator
 
     eval_scene = by_name([args.scene])[0]
     if not eval_scene.available():
@@ -59,8 +60,7 @@ def main() -> int:
           "   product stages | user stages (s, fastest round)")
     for width, height in args.sizes:
         scene = eval_scene.load((width, height))
-        integrator = scene.integrator()
-        integrator = getattr(integrator, "integrator", integrator)
+        integrator = path_integrator(scene)
         settings = RenderSettings(budget=args.budget)
 
         def product():

@@ -39,6 +39,7 @@ def main() -> int:
     from gmcpt.evaluation.reference import cached_only
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.metrics import psnr
+    from gmcpt.scene import path_integrator
     from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     budget.DENSE_ABOVE = budget.EDGES_ABOVE = -1.0  # every frame dense
@@ -53,8 +54,7 @@ def main() -> int:
                 print(f"{eval_scene.name:<20} no cached reference: make eval renders it")
                 continue
         scene = eval_scene.load(QUICK.resolution)
-        integrator = scene.integrator()
-        integrator = getattr(integrator, "integrator", integrator)
+        integrator = path_integrator(scene)
         for samples in args.budgets:
             ours, theirs = [], []
             for seed in range(args.seeds):

@@ -36,14 +36,14 @@ def main(argv=None) -> int:
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.metrics import psnr, tonemap
     from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.scene import path_integrator
 
     print(f"{'scene':<22} {'':>8} {'traced MSE':>11} {'untraced MSE':>13} {'all MSE':>9} {'untraced share':>15} "
           f"{'PSNR dB':>8}")
     for eval_scene in evaluation_scenes(args.scenes, args.procedural, print):
         reference = eval_scene.reference(256, 4096)
         scene = eval_scene.load(256)
-        integrator = scene.integrator()
-        integrator = getattr(integrator, "integrator", integrator)
+        integrator = path_integrator(scene)
         frame, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(rate=args.rate, spp=args.spp, seed=17))
         ours = complete(frame, DEFAULT_METHOD).image
         theirs, _, _ = render_adaptive(scene, integrator, AdaptiveSettings(budget=args.rate * args.spp, seed=17))

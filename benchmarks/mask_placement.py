@@ -115,6 +115,7 @@ def main() -> int:
 
     from gmcpt.completion import DEFAULT_METHOD, complete
     from gmcpt.denoise import denoise_oidn
+    from gmcpt.scene import path_integrator
     from gmcpt.evaluation.scenes import QUALITY_SCENES, procedural_scenes
     from gmcpt.evaluation.baselines import render_full
     from gmcpt.metrics import all_metrics
@@ -132,8 +133,7 @@ def main() -> int:
     for eval_scene in scenes:
         reference = eval_scene.reference(args.res, 4096, progress=say)
         scene = eval_scene.load(args.res)
-        integrator = scene.integrator()
-        integrator = getattr(integrator, "integrator", integrator)
+        integrator = path_integrator(scene)
         for seed in args.seeds:
             full, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(
                 rate=1.0, spp=args.spp, seed=seed, feature_spp=args.feature_spp or DEFAULT_FEATURE_SPP))

@@ -119,11 +119,11 @@ def main() -> int:
     import mitsuba as mi
 
     from gmcpt.denoise import denoise_oidn
-    from gmcpt.evaluation.measure import path_integrator
     from gmcpt.evaluation.report import equal_time_verdict
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.metrics import all_metrics
     from gmcpt.render import render_features, render_native
+    from gmcpt.scene import path_integrator
     from gmcpt.sequence import SequenceRenderer, SequenceSettings
 
     rows = []

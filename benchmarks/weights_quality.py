@@ -45,6 +45,7 @@ def main(argv=None) -> int:
     from gmcpt.gan.weights import load_generator
     from gmcpt.metrics import psnr
     from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.scene import path_integrator
 
     names = [Path(w).stem for w in args.weights]
     for weights in args.weights:
@@ -56,8 +57,7 @@ def main(argv=None) -> int:
     for eval_scene in evaluation_scenes(args.scenes, args.procedural, print):
         reference = eval_scene.reference(256, 4096)
         scene = eval_scene.load(256)
-        integrator = scene.integrator()
-        integrator = getattr(integrator, "integrator", integrator)
+        integrator = path_integrator(scene)
         group = "real" if eval_scene.real else "synthetic"
         for rate in args.rates:
             frame, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(rate=rate, spp=args.spp, seed=17))

@@ -48,6 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .adaptive import FIRST_SHARE
 from .errors import GmcptError
 from .limits import check_positive
 from .masks import mask_rng, sample_by_density
@@ -247,8 +248,6 @@ def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:
 def adaptive_first_spp(budget: float) -> int:
     """Samples of every pixel in a dense frame's first pass when the rest may be placed adaptively
     (:data:`~gmcpt.adaptive.FIRST_SHARE` of the budget), 0 below :data:`ADAPTIVE_FROM_BUDGET`: no first pass."""
-    from .adaptive import FIRST_SHARE
-
     return max(1, int(FIRST_SHARE * budget)) if budget >= ADAPTIVE_FROM_BUDGET else 0
 
 

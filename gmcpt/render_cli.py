@@ -141,6 +141,15 @@ def _outputs(out: str):
     return sidecar_paths(out)
 
 
+def check_nonfinite(dropped: int, allow: bool) -> None:
+    """``dropped`` NaN/Inf radiance samples: one-line error, or with ``allow`` (``--allow-nonfinite``) a warning."""
+    if dropped:
+        message = f"{dropped} radiance samples were NaN/Inf"
+        if not allow:
+            raise GmcptError(message + " (broken scene data?); --allow-nonfinite drops them and goes on")
+        print(f"warning: {message}; dropped them", file=sys.stderr)
+
+
 def run(args, say=lambda message: None, extra: dict | None = None,
         committed: Callable[[], None] | None = None) -> dict:
     """Render, complete and write; returns the JSON record (``extra`` entries added to it).
@@ -183,12 +192,7 @@ def run(args, say=lambda message: None, extra: dict | None = None,
     settings = integrator.settings(spp=args.spp or 0, sensor=sensor)
 
     def check(frame) -> None:
-        dropped = frame.info["nonfinite_samples"]
-        if dropped:
-            message = f"{dropped} radiance samples were NaN/Inf"
-            if not args.allow_nonfinite:
-                raise GmcptError(message + " (broken scene data?); --allow-nonfinite drops them and goes on")
-            print(f"warning: {message}; dropped them", file=sys.stderr)
+        check_nonfinite(frame.info["nonfinite_samples"], args.allow_nonfinite)
         if frame.info.get("time_short"):
             print(f"warning: --time {settings.time:g} s is less than one sample a pixel and the completion cost "
                   "here; rendered one sample a pixel", file=sys.stderr)

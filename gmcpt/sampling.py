@@ -298,6 +298,7 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
         if _adaptive_rest(trace, left - first * plan.pixels, seed):
             trace.traced[:] = True
             return
+        # the second launch draws other samples than the first
         current[:], left, seed = first, left - first * plan.pixels, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
     start = time.perf_counter()
     counts = even_fill(current, left, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT).ravel()

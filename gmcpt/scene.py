@@ -107,6 +107,12 @@ def scene_sensor(scene: mi.Scene, index: int = 0, path: str | Path | None = None
     return sensors[index]
 
 
+def path_integrator(scene: mi.Scene) -> mi.SamplingIntegrator:
+    """The scene's own integrator, or the one ``masked_path`` wraps: the path tracer every pass traces with."""
+    integrator = scene.integrator()
+    return getattr(integrator, "integrator", integrator)
+
+
 def check_scene_file(path: str | Path) -> Path:
     """``path`` if it is a file; else one line: a folder (and its ``scene.xml``, if it has one), or not found."""
     path = Path(path)

@@ -30,8 +30,8 @@ from .denoise import denoise_oidn
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP
 from .limits import SEED_LIMIT, check_seed
-from .render import _sensor_film_size, feature_means, render_native, trace_counts
-from .scene import scene_sensor
+from .render import SampleSums, _sensor_film_size, feature_means, render_native
+from .scene import path_integrator, scene_sensor
 from .temporal import PastFrame, Projection, agreement, fit_projection, history_weights, matches, surfaces
 
 #: Frames of history kept by default, and the weight of a frame's samples per frame of age (0.9 over 0.8: +0.1-0.2
@@ -121,7 +121,7 @@ class SequenceRenderer:
         """Frame ``index`` of ``scene``: (image (H, W, 3) float32, info, timings in seconds)."""
         settings = self.settings
         sensor = sensor if sensor is not None else scene_sensor(scene)
-        integrator = integrator if integrator is not None else _path_integrator(scene)
+        integrator = integrator if integrator is not None else path_integrator(scene)
         height, width = _sensor_film_size(sensor)
         pixels, seed, timings = height * width, settings.frame_seed(index), {}
 
@@ -138,14 +138,12 @@ class SequenceRenderer:
         timings["placement_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        level = int(counts.min())
-        total = render_native(scene, sensor, integrator, level, seed) * level if level else np.zeros((pixels, 3))
-        count = np.full(pixels, float(level))
+        sums, level = SampleSums(pixels), int(counts.min())
+        if level:
+            sums.add_native(render_native(scene, sensor, integrator, level, seed), level)
         if (counts > level).any():
-            more, _, finite = trace_counts(scene, sensor, integrator, counts - level, (seed + 1) % SEED_LIMIT)
-            total, count = total + more, count + finite
-        finite = np.isfinite(total).all(axis=1)  # a pixel with a NaN/Inf sample: its frame's samples dropped
-        total, count = np.where(finite[:, None], total, 0.0), np.where(finite, count, 0.0)
+            sums.trace_counts(scene, sensor, integrator, counts - level, (seed + 1) % SEED_LIMIT)
+        total, count = sums.total, sums.finite  # NaN/Inf samples left out
         timings["render_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
@@ -168,7 +166,7 @@ class SequenceRenderer:
                 "history_frames": len(self.past) - 1 if settings.history else 0,
                 "history_pixels": float((kept > 0).mean()), "history_samples": float(kept.mean()),
                 "history_dropped": float(((history_count > 0) & ~agrees).mean()),
-                "nonfinite_pixels": int((~finite).sum())}
+                "nonfinite_samples": int(sums.samples - count.sum())}
         return denoised, info, timings
 
     def _history(self, index: int, positions: np.ndarray, normals: np.ndarray,
@@ -219,8 +217,3 @@ def _placement(history_count: np.ndarray, samples: int, budget: float, shape: tu
     history = np.minimum(np.floor(history_count), FRESH_CAP * budget).astype(np.int64).reshape(shape)
     base = np.full(shape, floor, np.int64)
     return (base + even_fill(history + base, samples - floor * pixels, seed)).ravel()
-
-
-def _path_integrator(scene: mi.Scene) -> mi.SamplingIntegrator:
-    integrator = scene.integrator()
-    return getattr(integrator, "integrator", integrator)

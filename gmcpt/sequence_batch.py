@@ -30,8 +30,9 @@ def check(args) -> None:
     given = [f"--{name}" for name in UNUSED if getattr(args, name) is not None]
     if given:
         raise GmcptError(f"--history spends --budget on every pixel, then OIDN: drop {', '.join(given)}")
-    if not 0 <= args.history <= 64:
-        raise GmcptError(f"--history must be in [0, 64] frames, got {args.history}")
+    from .sequence import SequenceSettings
+
+    SequenceSettings(history=args.history)  # its one rule of the history's length
 
 
 def _settings(args, scene):
@@ -74,10 +75,12 @@ def run(args, jobs: list[dict], say, bar) -> dict:
     from .scene import load_scene
     from .sequence import SequenceRenderer
 
+    from .render_cli import check_nonfinite
+
     rows, renderer, newest = {}, None, -1
-    frames = [int(dict(point.split("=", 1) for point in job["options"]["defines"])["frame"]) for job in jobs]
-    for job, frame in zip(jobs, frames):
+    for job in jobs:
         parameters = dict(define.split("=", 1) for define in job["options"]["defines"])
+        frame = int(parameters["frame"])
         start = time.perf_counter()
         scene = load_scene(job["scene"], tuple(args.res) if args.res else None, parameters)
         if renderer is None:
@@ -94,11 +97,9 @@ def run(args, jobs: list[dict], say, bar) -> dict:
         say(f"frame {frame}: {renderer.settings.budget:g} samples a pixel, {len(renderer.past)} past frames")
         try:
             image, info, timings = renderer.render(scene, frame)
+            check_nonfinite(info["nonfinite_samples"], args.allow_nonfinite)
         except GmcptError as error:  # the frame's name on the one line: the frames before it are written
             raise GmcptError(f"frame {frame} ({job['name']}): {error}") from None
-        if info["nonfinite_pixels"] and not args.allow_nonfinite:
-            raise GmcptError(f"frame {frame} ({job['name']}): {info['nonfinite_pixels']} pixels had NaN/Inf radiance "
-                             "samples (broken scene data?); --allow-nonfinite drops them and goes on")
         record = {"scene": job["scene"], "output": str(Path(job["out"]).resolve()),
                   "parameters": {"sequence": True, "budget": renderer.settings.budget, "seed": info["seed"],
                                  "history": renderer.settings.history, "decay": renderer.settings.decay,

@@ -45,8 +45,11 @@ class Projection:
             return vt[-1][:3] / vt[-1][3]
 
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(film coordinates (N, 2), in front of the camera (N,) bool) of world ``points`` (N, 3)."""
-        homogeneous = np.concatenate([points, np.ones((points.shape[0], 1))], axis=1) @ self.matrix.T
+        """(film coordinates (N, 2), in front of the camera (N,) bool) of world ``points``, (N, 3) or homogeneous
+        (N, 4)."""
+        if points.shape[1] == 3:
+            points = np.concatenate([points, np.ones((points.shape[0], 1))], axis=1)
+        homogeneous = points @ self.matrix.T
         depth = homogeneous[:, 2]
         front = depth > 1e-9
         safe = np.where(front, depth, 1.0)
@@ -113,11 +116,8 @@ def matches(past: PastFrame, current: Surfaces) -> tuple[np.ndarray, np.ndarray]
     the point lands in, so its centre is within half a pixel; no match for a miss, a point off the past film
     or behind its camera, or another surface there (depth or normal)."""
     projection = past.projection
-    homogeneous = current.points @ projection.matrix.T
-    depth = homogeneous[:, 2]
-    front = depth > 1e-9
-    safe = np.where(front, depth, 1.0)
-    column, row = np.floor(homogeneous[:, 0] / safe), np.floor(homogeneous[:, 1] / safe)
+    film, front = projection.project(current.points)
+    column, row = np.floor(film[:, 0]), np.floor(film[:, 1])
     inside = np.flatnonzero(front & (column >= 0) & (column < projection.width) & (row >= 0)
                             & (row < projection.height))
     source = (row[inside] * projection.width + column[inside]).astype(np.int64)

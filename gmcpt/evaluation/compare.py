@@ -145,7 +145,7 @@ def compare(args, say) -> dict:
     """Measure, write the outputs, print the table; returns the record written to ``compare.json``."""
     from ..exr import atomic_output
     from ..files import json_text, make_folder
-    from ..scene import load_scene, scene_sensor
+    from ..scene import load_scene, path_integrator, scene_sensor
     from . import compare_report, measure, plots
     from .cli import _versions
 
@@ -155,7 +155,7 @@ def compare(args, say) -> dict:
     size = tuple(int(side) for side in scene_sensor(scene, path=args.scene).film().crop_size())
     reference, source = _reference(args, size, say)
     config = compare_report.compare_config(args.budgets, args.seed)
-    loaded = measure.LoadedScene(scene_name(args.scene), scene, measure.path_integrator(scene), reference)
+    loaded = measure.LoadedScene(scene_name(args.scene), scene, path_integrator(scene), reference)
     weights = [compare_report.setting_weight(s) * 3 for s in (*config.path_spp, *config.adaptive_budgets)]
     weights += [compare_report.setting_weight(b) * 2 for b in config.default_budgets]
     runs = measure.timed_runs(config.repeats)

@@ -45,14 +45,10 @@ class LoadedScene:
     images: dict = field(default_factory=dict)  # label -> image at the grid rate, for the image grid
 
 
-def path_integrator(scene):
-    """The scene's own integrator, or the one ``masked_path`` wraps: what every contender traces with."""
-    integrator = scene.integrator()
-    return getattr(integrator, "integrator", integrator)
-
-
 def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     """Load a scene, its cached reference, and measure the reference's noise level (a second reference)."""
+    from ..scene import path_integrator
+
     progress = lambda message: say(f"  {message} (cached after the first run)")  # noqa: E731
     reference = eval_scene.reference(config.resolution, config.reference_spp, progress=progress)
     second = eval_scene.reference(config.resolution, config.reference_spp, seed=SECOND_REFERENCE_SEED,
@@ -358,6 +354,7 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     """The equal-time comparison (:func:`equal_time`) at ``config.full_size`` on one scene: the default at
     ``config.full_budgets`` samples a pixel against both baselines at ``config.full_path_spp`` and
     ``config.full_adaptive_budgets``. The reference is cached under ``data/references``."""
+    from ..scene import path_integrator
     from .reference import render_reference
 
     progress = lambda message: say(f"  {message} (cached under data/references after the first run)")  # noqa: E731
@@ -376,6 +373,7 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
 def stage_timings(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     """Seconds per stage of each budget variant at each resolution (rate 0.3, ``config.spp``)."""
     from ..completion import complete
+    from ..scene import path_integrator
 
     rows = []
     for resolution in config.timing_resolutions:

@@ -104,8 +104,9 @@ def render_full(scene, spp: int, seed: int, pass_spp: int = 256, progress: Calla
     import drjit as dr
     import mitsuba as mi
 
-    integrator = scene.integrator()
-    integrator = getattr(integrator, "integrator", integrator)  # unwrap masked_path
+    from ..scene import path_integrator
+
+    integrator = path_integrator(scene)
     passes = max(1, spp // pass_spp)
     total = None
     for index in range(passes):
