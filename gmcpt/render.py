@@ -154,7 +154,7 @@ _frozen_feature_means = FrozenKernel(_feature_means)
 
 @dataclass(frozen=True)
 class FeatureMeans:
-    """Per-pixel means of the feature rays, before they become buffers (:meth:`buffers`): flat float64 planes
+    """Per-pixel means of the feature rays, before they become buffers (:meth:`buffers`): flat float32 planes
     of albedo (3), normal (3), hit distance, hit fraction and coverage over ``spp`` rays, and visibility over
     ``visibility_spp`` rays (None where no shadow ray was traced). Two of them merge (:meth:`merged`)."""
 
@@ -176,14 +176,14 @@ class FeatureMeans:
     def buffers(self) -> dict:
         """The buffers of :func:`render_features` (visibility 0 where no shadow ray was traced)."""
         height, width = self.shape
-        columns = [plane.astype(np.float32).reshape(height, width) for plane in self.planes]
+        columns = [plane.reshape(height, width) for plane in self.planes]
         albedo, normal = np.stack(columns[0:3], axis=-1), _unit_normals(columns[3:6], self.spp)
         distance, hit_fraction, coverage = columns[6:]
         distance = distance / np.maximum(hit_fraction, 1e-6)
         max_distance = float(distance.max()) if (hit_fraction > 0).any() else 1.0
         depth = np.where(hit_fraction > 0, distance / max(max_distance, 1e-12), 1.0)
         visible = (np.zeros(self.shape, np.float32) if self.visibility is None
-                   else self.visibility.astype(np.float32).reshape(height, width))
+                   else self.visibility.reshape(height, width))
         return {"albedo": albedo, "normal": normal, "depth": depth.astype(np.float32), "visibility": visible,
                 "coverage": coverage}
 
@@ -196,7 +196,7 @@ def feature_means(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int, seed: in
     feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
     values = _frozen_feature_means(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), feature_spp,
                                                    _camera_key(sensor), visibility))
-    columns = [np.asarray(value, dtype=np.float64) for value in values]
+    columns = [np.asarray(value, dtype=np.float32) for value in values]
     return FeatureMeans(tuple(columns[:9]), feature_spp, columns[9] if visibility else None,
                         feature_spp if visibility else 0, (height, width))
 
@@ -314,12 +314,12 @@ def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
 def render_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int,
                   seed: int) -> np.ndarray:
     """Mitsuba's own render of every pixel at ``spp`` samples (the scene's box filter: each pixel the mean of its
-    own samples), (N, 3) float64 flat. The sensor's sampler keeps its own sample count (``mi.render`` sets it)."""
+    own samples), (N, 3) float32 flat. The sensor's sampler keeps its own sample count (``mi.render`` sets it)."""
     sampler = sensor.sampler()
     count = sampler.sample_count()
     try:
         image = mi.render(scene, sensor=sensor, integrator=integrator, spp=spp, seed=seed)
-        return np.asarray(image, dtype=np.float64)[..., :3].reshape(-1, 3)
+        return np.asarray(image, dtype=np.float32)[..., :3].reshape(-1, 3)
     finally:
         sampler.set_sample_count(count)
 
@@ -333,9 +333,23 @@ class SampleSums:
 
     def __init__(self, pixels: int):
         self.size = pixels
-        self.total, self.squares, self.finite = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels)
+        self._total, self.squares, self.finite = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels)
         self.squared_samples = np.zeros(pixels)  # finite samples that brought their squares
         self.samples = 0
+        # a frame that is one finite native pass (a dense frame's usual case) keeps Mitsuba's float32 image as
+        # its mean, and makes the float64 sums only if another pass comes (2-3 ms a frame at 256x256)
+        self._native_mean: np.ndarray | None = None
+
+    @property
+    def total(self) -> np.ndarray:
+        """(N, 3) float64 sums of the finite samples."""
+        if self._native_mean is not None:
+            self._total, self._native_mean = self._native_mean * np.float64(self.finite[0]), None
+        return self._total
+
+    @total.setter
+    def total(self, value: np.ndarray) -> None:
+        self._total, self._native_mean = value, None
 
     def trace(self, scene, sensor, integrator, pixels: np.ndarray, spp: int, seed: int,
               say: Callable[[str], None] = lambda message: None) -> None:
@@ -367,17 +381,16 @@ class SampleSums:
         self.samples += int(counts.sum())
 
     def add_native(self, image: np.ndarray, spp: int) -> None:
-        """A :func:`render_native` image of ``spp`` samples a pixel (scaled in place); a non-finite pixel's samples
+        """A :func:`render_native` image of ``spp`` samples a pixel (kept as it is); a non-finite pixel's samples
         count as dropped."""
-        finite = np.isfinite(image).all(axis=1)
-        if finite.all():  # the usual case, without the masked copies (0.35 s at 1920x1080)
-            image *= spp
-            if self.samples == 0:  # the first pass is the sums (a dense frame's one launch)
-                self.total = image
+        if np.isfinite(image).all():  # the usual case, without the masked copies (0.35 s at 1920x1080)
+            if self.samples == 0:  # the first pass is the frame (a dense frame's one launch)
+                self._native_mean = image
             else:
-                self.total += image
+                self.total += image * np.float64(spp)
             self.finite += spp
         else:
+            finite = np.isfinite(image).all(axis=1)
             self.total[finite] += image[finite] * spp
             self.finite[finite] += spp
         self.samples += image.shape[0] * spp
@@ -385,6 +398,9 @@ class SampleSums:
     def estimate(self, where: np.ndarray | slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """(mean (n, 3), variance of the mean (n,)) of the flat pixels ``where``; the variance comes from the samples
         that brought their squares, scaled to the pixel's whole count."""
+        if self._native_mean is not None:  # one native pass: its image is the mean, and it brings no squares
+            mean = self._native_mean[where]
+            return mean, np.zeros(mean.shape[0])
         inverse_count = 1.0 / np.maximum(self.finite[where], 1)
         mean = self.total[where] * inverse_count[:, None]
         squared = self.squared_samples[where]

@@ -117,7 +117,7 @@ class _Trace:
         mean, variance = self.sums.estimate()
         traced = self.traced & (self.sums.finite > 0)
         if traced.all():  # a dense frame: nothing to blank (0.1 s at 1920x1080)
-            return mean.astype(np.float32), variance.astype(np.float32), traced
+            return mean.astype(np.float32, copy=False), variance.astype(np.float32), traced
         return (np.where(traced[:, None], mean, 0.0).astype(np.float32),
                 np.where(traced, variance, 0.0).astype(np.float32), traced)
 
@@ -285,7 +285,8 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
     the scene that says even (:attr:`gmcpt.costs.FrameCosts.concentration`) keeps the one launch."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
-    trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
+    if trace.sums.samples:
+        trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
     trace.first_pass_pixels = int(probe.sum())
     current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget)
     reading = frame_costs(trace.scene, plan.pixels).concentration

@@ -31,6 +31,15 @@ def test_allocation_is_exact_capped_and_follows_the_weights(total, cap):
     np.testing.assert_array_equal(counts, allocate(weights, total, cap))
 
 
+def test_the_rounding_remainder_goes_to_the_largest_fractions_then_the_lowest_pixels():
+    from gmcpt.adaptive import allocate
+
+    np.testing.assert_array_equal(allocate(np.ones(10), 13, 4), [2, 2, 2, 1, 1, 1, 1, 1, 1, 1])
+    # ideal 0.2 / 0.6 / 0.2 / 0.6 / 0.4: the two 0.6s first, then the 0.4
+    np.testing.assert_array_equal(allocate(np.float64([1, 3, 1, 3, 2]), 2, 4), [0, 1, 0, 1, 0])
+    np.testing.assert_array_equal(allocate(np.float64([1, 3, 1, 3, 2]), 3, 4), [0, 1, 0, 1, 1])
+
+
 def test_allocation_refuses_more_samples_than_the_cap_allows():
     from gmcpt.adaptive import allocate
     from gmcpt.errors import GmcptError

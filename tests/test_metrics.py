@@ -42,6 +42,15 @@ def test_tonemap_clamps_and_matches_mitsuba_png_conversion(image):
     assert metrics.tonemap(hdr).max() <= 1
 
 
+def test_tonemap_is_the_srgb_standard_of_colour_science():
+    import colour
+
+    linear = np.concatenate([np.linspace(-1, 2, 4001, dtype=np.float32), np.float32([0.0031308, 0.0031309])])
+    expected = colour.cctf_encoding(np.clip(linear.astype(np.float64), 0, 1), function="sRGB")
+    assert metrics.tonemap(linear).dtype == np.float32
+    assert np.abs(metrics.tonemap(linear) - expected).max() < 1e-6
+
+
 def test_shape_mismatch(image):
     with pytest.raises(ValueError, match="shape"):
         metrics.mse(image, image[:-1])

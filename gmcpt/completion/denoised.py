@@ -31,9 +31,12 @@ def denoise_over_fill(frame: SparseFrame, fill: Callable[[], Completion]) -> Com
     """OIDN over the frame's traced samples, with the image of ``fill()`` at the untraced pixels. A frame
     with every pixel traced (a budget's dense frame) has nothing to fill: ``fill`` is not called, so the
     generator does not run (0.04 s at 256x256, seconds at 1920x1080) for an output nobody reads."""
-    filled = fill() if not frame.mask.all() else Completion(frame.radiance, {})
+    if frame.mask.all():
+        filled, noisy = Completion(frame.radiance, {}), frame.radiance
+    else:
+        filled = fill()
+        noisy = np.where(frame.mask[..., None], frame.radiance, filled.image)
     start = time.perf_counter()
-    noisy = np.where(frame.mask[..., None], frame.radiance, filled.image)
     image = denoise_oidn(noisy, frame.albedo, frame.normal)
     return Completion(image, {**filled.timings, "denoise_s": time.perf_counter() - start})
 

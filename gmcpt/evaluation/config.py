@@ -77,7 +77,7 @@ class EvalConfig:
     repeats: int = 2
 
 
-QUICK = EvalConfig(name="quick", procedural=2)
+QUICK = EvalConfig(name="quick", procedural=2, repeats=3)
 FULL = EvalConfig(name="full", procedural=6, patch_sizes=(4, 5, 6, 7, 8, 9), patch_rates=(0.2, 0.3, 0.4),
                   path_spp=(1, 2, 4, 8, 16, 32, 64), budget_rates=(0.125, 0.25, 0.5),
                   budget_spp=(1, 2, 4, 8, 16, 32), timing_resolutions=(128, 256, 512), repeats=3)
