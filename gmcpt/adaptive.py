@@ -143,8 +143,9 @@ def allocate(weights: np.ndarray, total: int, cap: int) -> np.ndarray:
 
 
 def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
-                    features: dict | None = None) -> tuple[np.ndarray, dict, dict]:
-    """Adaptive path tracing + OIDN.
+                    features: dict | None = None, guide_rays: int = 0) -> tuple[np.ndarray, dict, dict]:
+    """Adaptive path tracing + OIDN (``features``: OIDN's guides, the mean of ``guide_rays`` primary rays a
+    pixel; by default a feature pass of ``settings.feature_spp``).
 
     Returns ``(image (H, W, 3) float32, info, timings)``: ``info`` has ``path_samples`` (exactly
     ``round(budget * W * H)``), ``samples`` (the (H, W) count map) and ``nonfinite_samples``; ``timings`` has
@@ -161,7 +162,7 @@ def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
     timings = {"features_s": 0.0}
     if features is None:
         start = time.perf_counter()
-        features = render_features(scene, sensor, settings.feature_spp, settings.seed)
+        features, guide_rays = render_features(scene, sensor, settings.feature_spp, settings.seed), settings.feature_spp
         timings["features_s"] = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -184,7 +185,7 @@ def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
     image = (total / np.maximum(finite, 1)[:, None]).reshape(height, width, 3).astype(np.float32)
 
     start = time.perf_counter()
-    denoised = denoise_oidn(image, features["albedo"], features["normal"])
+    denoised = denoise_oidn(image, features["albedo"], features["normal"], guide_rays)
     timings["denoise_s"] = time.perf_counter() - start
     samples = (first + extra).reshape(height, width)
     info = {"budget": settings.budget, "path_samples": int(samples.sum()), "samples": samples,

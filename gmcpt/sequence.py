@@ -126,8 +126,8 @@ class SequenceRenderer:
         pixels, seed, timings = height * width, settings.frame_seed(index), {}
 
         start = time.perf_counter()
-        guides = feature_means(scene, sensor, guide_spp(settings.budget, DEFAULT_FEATURE_SPP), seed,
-                               visibility=False).buffers()
+        guide_rays = guide_spp(settings.budget, DEFAULT_FEATURE_SPP)
+        guides = feature_means(scene, sensor, guide_rays, seed, visibility=False).buffers()
         positions, normals, projection = geometry(scene, sensor)
         timings["features_s"] = time.perf_counter() - start
 
@@ -157,7 +157,8 @@ class SequenceRenderer:
         timings["combine_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        denoised = denoise_oidn(image.reshape(height, width, 3).astype(np.float32), guides["albedo"], guides["normal"])
+        denoised = denoise_oidn(image.reshape(height, width, 3).astype(np.float32), guides["albedo"], guides["normal"],
+                                guide_rays)
         timings["denoise_s"] = time.perf_counter() - start
 
         if settings.history:

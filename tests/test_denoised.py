@@ -24,8 +24,8 @@ def test_the_denoiser_sees_the_traced_samples_and_the_fill_elsewhere(monkeypatch
     fill = np.full(frame.radiance.shape, 0.25, np.float32)
     seen = {}
 
-    def identity(image, albedo, normal):
-        seen.update(image=image, albedo=albedo, normal=normal)
+    def identity(image, albedo, normal, guide_rays):
+        seen.update(image=image, albedo=albedo, normal=normal, guide_rays=guide_rays)
         return image.astype(np.float32)
 
     monkeypatch.setattr(denoised, "denoise_oidn", identity)
@@ -33,7 +33,31 @@ def test_the_denoiser_sees_the_traced_samples_and_the_fill_elsewhere(monkeypatch
     np.testing.assert_array_equal(result.image[frame.mask], frame.radiance[frame.mask])
     assert np.all(result.image[~frame.mask] == 0.25)
     assert seen["albedo"] is frame.albedo and seen["normal"] is frame.normal
+    assert seen["guide_rays"] == 0  # over a fill the guides are never taken as clean
     assert result.timings["pre_completion_s"] == 0.1 and result.timings["denoise_s"] >= 0
+
+
+@pytest.mark.parametrize("rays", [4, 16])
+def test_a_frame_traced_everywhere_tells_oidn_its_guides_rays(monkeypatch, rays):
+    from gmcpt.completion import denoised
+
+    frame, _ = _noisy_frame()
+    dense = dataclasses.replace(frame, mask=np.ones_like(frame.mask), info={**frame.info, "feature_spp": rays})
+    seen = {}
+    monkeypatch.setattr(denoised, "denoise_oidn", lambda image, albedo, normal, guide_rays: seen.update(
+        rays=guide_rays) or image)
+    denoised.denoise_over_fill(dense, lambda: pytest.fail("a dense frame has nothing to fill"))
+    assert seen["rays"] == rays
+
+
+def test_oidn_takes_guides_of_enough_rays_as_clean():
+    from gmcpt.denoise import CLEAN_GUIDE_RAYS, denoise_oidn
+
+    frame, _ = _noisy_frame()
+    noisy = np.where(frame.mask[..., None], frame.radiance, 0.2).astype(np.float32)
+    fewer = denoise_oidn(noisy, frame.albedo, frame.normal, CLEAN_GUIDE_RAYS - 1)
+    assert np.array_equal(fewer, denoise_oidn(noisy, frame.albedo, frame.normal))
+    assert not np.array_equal(fewer, denoise_oidn(noisy, frame.albedo, frame.normal, CLEAN_GUIDE_RAYS))
 
 
 @pytest.mark.parametrize("method", ["gan_oidn", "gan_pawnnm_oidn"])
@@ -57,7 +81,8 @@ def test_gan_oidn_fills_with_gans_image_at_the_untraced_pixels(monkeypatch):
 
     frame, _ = _noisy_frame()
     seen = {}
-    monkeypatch.setattr(denoised, "denoise_oidn", lambda image, albedo, normal: seen.setdefault("image", image))
+    monkeypatch.setattr(denoised, "denoise_oidn", lambda image, albedo, normal, guide_rays: seen.setdefault("image",
+                                                                                                       image))
     complete(frame, "gan_oidn")
     expected = np.where(frame.mask[..., None], frame.radiance, complete(frame, "gan").image)
     np.testing.assert_array_equal(seen["image"], expected)
@@ -72,7 +97,8 @@ def test_a_frame_with_every_pixel_traced_is_denoised_without_a_fill(monkeypatch,
     monkeypatch.setattr(denoised, "generator_fill", lambda *a, **k: pytest.fail("the generator ran"))
     monkeypatch.setattr(denoised, "complete_gan_pawnnm", lambda *a, **k: pytest.fail("the fill ran"))
     seen = {}
-    monkeypatch.setattr(denoised, "denoise_oidn", lambda image, albedo, normal: seen.setdefault("image", image))
+    monkeypatch.setattr(denoised, "denoise_oidn", lambda image, albedo, normal, guide_rays: seen.setdefault("image",
+                                                                                                       image))
     result = complete(frame, method)
     np.testing.assert_array_equal(seen["image"], frame.radiance)
     assert "pre_completion_s" not in result.timings and "denoise_s" in result.timings

@@ -31,13 +31,13 @@ def denoise_over_fill(frame: SparseFrame, fill: Callable[[], Completion]) -> Com
     """OIDN over the frame's traced samples, with the image of ``fill()`` at the untraced pixels. A frame
     with every pixel traced (a budget's dense frame) has nothing to fill: ``fill`` is not called, so the
     generator does not run (0.04 s at 256x256, seconds at 1920x1080) for an output nobody reads."""
-    if frame.mask.all():
-        filled, noisy = Completion(frame.radiance, {}), frame.radiance
-    else:
-        filled = fill()
+    if frame.mask.all():  # path traced everywhere: the guides' own rays say whether OIDN takes them as clean
+        filled, noisy, guide_rays = Completion(frame.radiance, {}), frame.radiance, frame.info.get("feature_spp", 0)
+    else:  # over a fill, clean guides lost (docs/experiments.md)
+        filled, guide_rays = fill(), 0
         noisy = np.where(frame.mask[..., None], frame.radiance, filled.image)
     start = time.perf_counter()
-    image = denoise_oidn(noisy, frame.albedo, frame.normal)
+    image = denoise_oidn(noisy, frame.albedo, frame.normal, guide_rays)
     return Completion(image, {**filled.timings, "denoise_s": time.perf_counter() - start})
 
 

@@ -72,7 +72,12 @@ def baseline_guides(loaded: LoadedScene, samples_per_pixel: float, seed: int) ->
     (Cycles' denoising passes, Mitsuba's ``aov`` integrator). Its time is :func:`guide_pass_seconds`."""
     from ..render import render_features
 
-    return render_features(loaded.scene, loaded.scene.sensors()[0], max(1, round(samples_per_pixel)), seed)
+    return render_features(loaded.scene, loaded.scene.sensors()[0], baseline_guide_rays(samples_per_pixel), seed)
+
+
+def baseline_guide_rays(samples_per_pixel: float) -> int:
+    """Primary rays a pixel of a baseline's guides (:func:`baseline_guides`): as many as its path samples."""
+    return max(1, round(samples_per_pixel))
 
 
 def guide_pass_seconds(loaded: LoadedScene, samples_per_pixel: float, seed: int) -> float:
@@ -81,8 +86,8 @@ def guide_pass_seconds(loaded: LoadedScene, samples_per_pixel: float, seed: int)
     import mitsuba as mi
 
     start = time.perf_counter()
-    np.asarray(mi.render(loaded.scene, integrator=_aov_integrator(mi.variant()), spp=max(1, round(samples_per_pixel)),
-                         seed=seed))
+    np.asarray(mi.render(loaded.scene, integrator=_aov_integrator(mi.variant()),
+                         spp=baseline_guide_rays(samples_per_pixel), seed=seed))
     return time.perf_counter() - start
 
 
@@ -125,7 +130,8 @@ def adaptive_oidn(loaded: LoadedScene, budget: float, config: EvalConfig, featur
     from ..adaptive import AdaptiveSettings, render_adaptive
 
     settings = AdaptiveSettings(budget=budget, seed=config.seed + 17)
-    return render_adaptive(loaded.scene, loaded.integrator, settings, features=features)
+    return render_adaptive(loaded.scene, loaded.integrator, settings, features=features,
+                           guide_rays=baseline_guide_rays(budget))
 
 
 def run_variant(frame, variant: Variant, reference: np.ndarray) -> tuple[np.ndarray, dict, dict]:
@@ -158,7 +164,8 @@ def quality(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
             samples = max(1, round(rate * config.spp))
             noisy = render_full(loaded.scene, loaded.integrator, samples, config.seed + 17)
             guides = baseline_guides(loaded, samples, config.seed + 17)
-            loaded.images[f"path {samples} spp + OIDN"] = denoise_oidn(noisy, guides["albedo"], guides["normal"])
+            loaded.images[f"path {samples} spp + OIDN"] = denoise_oidn(noisy, guides["albedo"], guides["normal"],
+                                                                        baseline_guide_rays(samples))
     return rows
 
 
@@ -171,7 +178,7 @@ def _path_oidn(loaded: LoadedScene, spp: int, seed: int, guides: dict) -> tuple[
     timings["render_s"] = time.perf_counter() - start
     timings["guides_s"] = guide_pass_seconds(loaded, spp, seed)
     start = time.perf_counter()
-    denoised = denoise_oidn(noisy, guides["albedo"], guides["normal"])
+    denoised = denoise_oidn(noisy, guides["albedo"], guides["normal"], baseline_guide_rays(spp))
     timings["denoise_s"] = time.perf_counter() - start
     return denoised, noisy, timings
 
@@ -320,7 +327,7 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
         guides = baseline_guides(loaded, samples, config.seed + 17)
         albedo, normal = guides["albedo"], guides["normal"]
         runs = [all_metrics(denoise_oidn(render_full(loaded.scene, loaded.integrator, samples, seed + 17), albedo,
-                                         normal), loaded.reference) for seed in seeds]
+                                         normal, baseline_guide_rays(samples)), loaded.reference) for seed in seeds]
         rows.append({"scene": loaded.name, "rate": rate, "variant": "path+oidn", "samples_per_pixel": samples,
                      "seeds": len(seeds), **_mean_metrics(runs)})
         runs, spent = [], 0
