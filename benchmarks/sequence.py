@@ -18,6 +18,10 @@ displayed image against the references' differences, x100), and the equal-time s
 over the better baseline (:func:`gmcpt.evaluation.report.equal_time_verdict`).
 
     python benchmarks/sequence.py [--scenes living-room] [--frames 12] [--res 128] [--motion pan]
+        [--record docs/sequences.json]
+
+``--record``: the rows, the verdicts and the settings as JSON, a plot beside it (``.png``); ``gmcpt eval --from
+docs/results.json`` then puts them in ``docs/results.md``.
 """
 from __future__ import annotations
 
@@ -98,7 +102,8 @@ class Accumulation:
         guides = render_features(scene, sensor, max(1, spp), seed)
         seconds = time.perf_counter() - start
         start = time.perf_counter()
-        denoised = denoise_oidn(image.reshape(height, width, 3).astype(np.float32), guides["albedo"], guides["normal"])
+        denoised = denoise_oidn(image.reshape(height, width, 3).astype(np.float32), guides["albedo"], guides["normal"],
+                                max(1, spp))
         return denoised, seconds + time.perf_counter() - start + aov_seconds(spp)
 
 
@@ -113,6 +118,7 @@ def main() -> int:
     parser.add_argument("--budgets", type=float, nargs="+", default=[1, 2, 4])
     parser.add_argument("--path-spp", type=int, nargs="+", default=[1, 2, 4, 8])
     parser.add_argument("--reference-spp", type=int, default=1024)
+    parser.add_argument("--record", type=Path, help="write the rows and verdicts here (JSON) and a plot beside it")
     args = parser.parse_args()
 
     import gmcpt  # noqa: F401  (variant, LLVM)
@@ -126,7 +132,7 @@ def main() -> int:
     from gmcpt.scene import path_integrator
     from gmcpt.sequence import SequenceRenderer, SequenceSettings
 
-    rows = []
+    rows, verdicts, started = [], [], time.time()
     for eval_scene in [s for s in evaluation_scenes(None, 2) if s.name in args.scenes]:
         scene = eval_scene.load(args.res)
         integrator = path_integrator(scene)
@@ -161,7 +167,7 @@ def main() -> int:
                     noisy = render_native(scene, sensor, integrator, int(amount), seed)
                     guides = render_features(scene, sensor, int(amount), seed)
                     image = denoise_oidn(noisy.reshape(args.res, args.res, 3).astype(np.float32), guides["albedo"],
-                                         guides["normal"])
+                                         guides["normal"], int(amount))
                     spent = time.perf_counter() - start + aov_seconds(int(amount))
                 elif contender == "accumulation+oidn":
                     image, spent = accumulation.render(scene, integrator, int(amount), seed, aov_seconds)
@@ -181,9 +187,47 @@ def main() -> int:
         for baseline in ("path+oidn", "accumulation+oidn"):
             verdict = equal_time_verdict([r for r in rows if r["scene"] == eval_scene.name], "sequence", (baseline,))
             if verdict:
+                flicker_ratio = equal_time_flicker([r for r in rows if r["scene"] == eval_scene.name], baseline)
+                verdicts.append({"scene": eval_scene.name, "baseline": baseline, "speedup": verdict["speedup"],
+                                 "bounds": verdict["bounds"], "settings": verdict["settings"],
+                                 "flicker_ratio": flicker_ratio})
                 print(f"{eval_scene.name}: sequence vs {baseline}: {verdict['speedup']:.2f}x at equal time "
-                      f"({verdict['bounds']} bounds of {verdict['settings']})")
+                      f"({verdict['bounds']} bounds of {verdict['settings']}); flicker {flicker_ratio:.2f}x its "
+                      "flicker at the sequence's time")
+    if args.record:
+        record(args, rows, verdicts, time.time() - started)
     return 0
+
+
+def equal_time_flicker(rows: list[dict], baseline: str) -> float:
+    """Geometric mean over the sequence's settings of its flicker over ``baseline``'s at the same seconds a frame
+    (interpolated in log time between the baseline's settings, held at its ends)."""
+    points = sorted((r["seconds"], r["flicker"]) for r in rows if r["contender"] == baseline)
+    times, values = np.log([p[0] for p in points]), [p[1] for p in points]
+    ratios = [r["flicker"] / np.interp(np.log(r["seconds"]), times, values)
+              for r in rows if r["contender"] == "sequence"]
+    return float(np.exp(np.mean(np.log(ratios))))
+
+
+def record(args, rows: list[dict], verdicts: list[dict], seconds: float) -> None:
+    """``args.record`` (JSON: command, date, settings, versions, rows, verdicts) and its plot (``.png``)."""
+    import datetime
+    import json
+    import platform
+
+    from gmcpt.evaluation.cli import _commit, _versions
+    from gmcpt.evaluation.plots import sequence_plot
+    from gmcpt.exr import atomic_output
+
+    data = {"command": "python benchmarks/sequence.py " + " ".join(sys.argv[1:]),
+            "date": datetime.date.today().isoformat(), "commit": _commit(),
+            "machine": f"{platform.machine()}, {len(__import__('os').sched_getaffinity(0))} cores",
+            "settings": {key: (str(value) if isinstance(value, Path) else value) for key, value in vars(args).items()},
+            "versions": _versions(), "seconds": seconds, "rows": rows, "verdicts": verdicts}
+    with atomic_output(args.record) as temporary:
+        Path(temporary).write_text(json.dumps(data, indent=1))
+    sequence_plot(rows, args.record.with_suffix(".png"))
+    print(f"wrote {args.record} and {args.record.with_suffix('.png')}")
 
 
 if __name__ == "__main__":

@@ -61,13 +61,8 @@ PROBE_SPP = 4
 #: Share of the pixels the probe traces: its median moves by about 0.01 between seeds on every evaluation scene,
 #: far less than the gap between the scenes that go dense and the others (docs/experiments.md).
 PROBE_SHARE = 0.01
-#: Primary rays a pixel of the guide pass below and from :data:`CLEAN_GUIDES_FROM` (the edge signal was set on
-#: passes of 4 to 16).
+#: Fewest and most primary rays a pixel of the guide pass: the edge signal was set on passes of 4 to 16.
 GUIDE_SPP_RANGE = (4, 16)
-#: From this budget a dense frame's guides take :data:`GUIDE_SPP_RANGE`'s most rays, which OIDN takes as clean
-#: (:data:`gmcpt.denoise.CLEAN_GUIDE_RAYS`): +0.08 to +1.1 dB on every evaluation scene at budgets 4 and 8 for
-#: 5-25 ms; at 1 and 2 the dining room lost 0.1-0.2 dB (docs/experiments.md).
-CLEAN_GUIDES_FROM = 4
 #: Above this :func:`relative_variance` the frame is traced dense (set in docs/experiments.md).
 DENSE_ABOVE = 0.15
 #: Above this :func:`edge_share` too, at 256x256 (docs/experiments.md); at other sizes :func:`edges_above`.
@@ -214,10 +209,11 @@ def needs_probe(plan: BudgetPlan, edges: float, pays: bool, reading: float | Non
 
 
 def guide_spp(budget: float, feature_spp: int) -> int:
-    """Primary rays a pixel of a budget's guide pass: :data:`GUIDE_SPP_RANGE`'s fewest below
-    :data:`CLEAN_GUIDES_FROM`, its most from there, and at most ``feature_spp``."""
+    """Primary rays a pixel of a budget's guide pass: about the budget, within :data:`GUIDE_SPP_RANGE` and at most
+    ``feature_spp`` (what a baseline's renderer gathers over its own samples). From 16 OIDN takes them as clean
+    (:data:`gmcpt.denoise.CLEAN_GUIDE_RAYS`), as it does a baseline's."""
     low, high = GUIDE_SPP_RANGE
-    return max(1, min(feature_spp, high if budget >= CLEAN_GUIDES_FROM else low))
+    return max(1, min(feature_spp, high, max(low, int(round(budget)))))
 
 
 def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:

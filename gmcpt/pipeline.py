@@ -12,6 +12,8 @@ from typing import Callable
 import numpy as np
 
 from .completion import DEFAULT_METHOD, complete
+from .completion.denoised import oidn_guide_rays
+from .denoise import CLEAN_GUIDE_RAYS
 from .costs import frame_costs, record_denoise
 from .frame import SparseFrame
 from .sampling import RenderSettings, render_sparse_frame
@@ -43,7 +45,8 @@ def render_and_complete(scene, integrator, settings: RenderSettings = RenderSett
     say(f"completing with {method!r}")
     result = complete(frame, method, **(options or {}))
     timings = {**timings, **result.timings}
-    if "denoise_s" in timings:  # a method without OIDN says nothing of OIDN's pace
+    # a method without OIDN says nothing of OIDN's usual pace, nor does its large model (clean guides)
+    if "denoise_s" in timings and oidn_guide_rays(frame) < CLEAN_GUIDE_RAYS:
         record_denoise(timings["denoise_s"], frame.mask.size)
     if "sparse_extra_s" in frame.info:  # what this sparse frame added to a dense one's work, the generator's included
         extra = frame.info.pop("sparse_extra_s") + timings.get("pre_completion_s", 0.0)

@@ -260,8 +260,7 @@ def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarr
     beside the rest of the first pass (placed by the feature edges), then ``two_pass``'s second pass."""
     settings, seed = trace.settings, trace.settings.seed
     height, width = trace.shape
-    # shadow rays (the visibility buffer) on half the feature pass's rays at least
-    more_rays = max(settings.feature_spp - guides.spp, settings.feature_spp // 2, 1)
+    more_rays = max(settings.feature_spp - guides.spp, PROBE_SPP)
     features = guides.merged(trace.features(more_rays, GUIDE_TOP_UP_SEED_OFFSET)).buffers()
     sparse = replace(settings, rate=plan.sparse_rate, budget=0.0)
     start = time.perf_counter()

@@ -167,7 +167,7 @@ class SequenceRenderer:
                 "history_frames": len(self.past) - 1 if settings.history else 0,
                 "history_pixels": float((kept > 0).mean()), "history_samples": float(kept.mean()),
                 "history_dropped": float(((history_count > 0) & ~agrees).mean()),
-                "nonfinite_samples": int(sums.samples - count.sum())}
+                "nonfinite_samples": int(sums.samples - count.sum()), "guide_rays": guide_rays}
         return denoised, info, timings
 
     def _history(self, index: int, positions: np.ndarray, normals: np.ndarray,

@@ -27,17 +27,23 @@ from . import Completion, register_method
 from .learned import complete_gan_pawnnm, generator_fill
 
 
+def oidn_guide_rays(frame: SparseFrame) -> int:
+    """The rays a pixel OIDN is told the frame's guides are the mean of (:func:`gmcpt.denoise.denoise_oidn`): the
+    feature pass's where every pixel was traced; 0 over a fill, where clean guides lost (docs/experiments.md)."""
+    return frame.info.get("feature_spp", 0) if frame.mask.all() else 0
+
+
 def denoise_over_fill(frame: SparseFrame, fill: Callable[[], Completion]) -> Completion:
     """OIDN over the frame's traced samples, with the image of ``fill()`` at the untraced pixels. A frame
     with every pixel traced (a budget's dense frame) has nothing to fill: ``fill`` is not called, so the
     generator does not run (0.04 s at 256x256, seconds at 1920x1080) for an output nobody reads."""
-    if frame.mask.all():  # path traced everywhere: the guides' own rays say whether OIDN takes them as clean
-        filled, noisy, guide_rays = Completion(frame.radiance, {}), frame.radiance, frame.info.get("feature_spp", 0)
-    else:  # over a fill, clean guides lost (docs/experiments.md)
-        filled, guide_rays = fill(), 0
+    if frame.mask.all():
+        filled, noisy = Completion(frame.radiance, {}), frame.radiance
+    else:
+        filled = fill()
         noisy = np.where(frame.mask[..., None], frame.radiance, filled.image)
     start = time.perf_counter()
-    image = denoise_oidn(noisy, frame.albedo, frame.normal, guide_rays)
+    image = denoise_oidn(noisy, frame.albedo, frame.normal, oidn_guide_rays(frame))
     return Completion(image, {**filled.timings, "denoise_s": time.perf_counter() - start})
 
 

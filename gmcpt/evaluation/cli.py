@@ -76,9 +76,13 @@ def _write_text(path: Path, text: str) -> None:
 
 
 def write_documents(record: dict, out: Path, readme: str | None) -> None:
-    """``results.md`` and the README's generated parts (results, limits) from a run's record."""
+    """``results.md`` and the README's generated parts (results, limits) from a run's record, with the sequence
+    benchmark's record where ``out`` has one (``sequences.json``, from ``benchmarks/sequence.py --record``)."""
     from .document import results_markdown, rewrite_readme
 
+    sequences = out / "sequences.json"
+    if sequences.is_file():
+        record = {**record, "sequences": json.loads(sequences.read_text())}
     _write_text(out / "results.md", results_markdown(record))
     if readme:
         path = Path(readme)

@@ -74,6 +74,32 @@ def full_resolution_section(run: dict) -> list[str]:
     ]
 
 
+def sequence_section(sequences: dict | None) -> list[str]:
+    """The sequence mode against per-frame path tracing + OIDN and accumulation + OIDN, from the record of
+    ``benchmarks/sequence.py --record`` (none: no section)."""
+    if not sequences:
+        return []
+    settings = sequences["settings"]
+    lines = ["## Sequences: reusing earlier frames' samples", "",
+             f"`{sequences['command']}` on {sequences['date']} (commit {sequences['commit']}, "
+             f"{sequences['machine']}): {settings['frames']} frames of a {settings['motion']} "
+             f"(step {settings['step']:g}) at {settings['res']}x{settings['res']}, references of "
+             f"{settings['reference_spp']} spp; means over the frames after the first {settings['warm']}, warm "
+             "seconds a frame with every stage counted (guides of the baselines charged an `aov` pass). Flicker: "
+             "root mean square over frames of the error of frame-to-frame differences of the displayed image "
+             "against the references' (x100).", "",
+             "| scene | contender | samples a pixel a frame | PSNR dB | seconds a frame | flicker |",
+             "|---|---|---|---|---|---|"]
+    lines += [f"| {r['scene']} | {r['contender']} | {r['spp']:g} | {r['psnr']:.2f} | {r['seconds']:.3f} | "
+              f"{r['flicker']:.2f} |" for r in sequences["rows"]]
+    lines += ["", "Speed-up of the sequence mode at equal quality (geometric mean over its budgets; above 1x it is "
+              "faster) and its flicker over the baseline's at the same seconds a frame:", "",
+              "| scene | baseline | speed-up | flicker ratio |", "|---|---|---|---|"]
+    lines += [f"| {v['scene']} | {v['baseline']} | {v['speedup']:.2f}x | {v['flicker_ratio']:.2f} |"
+              for v in sequences["verdicts"]]
+    return [*lines, "", "![sequences: PSNR against seconds a frame](sequences.png)", ""]
+
+
 def results_markdown(run: dict) -> str:
     c, quality, budget = run["config"], run["quality"], run["equal_time"]
     rates = c["rates"]
@@ -149,7 +175,10 @@ def results_markdown(run: dict) -> str:
         f"{', '.join(f'{b:g}' for b in c.get('adaptive_budgets', ()))} samples a pixel on average; the completion "
         f"methods at rates {', '.join(f'{r:g}' for r in c['budget_rates'])} x {', '.join(map(str, c['budget_spp']))} spp "
         "(guides or feature pass, probe, placement, render and completion counted; the default's dense frames are "
-        "Mitsuba's own render and its guides a pass of about the budget's samples without shadow rays). Timed warm, in one process: each "
+        "Mitsuba's own render and its guides a pass of about the budget's samples, 4 to 16 rays a pixel, without "
+        "shadow rays; OIDN takes guides of 16 rays or more as noise-free and runs its large model, the baselines' "
+        "from 16 spp too). "
+        "Timed warm, in one process: each "
         f"contender's whole pipeline runs {timed_runs(c['repeats'])} times, each run with seeds of its own (path "
         "tracing's the default's: a dense frame at an integral budget is the same render, so the two differ by their "
         "guides and time, not by one seed's luck), in rounds of every setting once: the "
@@ -186,6 +215,7 @@ def results_markdown(run: dict) -> str:
         report.speedup_table(budget, DEFAULT_VARIANT),
         "",
         *full_resolution_section(run),
+        *sequence_section(run.get("sequences")),
         "## Table 4: stage timings per resolution",
         "",
         f"Scene `{c['timing_scene']}`, rate 0.3, {c['spp']} spp, wall seconds on this machine "

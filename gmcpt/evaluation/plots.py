@@ -170,3 +170,25 @@ def image_grid(images: dict, path: Path, title: str) -> None:
         axis.set_yticks([])
     figure.suptitle(title, fontsize=9)
     _save(figure, path)
+
+
+SEQUENCE_STYLE = {"path+oidn": ("tab:blue", "s"), "accumulation+oidn": ("tab:purple", "D"),
+                  "sequence": ("tab:green", "*")}
+
+
+def sequence_plot(rows: list[dict], path: Path) -> None:
+    """Per scene of a sequence benchmark (``benchmarks/sequence.py``): mean PSNR against mean seconds a frame."""
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    figure, axes = _figure(min(3, len(scenes)), len(scenes))
+    for axis, scene in zip(axes, scenes):
+        for contender, (color, marker) in SEQUENCE_STYLE.items():
+            points = sorted((r["seconds"], r["psnr"]) for r in rows if r["scene"] == scene and r["contender"] == contender)
+            if points:
+                axis.plot(*zip(*points), color=color, marker=marker, label=contender)
+        axis.set_xscale("log")
+        axis.set_title(scene, fontsize=9)
+        axis.set_xlabel("seconds a frame (warm)")
+        axis.set_ylabel("PSNR dB")
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    _save(figure, path)
