@@ -95,17 +95,19 @@ def geometry(scene: mi.Scene, sensor: mi.Sensor) -> tuple[np.ndarray, np.ndarray
     hit = scene.ray_intersect(ray)
     dr.eval(hit.p, hit.sh_frame.n, hit.t)
     valid = np.asarray(hit.is_valid())
-    positions = np.where(valid[:, None], _columns(hit.p), np.nan)
-    normals = np.where(valid[:, None], _columns(hit.sh_frame.n), np.nan)
+    # float32, as traced: the reprojection of 8 past frames reads them every frame, at half float64's traffic
+    positions = np.where(valid[:, None], _columns(hit.p, np.float32), np.float32(np.nan))
+    normals = np.where(valid[:, None], _columns(hit.sh_frame.n, np.float32), np.float32(np.nan))
     rows, columns = np.meshgrid(np.linspace(0, height - 1, 8).astype(np.int64),
                                 np.linspace(0, width - 1, 8).astype(np.int64), indexing="ij")
     picks = (rows * width + columns).ravel()  # a grid of rays, not a line of them: 11 numbers to fit
     return positions, normals, fit_projection(film[picks], origins[picks], directions[picks], width, height)
 
 
-def _columns(vector) -> np.ndarray:
-    """A Dr.Jit 3-vector of N lanes as (N, 3) float64."""
-    return np.stack([np.asarray(vector.x), np.asarray(vector.y), np.asarray(vector.z)], axis=1).astype(np.float64)
+def _columns(vector, dtype=np.float64) -> np.ndarray:
+    """A Dr.Jit 3-vector of N lanes as (N, 3) ``dtype``."""
+    return np.stack([np.asarray(vector.x), np.asarray(vector.y), np.asarray(vector.z)], axis=1).astype(dtype,
+                                                                                                     copy=False)
 
 
 class SequenceRenderer:

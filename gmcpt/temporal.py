@@ -46,10 +46,10 @@ class Projection:
 
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(film coordinates (N, 2), in front of the camera (N,) bool) of world ``points``, (N, 3) or homogeneous
-        (N, 4)."""
+        (N, 4), in their own precision."""
         if points.shape[1] == 3:
-            points = np.concatenate([points, np.ones((points.shape[0], 1))], axis=1)
-        homogeneous = points @ self.matrix.T
+            points = np.concatenate([points, np.ones((points.shape[0], 1), points.dtype)], axis=1)
+        homogeneous = points @ self.matrix.T.astype(points.dtype)
         depth = homogeneous[:, 2]
         front = depth > 1e-9
         safe = np.where(front, depth, 1.0)
@@ -107,7 +107,7 @@ class Surfaces:
 def surfaces(positions: np.ndarray, normals: np.ndarray) -> Surfaces:
     """:class:`Surfaces` of ``positions`` and ``normals`` ((N, 3) each, NaN on a miss)."""
     pixels = np.flatnonzero(np.isfinite(positions[:, 0]))
-    points = np.concatenate([positions[pixels], np.ones((pixels.size, 1))], axis=1)
+    points = np.concatenate([positions[pixels], np.ones((pixels.size, 1), positions.dtype)], axis=1)
     return Surfaces(pixels, points, normals[pixels], positions.shape[0])
 
 
@@ -120,10 +120,10 @@ def matches(past: PastFrame, current: Surfaces) -> tuple[np.ndarray, np.ndarray]
     column, row = np.floor(film[:, 0]), np.floor(film[:, 1])
     inside = np.flatnonzero(front & (column >= 0) & (column < projection.width) & (row >= 0)
                             & (row < projection.height))
-    source = (row[inside] * projection.width + column[inside]).astype(np.int64)
+    source = row[inside].astype(np.int64) * projection.width + column[inside].astype(np.int64)
     points = current.points[inside, :3]
     step = past.positions[source] - points
-    away = points - projection.centre
+    away = points - projection.centre.astype(points.dtype)
     same = (np.einsum("ij,ij->i", step, step) <= DEPTH_TOLERANCE ** 2 * np.einsum("ij,ij->i", away, away)) & \
         (np.einsum("ij,ij->i", past.normals[source], current.normals[inside]) >= NORMAL_COSINE)
     return current.pixels[inside[same]], source[same]
