@@ -61,7 +61,8 @@ def main() -> int:
                 frame, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(budget=samples, seed=seed))
                 ours.append(psnr(complete(frame, DEFAULT_METHOD).image, reference))
                 noisy = render_full(scene, integrator, max(1, round(samples)), seed)
-                theirs.append(psnr(denoise_oidn(noisy, frame.albedo, frame.normal), reference))
+                theirs.append(psnr(denoise_oidn(noisy, frame.albedo, frame.normal, frame.info["feature_spp"]),
+                                   reference))  # the same guides, told as many rays
             difference = float(np.mean(ours) - np.mean(theirs))
             differences.append(difference)
             print(f"{eval_scene.name:<20} {samples:6g} {np.mean(ours):11.2f} {np.mean(theirs):9.2f} {difference:+10.2f}",
