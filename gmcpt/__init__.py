@@ -19,7 +19,14 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from .errors import GmcptError
+import os as _os
+
+# OpenBLAS's threads busy-wait for a while after each call numpy makes (a reprojection's matrix product, an
+# SVD): on 2 cores they took one from the path tracer that ran next, 35 ms of a 0.1 s render. Sleeping at once
+# costs a call microseconds. Read when numpy loads OpenBLAS, so set before this package imports numpy.
+_os.environ.setdefault("OPENBLAS_THREAD_TIMEOUT", "4")
+
+from .errors import GmcptError  # noqa: E402
 from .interrupts import startup as _startup
 
 with _startup():  # the command line: a Ctrl-C during these imports is one line (see gmcpt.interrupts)

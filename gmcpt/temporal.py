@@ -49,7 +49,8 @@ class Projection:
         (N, 4), in their own precision."""
         if points.shape[1] == 3:
             points = np.concatenate([points, np.ones((points.shape[0], 1), points.dtype)], axis=1)
-        homogeneous = points @ self.matrix.T.astype(points.dtype)
+        # einsum's own loop, not BLAS: a matrix product on this frame would wake OpenBLAS's threads (gmcpt/__init__)
+        homogeneous = np.einsum("ij,kj->ik", points, self.matrix.astype(points.dtype))
         depth = homogeneous[:, 2]
         front = depth > 1e-9
         safe = np.where(front, depth, 1.0)
