@@ -12,7 +12,8 @@ axis by ``--step`` degrees a frame, ``dolly`` moves it along its view by ``--ste
   accumulation, the strongest simple alternative;
 - ``sequence``: :class:`gmcpt.sequence.SequenceRenderer` at the same budget.
 
-Printed: mean PSNR over the frames after the first ``--warm`` (history needs frames to build), mean warm time
+The contenders take turns frame by frame, so a machine whose pace drifts slows them alike. Printed: mean
+PSNR over the frames after the first ``--warm`` (history needs frames to build), mean warm time
 a frame, the flicker figure (root mean square over frames of the error of frame-to-frame differences in the
 displayed image against the references' differences, x100), and the equal-time speed-up of the sequence mode
 over the better baseline (:func:`gmcpt.evaluation.report.equal_time_verdict`).
@@ -143,10 +144,11 @@ def main() -> int:
             parameters["to_world"] = moved(base, args.motion, args.step, frame)
             parameters.update()
 
+        aov = mi.load_dict({"type": "aov", "aovs": "a:albedo,n:sh_normal"})  # loading it is no part of a frame
+
         def aov_seconds(spp: int) -> float:
             start = time.perf_counter()
-            np.asarray(mi.render(scene, integrator=mi.load_dict({"type": "aov", "aovs": "a:albedo,n:sh_normal"}),
-                                 spp=max(1, spp)))
+            np.asarray(mi.render(scene, integrator=aov, spp=max(1, spp)))
             return time.perf_counter() - start
 
         references = []
@@ -156,12 +158,15 @@ def main() -> int:
                                         args.reference_spp, args.res))
         contenders = [("path+oidn", spp) for spp in args.path_spp] + [("accumulation+oidn", spp) for spp in args.path_spp] \
             + [("sequence", budget) for budget in args.budgets]
-        for contender, amount in contenders:
-            accumulation, sequence = Accumulation(), SequenceRenderer(SequenceSettings(budget=amount, seed=3))
-            images, seconds = [], []
-            for frame in range(args.frames):
-                at(frame)
-                seed = 1000 + frame
+        # frame by frame, every contender in turn: a machine whose pace drifts over minutes slows them alike
+        runs = [{"contender": contender, "amount": amount, "accumulation": Accumulation(), "images": [],
+                 "sequence": SequenceRenderer(SequenceSettings(budget=amount, seed=3)), "seconds": []}
+                for contender, amount in contenders]
+        for frame in range(args.frames):
+            at(frame)
+            seed = 1000 + frame
+            for run in runs:
+                contender, amount = run["contender"], run["amount"]
                 if contender == "path+oidn":
                     start = time.perf_counter()
                     noisy = render_native(scene, sensor, integrator, int(amount), seed)
@@ -170,17 +175,19 @@ def main() -> int:
                                          guides["normal"], int(amount))
                     spent = time.perf_counter() - start + aov_seconds(int(amount))
                 elif contender == "accumulation+oidn":
-                    image, spent = accumulation.render(scene, integrator, int(amount), seed, aov_seconds)
+                    image, spent = run["accumulation"].render(scene, integrator, int(amount), seed, aov_seconds)
                 else:
                     start = time.perf_counter()
-                    image, _, _ = sequence.render(scene, frame, integrator)
+                    image, _, _ = run["sequence"].render(scene, frame, integrator)
                     spent = time.perf_counter() - start
-                images.append(image)
-                seconds.append(spent)
-            kept = slice(args.warm, None)
+                run["images"].append(image)
+                run["seconds"].append(spent)
+        kept = slice(args.warm, None)
+        for run in runs:
+            images, contender, amount = run["images"], run["contender"], run["amount"]
             psnr = float(np.mean([all_metrics(i, r)["psnr"] for i, r in zip(images[kept], references[kept])]))
             row = {"scene": eval_scene.name, "contender": contender, "rate": 1.0, "spp": amount, "psnr": psnr,
-                   "seconds": float(np.mean(seconds[kept])), "flicker": flicker(images[kept], references[kept])}
+                   "seconds": float(np.mean(run["seconds"][kept])), "flicker": flicker(images[kept], references[kept])}
             rows.append(row)
             print(f"{eval_scene.name:20s} {contender:18s} {amount:4g}: {psnr:6.2f} dB  {row['seconds']:.3f} s a frame  "
                   f"flicker {row['flicker']:.3f}", flush=True)
