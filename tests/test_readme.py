@@ -56,3 +56,7 @@ def test_readme_example_runs(language, code, tmp_path):
     assert result.returncode == 0, result.stderr[-3000:]
     for written in re.findall(r"--(?:out|report) (\S+)", code):
         assert (tmp_path / written).exists(), written
+
+
+def test_the_readme_stays_a_user_guide_of_at_most_12_kb():
+    assert len((ROOT / "README.md").read_bytes()) <= 12 * 1024

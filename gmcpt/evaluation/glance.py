@@ -104,13 +104,13 @@ def limits_lines(run: dict) -> list[str]:
     overall = report.equal_time_verdict(timed, DEFAULT_VARIANT)
     scenes = _scene_verdicts(timed)
     if overall is not None and scenes:
-        ahead = [s for s, v in scenes.items() if v > 1]
+        behind = [s for s, v in scenes.items() if v < 1]
         low = min(scenes.values())
         word = "Faster" if low >= 1 else "Not yet faster" if overall["speedup"] < 1 else "Not on every scene faster"
         lines.append(f"- {word} than path tracing + OIDN at equal time: {overall['speedup']:.2f}x overall, "
                      f"{low:.2f}-{max(scenes.values()):.2f}x a scene against the better\n  "
-                     f"baseline (geometric mean, budgets {_budgets(timed)}; above 1x on "
-                     f"{', '.join(ahead) or 'none'}){_full_resolution(run)}.")
+                     f"baseline (geometric mean, budgets {_budgets(timed)}; below 1x on "
+                     f"{', '.join(behind) or 'none'}){_full_resolution(run)}.")
     middle = c["rates"][len(c["rates"]) // 2]
     leads = [(_group_name(label).split()[-1], report.equal_samples_lead(run.get("placement", []),
                                                                           default_placement(c), middle, **where))
