@@ -133,7 +133,9 @@ def main() -> int:
     from gmcpt.scene import path_integrator
     from gmcpt.sequence import SequenceRenderer, SequenceSettings
 
-    rows, verdicts, started = [], [], time.time()
+    from gmcpt.evaluation.cli import _commit
+
+    rows, verdicts, started, commit = [], [], time.time(), _commit()  # the commit before the run rewrites docs/
     for eval_scene in [s for s in evaluation_scenes(None, 2) if s.name in args.scenes]:
         scene = eval_scene.load(args.res)
         integrator = path_integrator(scene)
@@ -202,7 +204,7 @@ def main() -> int:
                       f"({verdict['bounds']} bounds of {verdict['settings']}); flicker {flicker_ratio:.2f}x its "
                       "flicker at the sequence's time")
     if args.record:
-        record(args, rows, verdicts, time.time() - started)
+        record(args, rows, verdicts, time.time() - started, commit)
     return 0
 
 
@@ -216,23 +218,21 @@ def equal_time_flicker(rows: list[dict], baseline: str) -> float:
     return float(np.exp(np.mean(np.log(ratios))))
 
 
-def record(args, rows: list[dict], verdicts: list[dict], seconds: float) -> None:
+def record(args, rows: list[dict], verdicts: list[dict], seconds: float, commit: str) -> None:
     """``args.record`` (JSON: command, date, settings, versions, rows, verdicts) and its plot (``.png``)."""
     import datetime
-    import json
-    import platform
 
-    from gmcpt.evaluation.cli import _commit, _versions
+    from gmcpt.evaluation.cli import _versions, machine_line
     from gmcpt.evaluation.plots import sequence_plot
     from gmcpt.exr import atomic_output
+    from gmcpt.files import json_text
 
     data = {"command": "python benchmarks/sequence.py " + " ".join(sys.argv[1:]),
-            "date": datetime.date.today().isoformat(), "commit": _commit(),
-            "machine": f"{platform.machine()}, {len(__import__('os').sched_getaffinity(0))} cores",
+            "date": datetime.date.today().isoformat(), "commit": commit, "machine": machine_line(),
             "settings": {key: (str(value) if isinstance(value, Path) else value) for key, value in vars(args).items()},
             "versions": _versions(), "seconds": seconds, "rows": rows, "verdicts": verdicts}
     with atomic_output(args.record) as temporary:
-        Path(temporary).write_text(json.dumps(data, indent=1))
+        Path(temporary).write_text(json_text(data, indent=1))
     sequence_plot(rows, args.record.with_suffix(".png"))
     print(f"wrote {args.record} and {args.record.with_suffix('.png')}")
 

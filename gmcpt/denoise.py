@@ -14,15 +14,20 @@ from .errors import GmcptError
 CLEAN_GUIDE_RAYS = 16
 
 
+def takes_clean_guides(guide_rays: int) -> bool:
+    """Whether OIDN takes guides of ``guide_rays`` primary rays a pixel as noise-free (:data:`CLEAN_GUIDE_RAYS`)."""
+    return guide_rays >= CLEAN_GUIDE_RAYS
+
+
 def denoise_oidn(image: np.ndarray, albedo: np.ndarray, normal: np.ndarray, guide_rays: int = 0) -> np.ndarray:
     """(H, W, 3) float32: OIDN's HDR filter on linear radiance ``image``, with albedo and normal as guides.
     ``guide_rays``: the primary rays a pixel the guides are the mean of (0: not known); from
-    :data:`CLEAN_GUIDE_RAYS` OIDN takes them as noise-free."""
+    :data:`CLEAN_GUIDE_RAYS` OIDN takes them as noise-free (:func:`takes_clean_guides`)."""
     try:
         import pyoidn
     except ImportError:
         raise GmcptError("Intel Open Image Denoise is missing: pip install pyoidn (a dependency of gmcpt)") from None
     contiguous = lambda array: np.ascontiguousarray(array, dtype=np.float32)  # noqa: E731
     return np.asarray(pyoidn.denoise(contiguous(image), contiguous(albedo), contiguous(normal), hdr=True,
-                                    clean_aux=guide_rays >= CLEAN_GUIDE_RAYS),
+                                    clean_aux=takes_clean_guides(guide_rays)),
                       dtype=np.float32)

@@ -13,7 +13,7 @@ import numpy as np
 
 from .completion import DEFAULT_METHOD, complete
 from .completion.denoised import oidn_guide_rays
-from .denoise import CLEAN_GUIDE_RAYS
+from .denoise import takes_clean_guides
 from .costs import frame_costs, record_denoise
 from .frame import SparseFrame
 from .sampling import RenderSettings, render_sparse_frame
@@ -46,7 +46,7 @@ def render_and_complete(scene, integrator, settings: RenderSettings = RenderSett
     result = complete(frame, method, **(options or {}))
     timings = {**timings, **result.timings}
     # a method without OIDN says nothing of OIDN's usual pace, nor does its large model (clean guides)
-    if "denoise_s" in timings and oidn_guide_rays(frame) < CLEAN_GUIDE_RAYS:
+    if "denoise_s" in timings and not takes_clean_guides(oidn_guide_rays(frame)):
         record_denoise(timings["denoise_s"], frame.mask.size)
     if "sparse_extra_s" in frame.info:  # what this sparse frame added to a dense one's work, the generator's included
         extra = frame.info.pop("sparse_extra_s") + timings.get("pre_completion_s", 0.0)

@@ -70,6 +70,11 @@ def _versions() -> dict:
     return versions
 
 
+def machine_line() -> str:
+    """This machine in the words of a record: architecture, cores, system."""
+    return f"{platform.machine()}, {os.cpu_count()} CPU cores, {platform.system()}, no GPU used"
+
+
 def _write_text(path: Path, text: str) -> None:
     with atomic_output(path) as temporary:
         Path(temporary).write_text(text)
@@ -194,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
         record = evaluate(config, scenes, out, say, quiet=args.quiet)
         record.update(command="python -m gmcpt eval" + (" --quick" if args.quick else ""),
                       date=datetime.date.today().isoformat(), commit=commit, versions=_versions(),
-                      machine=f"{platform.machine()}, {os.cpu_count()} CPU cores, {platform.system()}, no GPU used")
+                      machine=machine_line())
         if args.scenes or args.procedural is not None:
             record["command"] += "".join([f" --scenes {' '.join(args.scenes)}" if args.scenes else "",
                                           f" --procedural {args.procedural}" if args.procedural is not None else ""])
