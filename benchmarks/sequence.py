@@ -3,7 +3,8 @@
 
 An evaluation scene's camera moves over ``--frames`` frames (``--motion``: ``pan`` turns it about its own up
 axis by ``--step`` degrees a frame, ``dolly`` moves it along its view by ``--step`` hundredths of a scene unit,
-``still`` keeps it); each frame has a reference (``--reference-spp``, cached). Contenders, each at a ladder of samples a pixel a frame:
+``still`` keeps it); each frame has two independent references (``--reference-spp`` each, cached; PSNR is read
+against their mean). Contenders, each at a ladder of samples a pixel a frame:
 
 - ``path+oidn``: every frame on its own, ``mi.render`` + guides (charged an ``aov`` pass) + OIDN;
 - ``accumulation+oidn``: the same samples averaged with the previous frames' accumulated image, reprojected
@@ -14,9 +15,10 @@ axis by ``--step`` degrees a frame, ``dolly`` moves it along its view by ``--ste
 
 The contenders take turns frame by frame, so a machine whose pace drifts slows them alike. Printed: mean
 PSNR over the frames after the first ``--warm`` (history needs frames to build), mean warm time
-a frame, the flicker figure (root mean square over frames of the error of frame-to-frame differences in the
-displayed image against the references' differences, x100), and the equal-time speed-up of the sequence mode
-over the better baseline (:func:`gmcpt.evaluation.report.equal_time_verdict`).
+a frame, the flicker figures of :mod:`gmcpt.evaluation.stability` (``flicker``: the error of frame-to-frame
+changes along the motion; ``screen_flicker``: in place; both read against the two references, so their noise
+is no floor), and the equal-time speed-up of the sequence mode over each baseline
+(:func:`gmcpt.evaluation.report.equal_time_verdict`) with its flicker over the baseline's at the same time.
 
     python benchmarks/sequence.py [--scenes living-room] [--frames 12] [--res 128] [--motion pan]
         [--record docs/sequences.json]
@@ -49,30 +51,28 @@ def moved(base, motion: str, step: float, frame: int):
     return base
 
 
-def reference(loaded_scene, name: str, motion: str, step: float, frame: int, spp: int, res: int) -> np.ndarray:
-    """The frame's reference, cached under the gmcpt cache."""
+#: The two independent references of a frame (sampler seeds): flicker is read against both (see stability).
+REFERENCE_SEEDS = (7_000_000, 8_000_000)
+
+
+def reference(loaded_scene, name: str, motion: str, step: float, frame: int, spp: int, res: int,
+              second: bool = False) -> np.ndarray:
+    """The frame's reference (``second``: another, independent of the first), cached under the gmcpt cache."""
     from gmcpt.files import cache_folder
     from gmcpt.render import render_native
 
-    path = cache_folder("sequence-references") / f"{name}-{motion}{step:g}-{frame:03d}-{res}-{spp}.npy"
+    tail = "-b" if second else ""
+    path = cache_folder("sequence-references") / f"{name}-{motion}{step:g}-{frame:03d}-{res}-{spp}{tail}.npy"
     if path.exists():
         return np.load(path)
     scene, integrator = loaded_scene
-    total, chunk = 0.0, 128
+    total, chunk, seed = 0.0, 128, REFERENCE_SEEDS[second]
     for index in range(spp // chunk):
-        total = total + render_native(scene, scene.sensors()[0], integrator, chunk, 7_000_000 + frame * 97 + index)
+        total = total + render_native(scene, scene.sensors()[0], integrator, chunk, seed + frame * 97 + index)
     image = (total / (spp // chunk)).reshape(res, res, 3).astype(np.float32)
     path.parent.mkdir(parents=True, exist_ok=True)
     np.save(path, image)
     return image
-
-
-def flicker(images: list[np.ndarray], references: list[np.ndarray]) -> float:
-    from gmcpt.metrics import tonemap
-
-    shown, truth = [tonemap(i) for i in images], [tonemap(r) for r in references]
-    errors = [np.mean(((a1 - a0) - (r1 - r0)) ** 2) for a0, a1, r0, r1 in zip(shown, shown[1:], truth, truth[1:])]
-    return 100 * float(np.sqrt(np.mean(errors)))
 
 
 class Accumulation:
@@ -127,11 +127,12 @@ def main() -> int:
 
     from gmcpt.denoise import denoise_oidn
     from gmcpt.evaluation.report import equal_time_verdict
+    from gmcpt.evaluation.stability import FrameGeometry, screen_flicker, surface_flicker
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.metrics import all_metrics
     from gmcpt.render import render_features, render_native
     from gmcpt.scene import path_integrator
-    from gmcpt.sequence import SequenceRenderer, SequenceSettings
+    from gmcpt.sequence import SequenceRenderer, SequenceSettings, geometry
 
     from gmcpt.evaluation.cli import _commit
 
@@ -153,11 +154,15 @@ def main() -> int:
             np.asarray(mi.render(scene, integrator=aov, spp=max(1, spp)))
             return time.perf_counter() - start
 
-        references = []
+        firsts, seconds, geometries = [], [], []
         for frame in range(args.frames):
             at(frame)
-            references.append(reference((scene, integrator), eval_scene.name, args.motion, args.step, frame,
-                                        args.reference_spp, args.res))
+            firsts.append(reference((scene, integrator), eval_scene.name, args.motion, args.step, frame,
+                                    args.reference_spp, args.res))
+            seconds.append(reference((scene, integrator), eval_scene.name, args.motion, args.step, frame,
+                                     args.reference_spp, args.res, second=True))
+            geometries.append(FrameGeometry(*geometry(scene, sensor)))
+        references = [(a + b) / 2 for a, b in zip(firsts, seconds)]
         contenders = [("path+oidn", spp) for spp in args.path_spp] + [("accumulation+oidn", spp) for spp in args.path_spp] \
             + [("sequence", budget) for budget in args.budgets]
         # frame by frame, every contender in turn: a machine whose pace drifts over minutes slows them alike
@@ -189,31 +194,35 @@ def main() -> int:
             images, contender, amount = run["images"], run["contender"], run["amount"]
             psnr = float(np.mean([all_metrics(i, r)["psnr"] for i, r in zip(images[kept], references[kept])]))
             row = {"scene": eval_scene.name, "contender": contender, "rate": 1.0, "spp": amount, "psnr": psnr,
-                   "seconds": float(np.mean(run["seconds"][kept])), "flicker": flicker(images[kept], references[kept])}
+                   "seconds": float(np.mean(run["seconds"][kept])),
+                   "flicker": surface_flicker(images[kept], firsts[kept], geometries[kept], seconds[kept]),
+                   "screen_flicker": screen_flicker(images[kept], firsts[kept], seconds[kept])}
             rows.append(row)
             print(f"{eval_scene.name:20s} {contender:18s} {amount:4g}: {psnr:6.2f} dB  {row['seconds']:.3f} s a frame  "
-                  f"flicker {row['flicker']:.3f}", flush=True)
+                  f"flicker {row['flicker']:.3f} (in place {row['screen_flicker']:.3f})", flush=True)
         for baseline in ("path+oidn", "accumulation+oidn"):
             verdict = equal_time_verdict([r for r in rows if r["scene"] == eval_scene.name], "sequence", (baseline,))
             if verdict:
-                flicker_ratio = equal_time_flicker([r for r in rows if r["scene"] == eval_scene.name], baseline)
+                scene_rows = [r for r in rows if r["scene"] == eval_scene.name]
+                flicker_ratio = equal_time_flicker(scene_rows, baseline)
+                screen_ratio = equal_time_flicker(scene_rows, baseline, "screen_flicker")
                 verdicts.append({"scene": eval_scene.name, "baseline": baseline, "speedup": verdict["speedup"],
                                  "bounds": verdict["bounds"], "settings": verdict["settings"],
-                                 "flicker_ratio": flicker_ratio})
+                                 "flicker_ratio": flicker_ratio, "screen_flicker_ratio": screen_ratio})
                 print(f"{eval_scene.name}: sequence vs {baseline}: {verdict['speedup']:.2f}x at equal time "
                       f"({verdict['bounds']} bounds of {verdict['settings']}); flicker {flicker_ratio:.2f}x its "
-                      "flicker at the sequence's time")
+                      f"flicker at the sequence's time (in place {screen_ratio:.2f}x)")
     if args.record:
         record(args, rows, verdicts, time.time() - started, commit)
     return 0
 
 
-def equal_time_flicker(rows: list[dict], baseline: str) -> float:
-    """Geometric mean over the sequence's settings of its flicker over ``baseline``'s at the same seconds a frame
-    (interpolated in log time between the baseline's settings, held at its ends)."""
-    points = sorted((r["seconds"], r["flicker"]) for r in rows if r["contender"] == baseline)
+def equal_time_flicker(rows: list[dict], baseline: str, figure: str = "flicker") -> float:
+    """Geometric mean over the sequence's settings of its ``figure`` over ``baseline``'s at the same seconds a
+    frame (interpolated in log time between the baseline's settings, held at its ends)."""
+    points = sorted((r["seconds"], r[figure]) for r in rows if r["contender"] == baseline)
     times, values = np.log([p[0] for p in points]), [p[1] for p in points]
-    ratios = [r["flicker"] / np.interp(np.log(r["seconds"]), times, values)
+    ratios = [r[figure] / np.interp(np.log(r["seconds"]), times, values)
               for r in rows if r["contender"] == "sequence"]
     return float(np.exp(np.mean(np.log(ratios))))
 

@@ -5,35 +5,7 @@ import pytest
 from gmcpt.errors import GmcptError
 from gmcpt.temporal import PastFrame, agreement, fit_projection, history_weights, reproject
 
-WIDTH, HEIGHT = 24, 16
-
-
-def _camera(centre, yaw_degrees=0.0, focal=20.0):
-    """A pinhole at ``centre`` looking down -z (turned by ``yaw``): film coordinates -> (origins, directions)."""
-    yaw = np.radians(yaw_degrees)
-    turn = np.array([[np.cos(yaw), 0, np.sin(yaw)], [0, 1, 0], [-np.sin(yaw), 0, np.cos(yaw)]])
-
-    def rays(film):
-        local = np.stack([(film[:, 0] - WIDTH / 2) / focal, -(film[:, 1] - HEIGHT / 2) / focal,
-                          -np.ones(len(film))], axis=1)
-        directions = local @ turn.T
-        return np.tile(centre, (len(film), 1)).astype(float), directions / np.linalg.norm(directions, axis=1)[:, None]
-    return rays
-
-
-def _centres():
-    rows, columns = np.mgrid[0:HEIGHT, 0:WIDTH]
-    return np.stack([columns.ravel() + 0.5, rows.ravel() + 0.5], axis=1).astype(float)
-
-
-def _frame(rays, wall_z=-5.0):
-    """A frame of a wall at z = wall_z seen through ``rays``: the projection, hit points, normals."""
-    film = _centres()
-    origins, directions = rays(film)
-    t = (wall_z - origins[:, 2]) / directions[:, 2]
-    positions = origins + directions * t[:, None]
-    normals = np.tile([0.0, 0.0, 1.0], (len(film), 1))
-    return fit_projection(film, origins, directions, WIDTH, HEIGHT), positions, normals
+from camera_helpers import HEIGHT, WIDTH, camera, centres, wall_frame
 
 
 def _past(projection, positions, normals, index=0):
@@ -43,14 +15,14 @@ def _past(projection, positions, normals, index=0):
 
 
 def test_the_fit_projects_every_pixel_centre_onto_itself():
-    projection, positions, _ = _frame(_camera([0.0, 0.0, 0.0], yaw_degrees=7))
+    projection, positions, _ = wall_frame(camera([0.0, 0.0, 0.0], yaw_degrees=7))
     landed, front = projection.project(positions)
     assert front.all()
-    np.testing.assert_allclose(landed, _centres(), atol=1e-6)
+    np.testing.assert_allclose(landed, centres(), atol=1e-6)
 
 
 def test_a_camera_whose_rays_do_not_meet_is_refused():
-    film = _centres()
+    film = centres()
     origins = np.stack([film[:, 0], -film[:, 1], np.zeros(len(film))], axis=1)  # orthographic: parallel rays
     directions = np.tile([0.0, 0.0, -1.0], (len(film), 1))
     with pytest.raises(GmcptError, match="pinhole"):
@@ -58,25 +30,25 @@ def test_a_camera_whose_rays_do_not_meet_is_refused():
 
 
 def test_a_still_camera_reuses_every_pixel_of_the_past_frame_as_it_was():
-    projection, positions, normals = _frame(_camera([0.0, 0.0, 0.0]))
+    projection, positions, normals = wall_frame(camera([0.0, 0.0, 0.0]))
     source, valid = reproject(_past(projection, positions, normals), positions, normals)
     assert valid.all()
     np.testing.assert_array_equal(source, np.arange(WIDTH * HEIGHT))
 
 
 def test_a_pan_reuses_only_pixels_that_land_near_a_past_centre_and_never_off_the_film():
-    past_projection, past_positions, normals = _frame(_camera([0.0, 0.0, 0.0]))
-    _, positions, _ = _frame(_camera([0.0, 0.0, 0.0], yaw_degrees=3))  # the wall moves by about a pixel
+    past_projection, past_positions, normals = wall_frame(camera([0.0, 0.0, 0.0]))
+    _, positions, _ = wall_frame(camera([0.0, 0.0, 0.0], yaw_degrees=3))  # the wall moves by about a pixel
     past = _past(past_projection, past_positions, normals)
     source, valid = reproject(past, positions, normals)
     assert 0 < valid.mean() < 1
     landed, _ = past_projection.project(positions[valid])
-    assert np.abs(landed - _centres()[source[valid]]).max() <= 0.5 + 1e-9  # the nearest past pixel, no farther
+    assert np.abs(landed - centres()[source[valid]]).max() <= 0.5 + 1e-9  # the nearest past pixel, no farther
     np.testing.assert_allclose(past_positions[source[valid]], positions[valid], atol=0.5 * 5 / 20 * 2)
 
 
 def test_another_surface_or_a_miss_gets_no_history():
-    projection, positions, normals = _frame(_camera([0.0, 0.0, 0.0]))
+    projection, positions, normals = wall_frame(camera([0.0, 0.0, 0.0]))
     past = _past(projection, positions, normals)
     nearer = positions * 0.5  # a surface in front of the wall (same pixels, half the distance)
     assert not reproject(past, nearer, normals)[1].any()
