@@ -9,7 +9,9 @@ Per frame: guides (albedo, normal) and one ray through each pixel's centre (wher
 the past frames reprojected (each straight into this one); this frame's samples placed where the history is
 thin, so that disocclusions and the edge a pan uncovers get fresh samples first (every pixel gets one at
 least, so the history can be checked against it); the history left out where it disagrees with them; then
-OIDN over the sums. A frame keeps its own samples only, for the frames after it. :meth:`SequenceRenderer.state`
+OIDN over the sums; then the frame shown before, carried along the motion (Catmull-Rom, where the history
+held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every frame
+(the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after it. :meth:`SequenceRenderer.state`
 and :meth:`SequenceRenderer.restore` carry the history across processes, so a stopped sequence resumes with
 the images an uninterrupted run gives.
 
@@ -32,7 +34,8 @@ from .frame import DEFAULT_FEATURE_SPP
 from .limits import SEED_LIMIT, check_seed
 from .render import SampleSums, _sensor_film_size, feature_means, render_native
 from .scene import path_integrator, scene_sensor
-from .temporal import PastFrame, Projection, agreement, fit_projection, history_weights, matches, surfaces
+from .temporal import (PastFrame, Projection, agreement, cubic_sample, fit_projection, history_weights, matches,
+                       surfaces)
 
 #: Frames of history kept by default, and the weight of a frame's samples per frame of age (0.9 over 0.8: +0.1-0.2
 #: dB on a pan; 16 frames another +0.1 for twice the reprojection time; docs/experiments.md).
@@ -44,6 +47,12 @@ FRAME_SEED_STEP = 0x9E37
 #: uncovers) get fresh samples first, the others an even share (levelling up to 4x lost 0.5-1 dB on a still
 #: camera: the noise OIDN sees grows uneven).
 FRESH_CAP = 1
+#: The weight of the frame shown before in each shown frame (an exponential moving average along the motion), up
+#: to a budget of :data:`CARRY_FULL_BUDGET`, then falling as 1 / budget: at 1-2 samples a pixel 0.5 took a quarter
+#: to a third off the flicker at -0.07 to +0.3 dB; at 4 what OIDN leaves is mostly error that stays, which carrying
+#: only resamples (0.25 kept 0.15-0.2 dB that 0.5 lost, for 3-12% more flicker; docs/experiments.md).
+SHOWN_CARRY = 0.5
+CARRY_FULL_BUDGET = 2.0
 
 
 @dataclass(frozen=True)
@@ -117,6 +126,7 @@ class SequenceRenderer:
     def __init__(self, settings: SequenceSettings = SequenceSettings()):
         self.settings = settings
         self.past: deque[PastFrame] = deque(maxlen=max(settings.history, 1))
+        self.shown: tuple[int, np.ndarray] | None = None  # (frame, image) of the last frame shown
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
                sensor: mi.Sensor | None = None) -> tuple[np.ndarray, dict, dict]:
@@ -134,7 +144,7 @@ class SequenceRenderer:
         timings["features_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        history_total, history_count = self._history(index, positions, normals, pixels)
+        history_total, history_count, latest_seen = self._history(index, positions, normals, pixels)
         samples = int(round(settings.budget * pixels))
         counts = _placement(history_count, samples, settings.budget, (height, width), seed)
         timings["placement_s"] = time.perf_counter() - start
@@ -163,19 +173,25 @@ class SequenceRenderer:
                                 guide_rays)
         timings["denoise_s"] = time.perf_counter() - start
 
+        start = time.perf_counter()
+        shown, carried = self._carried(denoised, positions, latest_seen & agrees)
+        timings["carry_s"] = time.perf_counter() - start
+
         if settings.history:
             self.past.append(PastFrame(index, total, count, positions, normals, projection))
+            self.shown = (index, shown)
         info = {"frame": index, "seed": seed, "budget": settings.budget, "path_samples": int(counts.sum()),
                 "history_frames": len(self.past) - 1 if settings.history else 0,
                 "history_pixels": float((kept > 0).mean()), "history_samples": float(kept.mean()),
-                "history_dropped": float(((history_count > 0) & ~agrees).mean()),
+                "history_dropped": float(((history_count > 0) & ~agrees).mean()), "carried_pixels": carried,
                 "nonfinite_samples": int(sums.samples - count.sum()), "guide_rays": guide_rays}
-        return denoised, info, timings
+        return shown, info, timings
 
     def _history(self, index: int, positions: np.ndarray, normals: np.ndarray,
-                 pixels: int) -> tuple[np.ndarray, np.ndarray]:
-        """The past frames' samples reprojected into this frame, weighted by age: (sums (N, 3), counts (N,))."""
-        total, count = np.zeros((pixels, 3)), np.zeros(pixels)
+                 pixels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The past frames' samples reprojected into this frame, weighted by age: (sums (N, 3), counts (N,)), and
+        where the frame last shown saw this frame's surfaces (N,) bool."""
+        total, count, latest_seen = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels, bool)
         usable = [past for past in self.past if past.index < index and past.total.shape[0] == pixels]
         weights = history_weights([index - past.index for past in usable], self.settings.decay)
         current = surfaces(positions, normals)
@@ -183,7 +199,22 @@ class SequenceRenderer:
             seen, source = matches(past, current)
             total[seen] += past.total[source] * weight
             count[seen] += past.count[source] * weight
-        return total, count
+            if self.shown is not None and past.index == self.shown[0]:
+                latest_seen[seen] = True
+        return total, count, latest_seen
+
+    def _carried(self, denoised: np.ndarray, positions: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, float]:
+        """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`),
+        read along the motion, where ``where`` (N,) says its surface was seen and its history held; the share of
+        pixels blended)."""
+        if self.shown is None or not where.any():
+            return denoised, 0.0
+        carry = SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / self.settings.budget)
+        latest = next(past for past in self.past if past.index == self.shown[0])
+        film, _ = latest.projection.project(positions[where])
+        flat = denoised.reshape(-1, 3).copy()
+        flat[where] = (1 - carry) * flat[where] + carry * cubic_sample(self.shown[1], film)
+        return flat.reshape(denoised.shape), float(where.mean())
 
     def state(self) -> dict:
         """The history as plain arrays (for :func:`numpy.savez`): what :meth:`restore` takes back."""
@@ -194,6 +225,8 @@ class SequenceRenderer:
             state[f"{slot}_index"] = np.array(past.index)
             state[f"{slot}_matrix"] = past.projection.matrix
             state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
+        if self.shown is not None:
+            state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
         return state
 
     def restore(self, state) -> None:
@@ -208,6 +241,7 @@ class SequenceRenderer:
                                        state[f"{slot}_positions"], state[f"{slot}_normals"],
                                        Projection(state[f"{slot}_matrix"], width, height)))
             slot += 1
+        self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
 
 
 def _placement(history_count: np.ndarray, samples: int, budget: float, shape: tuple[int, int],

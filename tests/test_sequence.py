@@ -25,6 +25,7 @@ def test_a_still_camera_reuses_the_earlier_frames_and_keeps_the_budget(mi):
     assert [info["path_samples"] for info in infos] == [2 * pixels] * 3
     assert infos[0]["history_pixels"] == 0 and infos[0]["history_frames"] == 0
     assert infos[1]["history_pixels"] > 0.8 and infos[2]["history_samples"] > infos[1]["history_samples"]
+    assert infos[0]["carried_pixels"] == 0 and infos[1]["carried_pixels"] > 0.8  # the frame shown before, carried
 
 
 def test_same_seed_same_frames_and_a_resumed_sequence_gives_the_same_images(mi, tmp_path):
@@ -48,7 +49,7 @@ def test_after_a_cut_the_frame_is_the_single_frame_render(mi):
     renderer = _renderer()
     renderer.render(_scene(CORNELL), 0)
     image, info, _ = renderer.render(_scene(STILL_LIFE), 1)
-    assert info["history_pixels"] < 0.01
+    assert info["history_pixels"] < 0.01 and info["carried_pixels"] < 0.01
     alone, _, _ = _renderer(history=0).render(_scene(STILL_LIFE), 1)
     if info["history_pixels"] == 0:
         np.testing.assert_array_equal(image, alone)

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from gmcpt.errors import GmcptError
-from gmcpt.temporal import PastFrame, agreement, fit_projection, history_weights, reproject
+from gmcpt.temporal import PastFrame, agreement, cubic_sample, fit_projection, history_weights, reproject
 
 from camera_helpers import HEIGHT, WIDTH, camera, centres, wall_frame
 
@@ -70,6 +70,28 @@ def test_history_that_disagrees_with_the_current_samples_is_left_out():
     kept = agreement(current, moved_light, has)
     assert not kept[:, 32:].any() and kept[:, :16].all()
     assert agreement(current, moved_light, np.zeros((48, 48), bool)).all()  # nothing to judge: no refusal
+
+
+def test_fireflies_among_the_current_samples_are_no_changed_light():
+    rng = np.random.default_rng(1)
+    current, agreeing = (0.3 * rng.exponential(size=(48, 48, 3)) for _ in range(2))
+    flies = rng.random((48, 48)) < 0.004
+    current[flies] *= 300  # a few samples that found a light: each its pixel's luminance x300
+    has = np.ones((48, 48), bool)
+    assert agreement(current, agreeing, has).mean() > 0.99
+    lit = agreeing * 8  # the whole frame was lit 8x more before: a change, fireflies or not
+    assert not agreement(current, lit, has).any()
+
+
+def test_catmull_rom_reads_pixel_centres_as_they_are_and_a_ramp_between_them():
+    rows, columns = np.mgrid[0:12, 0:16].astype(np.float32)
+    image = np.stack([columns, rows, 2 * columns + rows + 1], axis=-1)
+    centres = np.array([[3.5, 4.5], [10.5, 7.5]])
+    np.testing.assert_allclose(cubic_sample(image, centres), image[[4, 7], [3, 10]], atol=1e-5)
+    between = np.array([[5.2, 6.9], [8.75, 3.1]])  # away from the edges a ramp is read exactly
+    expected = np.stack([between[:, 0] - 0.5, between[:, 1] - 0.5, 2 * (between[:, 0] - 0.5) + between[:, 1] - 0.5 + 1],
+                        axis=1)
+    np.testing.assert_allclose(cubic_sample(image, between), expected, atol=1e-4)
 
 
 def test_recent_frames_weigh_most():

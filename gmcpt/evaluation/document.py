@@ -74,6 +74,11 @@ def full_resolution_section(run: dict) -> list[str]:
     ]
 
 
+def _in_place(row: dict, key: str) -> str:
+    """`` (x.xx)`` of an in-place figure where the record has one (records before it do not)."""
+    return f" ({row[key]:.2f})" if key in row else ""
+
+
 def sequence_section(sequences: dict | None) -> list[str]:
     """The sequence mode against per-frame path tracing + OIDN and accumulation + OIDN, from the record of
     ``benchmarks/sequence.py --record`` (none: no section)."""
@@ -85,18 +90,20 @@ def sequence_section(sequences: dict | None) -> list[str]:
              f"{sequences['machine']}): {settings['frames']} frames of a {settings['motion']} "
              f"(step {settings['step']:g}) at {settings['res']}x{settings['res']}, references of "
              f"{settings['reference_spp']} spp; means over the frames after the first {settings['warm']}, warm "
-             "seconds a frame with every stage counted (guides of the baselines charged an `aov` pass). Flicker: "
-             "root mean square over frames of the error of frame-to-frame differences of the displayed image "
-             "against the references' (x100).", "",
-             "| scene | contender | samples a pixel a frame | PSNR dB | seconds a frame | flicker |",
+             "seconds a frame with every stage counted (guides of the baselines charged an `aov` pass). Flicker "
+             "(`gmcpt/evaluation/stability.py`, x100): the RMS error of frame-to-frame changes of the displayed "
+             "image against the references' changes, along the motion (the frame before read where each pixel's "
+             "surface was) and, in brackets, in place; both read against two independent references of each frame, "
+             "so that the references' own noise is no floor under them.", "",
+             "| scene | contender | samples a pixel a frame | PSNR dB | seconds a frame | flicker (in place) |",
              "|---|---|---|---|---|---|"]
     lines += [f"| {r['scene']} | {r['contender']} | {r['spp']:g} | {r['psnr']:.2f} | {r['seconds']:.3f} | "
-              f"{r['flicker']:.2f} |" for r in sequences["rows"]]
+              f"{r['flicker']:.2f}{_in_place(r, 'screen_flicker')} |" for r in sequences["rows"]]
     lines += ["", "Speed-up of the sequence mode at equal quality (geometric mean over its budgets; above 1x it is "
               "faster) and its flicker over the baseline's at the same seconds a frame:", "",
-              "| scene | baseline | speed-up | flicker ratio |", "|---|---|---|---|"]
-    lines += [f"| {v['scene']} | {v['baseline']} | {v['speedup']:.2f}x | {v['flicker_ratio']:.2f} |"
-              for v in sequences["verdicts"]]
+              "| scene | baseline | speed-up | flicker ratio (in place) |", "|---|---|---|---|"]
+    lines += [f"| {v['scene']} | {v['baseline']} | {v['speedup']:.2f}x | "
+              f"{v['flicker_ratio']:.2f}{_in_place(v, 'screen_flicker_ratio')} |" for v in sequences["verdicts"]]
     return [*lines, "", "![sequences: PSNR against seconds a frame](sequences.png)", ""]
 
 
