@@ -178,7 +178,9 @@ class SequenceRenderer:
         timings["carry_s"] = time.perf_counter() - start
 
         if settings.history:
-            self.past.append(PastFrame(index, total, count, positions, normals, projection))
+            # float32, as the samples were traced: 8 past frames' gathers a frame at half float64's traffic
+            self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), positions, normals,
+                                       projection))
             self.shown = (index, shown)
         info = {"frame": index, "seed": seed, "budget": settings.budget, "path_samples": int(counts.sum()),
                 "history_frames": len(self.past) - 1 if settings.history else 0,
@@ -191,16 +193,22 @@ class SequenceRenderer:
                  pixels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The past frames' samples reprojected into this frame, weighted by age: (sums (N, 3), counts (N,)), and
         where the frame last shown saw this frame's surfaces (N,) bool."""
-        total, count, latest_seen = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels, bool)
+        summed, latest_seen = np.zeros((pixels, 4), np.float32), np.zeros(pixels, bool)
         usable = [past for past in self.past if past.index < index and past.total.shape[0] == pixels]
         weights = history_weights([index - past.index for past in usable], self.settings.decay)
         current = surfaces(positions, normals)
         for past, weight in zip(usable, weights):
             seen, source = matches(past, current)
-            total[seen] += past.total[source] * weight
-            count[seen] += past.count[source] * weight
+            # a gather over every pixel (the unmatched read a zero row), not a scatter into the matched ones:
+            # half the time
+            rows = np.full(pixels, pixels, np.int32)
+            rows[seen] = source
+            padded = np.concatenate([np.concatenate([past.total, past.count[:, None]], axis=1),
+                                     np.zeros((1, 4), np.float32)])
+            summed += padded[rows] * np.float32(weight)
             if self.shown is not None and past.index == self.shown[0]:
                 latest_seen[seen] = True
+        total, count = summed[:, :3], summed[:, 3]
         return total, count, latest_seen
 
     def _carried(self, denoised: np.ndarray, positions: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, float]:
