@@ -192,13 +192,16 @@ def main() -> int:
         kept = slice(args.warm, None)
         for run in runs:
             images, contender, amount = run["images"], run["contender"], run["amount"]
-            psnr = float(np.mean([all_metrics(i, r)["psnr"] for i, r in zip(images[kept], references[kept])]))
+            metrics = [all_metrics(i, r) for i, r in zip(images[kept], references[kept])]
+            psnr = float(np.mean([m["psnr"] for m in metrics]))
             row = {"scene": eval_scene.name, "contender": contender, "rate": 1.0, "spp": amount, "psnr": psnr,
+                   "flip": float(np.mean([m["flip"] for m in metrics])),
                    "seconds": float(np.mean(run["seconds"][kept])),
                    "flicker": surface_flicker(images[kept], firsts[kept], geometries[kept], seconds[kept]),
                    "screen_flicker": screen_flicker(images[kept], firsts[kept], seconds[kept])}
             rows.append(row)
-            print(f"{eval_scene.name:20s} {contender:18s} {amount:4g}: {psnr:6.2f} dB  {row['seconds']:.3f} s a frame  "
+            print(f"{eval_scene.name:20s} {contender:18s} {amount:4g}: {psnr:6.2f} dB  FLIP {row['flip']:.4f}  "
+                  f"{row['seconds']:.3f} s a frame  "
                   f"flicker {row['flicker']:.3f} (in place {row['screen_flicker']:.3f})", flush=True)
         for baseline in ("path+oidn", "accumulation+oidn"):
             verdict = equal_time_verdict([r for r in rows if r["scene"] == eval_scene.name], "sequence", (baseline,))

@@ -249,16 +249,19 @@ def test_a_sequence_record_beside_the_results_gets_its_section_and_plot(tmp_path
             for contender, spp, psnr, seconds, flicker in [("path+oidn", 1, 22.1, 0.20, 9.5),
                                                            ("path+oidn", 2, 23.4, 0.27, 8.9),
                                                            ("sequence", 1, 23.9, 0.21, 6.1)]]
+    rows[2].update(flip=0.08, screen_flicker=8.2)  # a record from before FLIP and the in-place figure has neither
     sequences = {"command": "python benchmarks/sequence.py --record x", "date": "2026-11-27", "commit": "abc",
                  "machine": "x86_64, 2 cores", "settings": {"frames": 10, "motion": "pan", "step": 0.5, "res": 256,
                                                            "reference_spp": 512, "warm": 3},
                  "rows": rows, "verdicts": [{"scene": "living-room", "baseline": "path+oidn", "speedup": 1.61,
-                                             "bounds": 0, "settings": 1, "flicker_ratio": 0.66}]}
+                                             "bounds": 0, "settings": 1, "flicker_ratio": 0.66,
+                                             "screen_flicker_ratio": 0.81}]}
     (tmp_path / "sequences.json").write_text(json.dumps(sequences))
     sequence_plot(rows, tmp_path / "sequences.png")
     result = _eval("--from", str(RESULTS), "--out", str(tmp_path), "--no-readme", "-q")
     assert result.returncode == 0, result.stderr
     markdown = (tmp_path / "results.md").read_text()
-    assert "## Sequences" in markdown and "| living-room | sequence | 1 | 23.90 | 0.210 | 6.10 |" in markdown
-    assert "| living-room | path+oidn | 1.61x | 0.66 |" in markdown and "(sequences.png)" in markdown
+    assert "## Sequences" in markdown and "| living-room | sequence | 1 | 23.90 | 0.0800 | 0.210 | 6.10 (8.20) |" in markdown
+    assert "| living-room | path+oidn | 1 | 22.10 | - | 0.200 | 9.50 |" in markdown
+    assert "| living-room | path+oidn | 1.61x | 0.66 (0.81) |" in markdown and "(sequences.png)" in markdown
     assert (tmp_path / "sequences.png").read_bytes()[:4] == b"\x89PNG"

@@ -74,6 +74,11 @@ def full_resolution_section(run: dict) -> list[str]:
     ]
 
 
+def _figure(row: dict, key: str, form: str) -> str:
+    """A figure of a record's row, or ``-`` where the record has none (records made before it was measured)."""
+    return format(row[key], form) if key in row else "-"
+
+
 def _in_place(row: dict, key: str) -> str:
     """`` (x.xx)`` of an in-place figure where the record has one (records before it do not)."""
     return f" ({row[key]:.2f})" if key in row else ""
@@ -95,10 +100,11 @@ def sequence_section(sequences: dict | None) -> list[str]:
              "image against the references' changes, along the motion (the frame before read where each pixel's "
              "surface was) and, in brackets, in place; both read against two independent references of each frame, "
              "so that the references' own noise is no floor under them.", "",
-             "| scene | contender | samples a pixel a frame | PSNR dB | seconds a frame | flicker (in place) |",
-             "|---|---|---|---|---|---|"]
-    lines += [f"| {r['scene']} | {r['contender']} | {r['spp']:g} | {r['psnr']:.2f} | {r['seconds']:.3f} | "
-              f"{r['flicker']:.2f}{_in_place(r, 'screen_flicker')} |" for r in sequences["rows"]]
+             "| scene | contender | samples a pixel a frame | PSNR dB | FLIP | seconds a frame | flicker (in place) |",
+             "|---|---|---|---|---|---|---|"]
+    lines += [f"| {r['scene']} | {r['contender']} | {r['spp']:g} | {r['psnr']:.2f} | "
+              f"{_figure(r, 'flip', '.4f')} | {r['seconds']:.3f} | {r['flicker']:.2f}{_in_place(r, 'screen_flicker')} |"
+              for r in sequences["rows"]]
     lines += ["", "Speed-up of the sequence mode at equal quality (geometric mean over its budgets; above 1x it is "
               "faster) and its flicker over the baseline's at the same seconds a frame:", "",
               "| scene | baseline | speed-up | flicker ratio (in place) |", "|---|---|---|---|"]
