@@ -49,10 +49,11 @@ FRAME_SEED_STEP = 0x9E37
 FRESH_CAP = 1
 #: The weight of the frame shown before in each shown frame (an exponential moving average along the motion), up
 #: to a budget of :data:`CARRY_FULL_BUDGET`, then falling as 1 / budget: at 1-2 samples a pixel 0.5 took a quarter
-#: to a third off the flicker at -0.07 to +0.3 dB; at 4 what OIDN leaves is mostly error that stays, which carrying
-#: only resamples (0.25 kept 0.15-0.2 dB that 0.5 lost, for 3-12% more flicker; docs/experiments.md).
+#: to a third off the flicker at -0.07 to +0.3 dB. At 4, 0.5 against 0.25 takes 3-12% more off the flicker and
+#: costs the breakfast and living rooms 0.15-0.2 dB (the dining room nothing): what OIDN leaves there is mostly
+#: error that stays, which carrying only resamples. Steadiness is what a sequence is for (docs/experiments.md).
 SHOWN_CARRY = 0.5
-CARRY_FULL_BUDGET = 2.0
+CARRY_FULL_BUDGET = 4.0
 
 
 @dataclass(frozen=True)
