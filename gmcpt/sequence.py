@@ -11,9 +11,9 @@ thin, so that disocclusions and the edge a pan uncovers get fresh samples first 
 least, so the history can be checked against it); the history left out where it disagrees with them; then
 OIDN over the sums; then the frame shown before, carried along the motion (Catmull-Rom, where the history
 held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every frame
-(the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after it. :meth:`SequenceRenderer.state`
-and :meth:`SequenceRenderer.restore` carry the history across processes, so a stopped sequence resumes with
-the images an uninterrupted run gives.
+(the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after
+it. :meth:`SequenceRenderer.state` and :meth:`SequenceRenderer.restore` carry the history across processes,
+so a stopped sequence resumes with the images an uninterrupted run gives.
 
 With no history (the first frame, after a cut), a frame is the budget's samples spread evenly, then OIDN.
 """
@@ -145,7 +145,7 @@ class SequenceRenderer:
         timings["features_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        history_total, history_count, latest_seen = self._history(index, positions, normals, pixels)
+        history_total, history_count, latest_seen, latest_film = self._history(index, positions, normals, pixels)
         samples = int(round(settings.budget * pixels))
         counts = _placement(history_count, samples, settings.budget, (height, width), seed)
         timings["placement_s"] = time.perf_counter() - start
@@ -175,7 +175,7 @@ class SequenceRenderer:
         timings["denoise_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        shown, carried = self._carried(denoised, positions, latest_seen & agrees)
+        shown, carried = self._carried(denoised, latest_film, latest_seen & agrees)
         timings["carry_s"] = time.perf_counter() - start
 
         if settings.history:
@@ -191,38 +191,34 @@ class SequenceRenderer:
         return shown, info, timings
 
     def _history(self, index: int, positions: np.ndarray, normals: np.ndarray,
-                 pixels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The past frames' samples reprojected into this frame, weighted by age: (sums (N, 3), counts (N,)), and
-        where the frame last shown saw this frame's surfaces (N,) bool."""
+                 pixels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The past frames' samples reprojected into this frame, weighted by age: (sums (N, 3), counts (N,)); and
+        where the frame last shown saw this frame's surfaces (N,) bool, with where they landed on its film (N, 2)."""
         summed, latest_seen = np.zeros((pixels, 4), np.float32), np.zeros(pixels, bool)
+        latest_film = np.zeros((pixels, 2), np.float32)
         usable = [past for past in self.past if past.index < index and past.total.shape[0] == pixels]
         weights = history_weights([index - past.index for past in usable], self.settings.decay)
         current = surfaces(positions, normals)
         for past, weight in zip(usable, weights):
-            seen, source = matches(past, current)
+            seen, source, film = matches(past, current)
             # a gather over every pixel (the unmatched read a zero row), not a scatter into the matched ones:
             # half the time
             rows = np.full(pixels, pixels, np.int32)
             rows[seen] = source
-            padded = np.concatenate([np.concatenate([past.total, past.count[:, None]], axis=1),
-                                     np.zeros((1, 4), np.float32)])
-            summed += padded[rows] * np.float32(weight)
+            summed += past.gatherable[rows] * np.float32(weight)
             if self.shown is not None and past.index == self.shown[0]:
-                latest_seen[seen] = True
-        total, count = summed[:, :3], summed[:, 3]
-        return total, count, latest_seen
+                latest_seen[seen], latest_film[seen] = True, film
+        return summed[:, :3], summed[:, 3], latest_seen, latest_film
 
-    def _carried(self, denoised: np.ndarray, positions: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, float]:
+    def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, float]:
         """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`),
-        read along the motion, where ``where`` (N,) says its surface was seen and its history held; the share of
-        pixels blended)."""
+        read along the motion at ``film`` (N, 2, its film coordinates) where ``where`` (N,) says its surface was
+        seen and its history held; the share of pixels blended)."""
         if self.shown is None or not where.any():
             return denoised, 0.0
         carry = SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / self.settings.budget)
-        latest = next(past for past in self.past if past.index == self.shown[0])
-        film, _ = latest.projection.project(positions[where])
         flat = denoised.reshape(-1, 3).copy()
-        flat[where] = (1 - carry) * flat[where] + carry * cubic_sample(self.shown[1], film)
+        flat[where] = (1 - carry) * flat[where] + carry * cubic_sample(self.shown[1], film[where])
         return flat.reshape(denoised.shape), float(where.mean())
 
     def state(self) -> dict:

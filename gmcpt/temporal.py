@@ -97,6 +97,13 @@ class PastFrame:
     normals: np.ndarray  # (N, 3)
     projection: Projection
 
+    @functools.cached_property
+    def gatherable(self) -> np.ndarray:
+        """(N + 1, 4) float32: each pixel's sums and count, then a zero row for the pixels that match none; made
+        once, though the frame serves several frames after it."""
+        rows = np.concatenate([self.total, self.count[:, None]], axis=1).astype(np.float32, copy=False)
+        return np.concatenate([rows, np.zeros((1, 4), np.float32)])
+
 
 @dataclass(frozen=True)
 class Surfaces:
@@ -115,10 +122,11 @@ def surfaces(positions: np.ndarray, normals: np.ndarray) -> Surfaces:
     return Surfaces(pixels, points, normals[pixels], positions.shape[0])
 
 
-def matches(past: PastFrame, current: Surfaces) -> tuple[np.ndarray, np.ndarray]:
-    """(current pixels (K,), the past pixels (K,) that saw the same surface points). The past pixel is the one
-    the point lands in, so its centre is within half a pixel; no match for a miss, a point off the past film
-    or behind its camera, or another surface there (depth or normal)."""
+def matches(past: PastFrame, current: Surfaces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(current pixels (K,), the past pixels (K,) that saw the same surface points, where on the past film the
+    points landed (K, 2)). The past pixel is the one the point lands in, so its centre is within half a pixel;
+    no match for a miss, a point off the past film or behind its camera, or another surface there (depth or
+    normal)."""
     projection = past.projection
     film, front = projection.project(current.points)
     column, row = np.floor(film[:, 0]), np.floor(film[:, 1])
@@ -130,12 +138,12 @@ def matches(past: PastFrame, current: Surfaces) -> tuple[np.ndarray, np.ndarray]
     away = points - projection.centre.astype(points.dtype)
     same = (np.einsum("ij,ij->i", step, step) <= DEPTH_TOLERANCE ** 2 * np.einsum("ij,ij->i", away, away)) & \
         (np.einsum("ij,ij->i", past.normals[source], current.normals[inside]) >= NORMAL_COSINE)
-    return current.pixels[inside[same]], source[same]
+    return current.pixels[inside[same]], source[same], film[inside[same]]
 
 
 def reproject(past: PastFrame, positions: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`matches` as full arrays: for each current pixel, (the past pixel's flat index, valid) (N,) each."""
-    pixels, source = matches(past, surfaces(positions, normals))
+    pixels, source, _ = matches(past, surfaces(positions, normals))
     index, valid = np.zeros(positions.shape[0], np.int64), np.zeros(positions.shape[0], bool)
     index[pixels], valid[pixels] = source, True
     return index, valid

@@ -89,8 +89,8 @@ def test_catmull_rom_reads_pixel_centres_as_they_are_and_a_ramp_between_them():
     centres = np.array([[3.5, 4.5], [10.5, 7.5]])
     np.testing.assert_allclose(cubic_sample(image, centres), image[[4, 7], [3, 10]], atol=1e-5)
     between = np.array([[5.2, 6.9], [8.75, 3.1]])  # away from the edges a ramp is read exactly
-    expected = np.stack([between[:, 0] - 0.5, between[:, 1] - 0.5, 2 * (between[:, 0] - 0.5) + between[:, 1] - 0.5 + 1],
-                        axis=1)
+    x, y = between[:, 0] - 0.5, between[:, 1] - 0.5
+    expected = np.stack([x, y, 2 * x + y + 1], axis=1)
     np.testing.assert_allclose(cubic_sample(image, between), expected, atol=1e-4)
 
 

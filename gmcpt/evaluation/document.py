@@ -103,7 +103,8 @@ def sequence_section(sequences: dict | None) -> list[str]:
              "| scene | contender | samples a pixel a frame | PSNR dB | FLIP | seconds a frame | flicker (in place) |",
              "|---|---|---|---|---|---|---|"]
     lines += [f"| {r['scene']} | {r['contender']} | {r['spp']:g} | {r['psnr']:.2f} | "
-              f"{_figure(r, 'flip', '.4f')} | {r['seconds']:.3f} | {r['flicker']:.2f}{_in_place(r, 'screen_flicker')} |"
+              f"{_figure(r, 'flip', '.4f')} | {r['seconds']:.3f} | "
+              f"{r['flicker']:.2f}{_in_place(r, 'screen_flicker')} |"
               for r in sequences["rows"]]
     lines += ["", "Speed-up of the sequence mode at equal quality (geometric mean over its budgets; above 1x it is "
               "faster) and its flicker over the baseline's at the same seconds a frame:", "",

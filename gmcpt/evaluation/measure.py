@@ -208,8 +208,9 @@ def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
     """Run every setting :func:`timed_runs` times, one round over all of them after another, each run timed alone
     (its metrics after the clock): a setting's time is its fastest run, its quality the mean over its runs. Rounds,
     not a setting's runs back to back, so that a machine whose pace drifts over minutes (this one's moved by 10%)
-    slows every contender alike; every other round runs backwards. The first round compiles kernels and loads weights. ``done(setting, result)``
-    after a setting's last run, with that run's result (no earlier result is kept)."""
+    slows every contender alike; every other round runs backwards. The first round compiles kernels and loads
+    weights. ``done(setting, result)`` after a setting's last run, with that run's result (no earlier result is
+    kept)."""
     rounds = timed_runs(repeats)
     for index in range(rounds):
         # every other round backwards, the last forwards: no setting always follows the same one (the default's

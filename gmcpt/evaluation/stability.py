@@ -38,7 +38,7 @@ class FrameGeometry:
 def screen_flicker(images: list[np.ndarray], references: list[np.ndarray],
                    second: list[np.ndarray] | None = None) -> float:
     """100 x the RMS over frames and pixels of the error of in-place frame-to-frame changes (tonemapped)."""
-    return _figure(images, references, second, lambda error, t: (error[t] - error[t - 1]).reshape(-1), None)
+    return _figure(images, references, second, lambda error, t: (error[t] - error[t - 1]).reshape(-1))
 
 
 def surface_flicker(images: list[np.ndarray], references: list[np.ndarray], geometries: list[FrameGeometry],
@@ -47,17 +47,17 @@ def surface_flicker(images: list[np.ndarray], references: list[np.ndarray], geom
     motion (tonemapped): ``(a_t - warp(a_t-1)) - (r_t - warp(r_t-1))``."""
     if len(geometries) != len(images):
         raise ValueError("one geometry a frame")
-    seen = [None] + [warp_from(np.zeros(images[0].shape[:2] + (1,)), geometries[t - 1], geometries[t])[1]
-                     for t in range(1, len(images))]
+    shape = images[0].shape[:2]
+    motions = [None] + [_motion(geometries[t - 1], geometries[t], shape) for t in range(1, len(images))]
 
     def change(error, t):
-        before, _ = warp_from(error[t - 1], geometries[t - 1], geometries[t])
-        return (error[t].reshape(before.shape) - before)[seen[t]].reshape(-1)
+        before, seen = _warped(error[t - 1], motions[t])
+        return (error[t].reshape(before.shape) - before)[seen].reshape(-1)
 
-    return _figure(images, references, second, change, seen)
+    return _figure(images, references, second, change)
 
 
-def _figure(images, references, second, change, seen) -> float:
+def _figure(images, references, second, change) -> float:
     """100 x sqrt of the mean over frames 1.. of ``change(errors, t)`` squared, or of its product over the two
     references' errors when a ``second`` is given (clipped at 0: the estimate of a near-zero figure can dip
     below it)."""
@@ -74,22 +74,28 @@ def _figure(images, references, second, change, seen) -> float:
     return 100 * float(np.sqrt(max(products / max(count, 1), 0.0)))
 
 
-def warp_from(image: np.ndarray, past: FrameGeometry, current: FrameGeometry) -> tuple[np.ndarray, np.ndarray]:
-    """``image`` (H, W, C) of the ``past`` frame read at each ``current`` pixel's surface point: (N, C) bilinear
-    values, (N,) bool where the point was in view in the past frame (depth and normal tests of
-    :func:`gmcpt.temporal.matches`) with all four bilinear taps on the film."""
-    height, width, channels = image.shape
+def _motion(past: FrameGeometry, current: FrameGeometry, shape: tuple[int, int]) -> tuple:
+    """Where each ``current`` pixel's surface point lies on the ``past`` film of ``shape`` (H, W), once for every
+    image read there (:func:`_warped`): (seen (N,) bool: the point was in view in the past frame, by the depth and
+    normal tests of :func:`gmcpt.temporal.matches`, with all four bilinear taps on the film; the top-left tap's
+    column and row (N,); the fractions (N, 1) each)."""
+    height, width = shape
     frame = PastFrame(0, np.zeros((height * width, 3)), np.zeros(height * width), past.positions, past.normals,
                       past.projection)
     _, seen = reproject(frame, current.positions, current.normals)
-    points = np.nan_to_num(current.positions.astype(np.float64))
-    film, _ = past.projection.project(points)
+    film, _ = past.projection.project(np.nan_to_num(current.positions.astype(np.float64)))
     x, y = film[:, 0] - 0.5, film[:, 1] - 0.5
     x0, y0 = np.floor(x), np.floor(y)
     seen &= (x0 >= 0) & (x0 + 1 < width) & (y0 >= 0) & (y0 + 1 < height)
     x0, y0 = np.clip(x0, 0, width - 2).astype(np.int64), np.clip(y0, 0, height - 2).astype(np.int64)
-    fx, fy = np.clip(x - x0, 0, 1)[:, None], np.clip(y - y0, 0, 1)[:, None]
-    flat = image.reshape(-1, channels)
+    return seen, x0, y0, np.clip(x - x0, 0, 1)[:, None], np.clip(y - y0, 0, 1)[:, None]
+
+
+def _warped(image: np.ndarray, motion: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """``image`` (H, W, C) read bilinearly at a :func:`_motion`: ((N, C) values, seen (N,))."""
+    seen, x0, y0, fx, fy = motion
+    width = image.shape[1]
+    flat = image.reshape(-1, image.shape[2])
     top = flat[y0 * width + x0] * (1 - fx) + flat[y0 * width + x0 + 1] * fx
     bottom = flat[(y0 + 1) * width + x0] * (1 - fx) + flat[(y0 + 1) * width + x0 + 1] * fx
     return top * (1 - fy) + bottom * fy, seen
