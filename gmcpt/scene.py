@@ -183,7 +183,9 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
     text = ET.tostring(root, encoding="unicode")
     try:
         with _resolving_from(path.resolve().parent), plugin_errors(f"cannot load scene {path}: "), _loading_threads():
-            scene = mi.load_string(text, **(parameters or {}))
+            # without shape merging: merging orders the merged shapes, and with them the area emitters, anew on
+            # every load, so emitter sampling (every sample) changed between processes (docs/experiments.md)
+            scene = mi.load_string(text, optimize=False, **(parameters or {}))
     except GmcptError:
         raise
     except Exception as error:  # Mitsuba reports all load errors as RuntimeError
