@@ -14,8 +14,9 @@ have_llvm() {
 if ! have_llvm; then
     echo "bootstrap: installing libllvm19 (Dr.Jit needs LLVM >= 16)"
     SUDO=""; [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-    $SUDO apt-get install -y -q libllvm19 >/dev/null 2>&1 || {
-        $SUDO apt-get update -q >/dev/null && $SUDO apt-get install -y -q libllvm19 >/dev/null; }
+    # wait for another apt or dpkg run (a second bootstrap started beside this one) instead of failing on its lock
+    APT="$SUDO apt-get -o DPkg::Lock::Timeout=600"
+    $APT install -y -q libllvm19 >/dev/null 2>&1 || { $APT update -q >/dev/null && $APT install -y -q libllvm19 >/dev/null; }
 fi
 
 if [ ! -x "$VENV/bin/python" ]; then
