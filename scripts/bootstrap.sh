@@ -7,8 +7,13 @@ VENV=${VENV:-.venv}
 PYTHON=${PYTHON:-python3}
 
 have_llvm() {
-    ls /usr/lib/*/libLLVM-1[6-9].so /usr/lib/*/libLLVM-2[0-9].so /usr/lib/llvm-1[6-9]/lib/libLLVM*.so* \
-       /usr/lib/llvm-2[0-9]/lib/libLLVM*.so* >/dev/null 2>&1 || [ -n "${DRJIT_LIBLLVM_PATH:-}" ]
+    # any one match will do (ls of several patterns fails when one of them matches nothing)
+    [ -n "${DRJIT_LIBLLVM_PATH:-}" ] && return 0
+    for library in /usr/lib/*/libLLVM-1[6-9].so /usr/lib/*/libLLVM-2[0-9].so /usr/lib/llvm-1[6-9]/lib/libLLVM*.so* \
+                   /usr/lib/llvm-2[0-9]/lib/libLLVM*.so*; do
+        [ -e "$library" ] && return 0
+    done
+    return 1
 }
 
 if ! have_llvm; then
