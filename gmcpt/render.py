@@ -329,6 +329,8 @@ class SampleSums:
 
     ``samples`` counts the samples traced, finite or not; ``finite`` a pixel's finite ones. A native pass
     (:meth:`add_native`) brings no squares: its pixels' variance is that of the other passes' samples alone.
+    While every sample so far is a native pass's, the sums are kept as a float32 mean and a pixel-list pass is
+    folded into it, its squares dropped (a dense frame's top-up of one sample a pixel has no variance to give).
     """
 
     def __init__(self, pixels: int):
@@ -336,15 +338,16 @@ class SampleSums:
         self._total, self.squares, self.finite = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels)
         self.squared_samples = np.zeros(pixels)  # finite samples that brought their squares
         self.samples = 0
-        # a frame that is one finite native pass (a dense frame's usual case) keeps Mitsuba's float32 image as
-        # its mean, and makes the float64 sums only if another pass comes (2-3 ms a frame at 256x256)
+        # a frame of finite native passes and top-ups (a dense frame's usual case) keeps Mitsuba's float32 image
+        # as its mean, and makes the float64 sums only if another kind of pass comes (2-3 ms a frame at 256x256,
+        # 0.4 s at 1920x1080)
         self._native_mean: np.ndarray | None = None
 
     @property
     def total(self) -> np.ndarray:
         """(N, 3) float64 sums of the finite samples."""
         if self._native_mean is not None:
-            self._total, self._native_mean = self._native_mean * np.float64(self.finite[0]), None
+            self._total, self._native_mean = self._native_mean * self.finite[:, None], None
         return self._total
 
     @total.setter
@@ -366,12 +369,29 @@ class SampleSums:
             say(f"path tracing: {pixels.size} px x {spp} spp" + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
             total, squares, count = trace_pixels(scene, sensor, integrator, pixels, this_spp,
                                                  pass_seed(seed, index, passes))
-            self.total[pixels] += total
-            self.squares[pixels] += squares
-            self.finite[pixels] += count
-            self.squared_samples[pixels] += count
+            if self._native_mean is not None:
+                self._fold(pixels, total, count)
+            else:
+                self.total[pixels] += total
+                self.squares[pixels] += squares
+                self.finite[pixels] += count
+                self.squared_samples[pixels] += count
             done += this_spp
         self.samples += pixels.size * spp
+
+    def _fold(self, pixels: np.ndarray, total: np.ndarray, count: np.ndarray) -> None:
+        """Fold the finite samples' sums ``total`` ((n, 3)) and counts of the flat ``pixels`` into the native mean."""
+        if not (self._native_mean.flags.owndata and self._native_mean.flags.writeable):  # Mitsuba's own buffer
+            self._native_mean = self._native_mean.copy()
+        before = self.finite[pixels]
+        after = before + count
+        # in float32 and in place: a top-up of 80% of a 1920x1080 frame folds in 0.06 s instead of 0.1
+        folded = np.take(self._native_mean, pixels, axis=0)
+        folded *= before.astype(np.float32)[:, None]
+        folded += total
+        folded /= np.maximum(after, 1).astype(np.float32)[:, None]
+        self._native_mean[pixels] = folded
+        self.finite[pixels] = after
 
     def trace_counts(self, scene, sensor, integrator, counts: np.ndarray, seed: int) -> None:
         """``counts[p]`` more samples of each flat pixel ``p`` (:func:`trace_counts`)."""

@@ -273,3 +273,26 @@ def test_a_scene_loads_its_emitters_in_the_same_order_every_time(mi, tmp_path):
         + "".join(shapes) + "</scene>")
     orders = {tuple(emitter.id() for emitter in load_scene(tmp_path / "scene.xml").emitters()) for _ in range(8)}
     assert orders == {("light0", "light1", "light2", "light3")}
+
+
+def test_a_top_up_folds_into_a_native_mean_as_the_sums_would(mi, cornell, path_tracer):
+    """A dense frame's sums stay Mitsuba's float32 mean while only native passes and pixel-list top-ups come: the
+    mean is each pixel's native samples and its top-up's together, the top-up's squares are dropped, and the
+    float64 sums made afterwards (another kind of pass) agree with it."""
+    from gmcpt.render import SampleSums, render_native, trace_pixels
+
+    sensor = cornell.sensors()[0]
+    pixels = np.arange(0, 48 * 40, 3)
+    native = render_native(cornell, sensor, path_tracer, 2, 5)
+    top_sum, _, top_count = trace_pixels(cornell, sensor, path_tracer, pixels, 1, 7)
+    sums = SampleSums(48 * 40)
+    sums.add_native(native, 2)
+    sums.trace(cornell, sensor, path_tracer, pixels, 1, 7)
+    mean, variance = sums.estimate()
+    expected = native.astype(np.float64) * 2
+    expected[pixels] += top_sum
+    counts = np.full(48 * 40, 2.0)
+    counts[pixels] += top_count
+    np.testing.assert_allclose(mean, expected / counts[:, None], rtol=1e-5, atol=1e-6)
+    assert not variance.any() and sums.samples == 2 * 48 * 40 + pixels.size
+    np.testing.assert_allclose(sums.total, expected, rtol=1e-5, atol=1e-6)
