@@ -203,29 +203,53 @@ def timed_runs(repeats: int) -> int:
     return max(2, repeats)
 
 
+#: Settings whose fastest run is shorter than this get :data:`EXTRA_TIMING_RUNS` more runs before the last round,
+#: timed only (each repeats an earlier run's seeds, its quality not counted twice): a 0.1 s frame's time moved by
+#: 5-15% from one run to the next, more than the default and path tracing + OIDN differ at budget 1
+#: (docs/experiments.md), while these runs cost the evaluation about 10 s a scene.
+CHEAP_SETTING_SECONDS = 0.3
+EXTRA_TIMING_RUNS = 4
+
+
+def _timed_run(setting: _Setting, index: int) -> tuple:
+    """``setting.run(index)``, its time and its path render's kept if they are the fastest so far."""
+    start = time.perf_counter()
+    result = setting.run(index)
+    setting.seconds = min(setting.seconds, time.perf_counter() - start)
+    if setting.noisy is not None:
+        setting.render_seconds = min(setting.render_seconds, result[2]["render_s"])
+    return result
+
+
 def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
                done: Callable[[_Setting, tuple], None]) -> None:
     """Run every setting :func:`timed_runs` times, one round over all of them after another, each run timed alone
     (its metrics after the clock): a setting's time is its fastest run, its quality the mean over its runs. Rounds,
     not a setting's runs back to back, so that a machine whose pace drifts over minutes (this one's moved by 10%)
     slows every contender alike; every other round runs backwards. The first round compiles kernels and loads
-    weights. ``done(setting, result)`` after a setting's last run, with that run's result (no earlier result is
-    kept)."""
+    weights. Before the last round, the settings faster than :data:`CHEAP_SETTING_SECONDS` get timed runs of
+    their own (:data:`EXTRA_TIMING_RUNS`). ``done(setting, result)`` after a setting's last run, with that run's
+    result (no earlier result is kept)."""
     rounds = timed_runs(repeats)
-    for index in range(rounds):
+
+    def order(index: int) -> list[_Setting]:
         # every other round backwards, the last forwards: no setting always follows the same one (the default's
         # budget-1 frame came right after PAWNNM and the generator in every round; right after them it measured
         # 3-6 ms slower in one test, no slower in the next), and the last round still ends each setting in the
         # order the progress line expects
-        backwards = (rounds - 1 - index) % 2 == 1
-        for setting in (reversed(settings) if backwards else settings):
-            start = time.perf_counter()
-            result = setting.run(index)
-            setting.seconds = min(setting.seconds, time.perf_counter() - start)
+        return list(reversed(settings)) if (rounds - 1 - index) % 2 == 1 else settings
+
+    for index in range(rounds):
+        if index == rounds - 1:
+            for extra in range(EXTRA_TIMING_RUNS):
+                for setting in order(index + 1 + extra):
+                    if setting.seconds < CHEAP_SETTING_SECONDS:
+                        _timed_run(setting, extra % index)
+        for setting in order(index):
+            result = _timed_run(setting, index)
             setting.metrics.append(all_metrics(result[0], reference))
             if setting.noisy is not None:
                 setting.noisy_metrics.append(all_metrics(setting.noisy(result), reference))
-                setting.render_seconds = min(setting.render_seconds, result[2]["render_s"])
             if index == rounds - 1:
                 done(setting, result)
 
