@@ -19,8 +19,9 @@ and records albedo, shading normal and depth, and where asked light visibility
 (one shadow ray towards a sampled emitter point per primary ray: on interiors
 with many lights this ray costs several times the rest of the pass).
 
-A dense frame's bulk is Mitsuba's own ``mi.render`` (:func:`render_native`): the
-scene's integrator at its full speed; the pixel-list kernel only tops it up.
+A dense frame's bulk is Mitsuba's render of every pixel (:func:`render_native`): the
+scene's integrator at its full speed, through the frozen pixel-list kernel while the
+pass is small and ``mi.render`` above; the pixel-list kernel tops it up.
 """
 from __future__ import annotations
 
