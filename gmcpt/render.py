@@ -322,14 +322,16 @@ FROZEN_FRAME_SAMPLES = 1 << 19
 def render_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int,
                   seed: int) -> np.ndarray:
     """Mitsuba's render of every pixel at ``spp`` samples with the scene's integrator, (N, 3) float32 flat: each
-    pixel the mean of its own samples (NaN where none was finite). ``mi.render`` itself, or for a box filter and
-    at most :data:`FROZEN_FRAME_SAMPLES` samples the same samples through the frozen kernel. The sensor's sampler
-    keeps its own sample count (``mi.render`` sets it)."""
+    pixel the mean of its own samples, non-finite where one of them was (as ``mi.render``'s film gives it, so that
+    :meth:`SampleSums.add_native` counts that pixel's samples as dropped). ``mi.render`` itself, or for a box
+    filter and at most :data:`FROZEN_FRAME_SAMPLES` samples the same samples through the frozen kernel. The
+    sensor's sampler keeps its own sample count (``mi.render`` sets it)."""
     height, width = _sensor_film_size(sensor)
     if height * width * spp <= FROZEN_FRAME_SAMPLES and sensor.film().rfilter().radius() <= 0.5:
         total, _, count = trace_pixels(scene, sensor, integrator, np.arange(height * width), spp, seed)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return (total / count[:, None]).astype(np.float32, copy=False)
+        mean = total / np.float32(spp)
+        mean[count < spp] = np.nan  # the kernel leaves non-finite samples out; the film does not
+        return mean
     sampler = sensor.sampler()
     count = sampler.sample_count()
     try:
@@ -421,7 +423,7 @@ class SampleSums:
         count as dropped."""
         if np.isfinite(image).all():  # the usual case, without the masked copies (0.35 s at 1920x1080)
             if self.samples == 0:  # the first pass is the frame (a dense frame's one launch)
-                self._native_mean = image
+                self._native_mean, self._mean_is_own = image, False
             else:
                 self.total += image * np.float64(spp)
             self.finite += spp

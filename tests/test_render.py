@@ -164,11 +164,9 @@ def test_feature_buffers(mi, cornell, path_tracer):
     assert np.median(left[:, 0]) > 2 * np.median(left[:, 1])
 
 
-def test_nonfinite_samples_do_not_spread(mi, cornell):
-    """A nested integrator that returns NaN/Inf for some rays: those samples are dropped."""
+def _poisoned(mi):
+    """A path tracer that returns NaN/Inf for about 5% of its samples."""
     import drjit as dr
-    from gmcpt.completion import complete
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
 
     class Poisoned(mi.SamplingIntegrator):
         def __init__(self, props):
@@ -185,7 +183,15 @@ def test_nonfinite_samples_do_not_spread(mi, cornell):
             return "Poisoned[]"
 
     mi.register_integrator("poisoned", lambda props: Poisoned(props))
-    poisoned = mi.load_dict({"type": "poisoned"})
+    return mi.load_dict({"type": "poisoned"})
+
+
+def test_nonfinite_samples_do_not_spread(mi, cornell):
+    """A nested integrator that returns NaN/Inf for some rays: those samples are dropped."""
+    from gmcpt.completion import complete
+    from gmcpt.sampling import RenderSettings, render_sparse_frame
+
+    poisoned = _poisoned(mi)
     frame, _ = render_sparse_frame(cornell, poisoned, settings=RenderSettings(rate=0.5, spp=4, seed=1))
     assert frame.info["nonfinite_samples"] > 0
     assert np.isfinite(frame.radiance).all() and np.isfinite(frame.variance).all()
@@ -296,3 +302,18 @@ def test_a_top_up_folds_into_a_native_mean_as_the_sums_would(mi, cornell, path_t
     np.testing.assert_allclose(mean, expected / counts[:, None], rtol=1e-5, atol=1e-6)
     assert not variance.any() and sums.samples == 2 * 48 * 40 + pixels.size
     np.testing.assert_allclose(sums.total, expected, rtol=1e-5, atol=1e-6)
+
+
+def test_every_pixel_through_the_frozen_kernel_is_mitsubas_render(mi, cornell, monkeypatch):
+    """Below its size the frozen kernel stands in for mi.render: the same image for the same seed, and a pixel with
+    a non-finite sample non-finite too, so that its samples count as dropped as they did."""
+    import gmcpt.render as render
+
+    poisoned, sensor = _poisoned(mi), cornell.sensors()[0]
+    frozen = render.render_native(cornell, sensor, poisoned, 2, 3)
+    monkeypatch.setattr(render, "FROZEN_FRAME_SAMPLES", 0)
+    native = render.render_native(cornell, sensor, poisoned, 2, 3)
+    finite = np.isfinite(native).all(axis=1)
+    assert 0 < finite.sum() < finite.size
+    np.testing.assert_array_equal(np.isfinite(frozen).all(axis=1), finite)
+    np.testing.assert_allclose(frozen[finite], native[finite], rtol=1e-5, atol=1e-6)
