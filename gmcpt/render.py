@@ -329,7 +329,7 @@ def render_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInt
     height, width = _sensor_film_size(sensor)
     if height * width * spp <= FROZEN_FRAME_SAMPLES and sensor.film().rfilter().radius() <= 0.5:
         total, _, count = trace_pixels(scene, sensor, integrator, np.arange(height * width), spp, seed)
-        mean = total / np.float32(spp)
+        mean = total / np.float32(spp) if spp > 1 else total
         mean[count < spp] = np.nan  # the kernel leaves non-finite samples out; the film does not
         return mean
     sampler = sensor.sampler()
