@@ -55,8 +55,13 @@ def memory_format(device: str | torch.device) -> torch.memory_format:
 
 
 def prepare(generator: Generator, device: str) -> Generator:
-    """``generator`` moved to ``device`` in its :func:`memory_format`, in place (a no-op once done)."""
-    return generator.to(device=device, memory_format=memory_format(device))
+    """``generator`` moved to ``device`` in its :func:`memory_format`, in place, unless its first convolution's
+    weights are there already: ``to`` walks every parameter even when nothing moves (0.3 ms a frame)."""
+    layout = memory_format(device)
+    kernel = next((weight for weight in generator.parameters() if weight.dim() == 4), None)
+    if kernel is None or kernel.device.type != torch.device(device).type or not kernel.is_contiguous(memory_format=layout):
+        generator.to(device=device, memory_format=layout)
+    return generator
 
 
 def bands(height: int, multiple: int) -> list[tuple[int, int]]:
