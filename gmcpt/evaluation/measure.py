@@ -205,9 +205,9 @@ def timed_runs(repeats: int) -> int:
 
 #: Settings whose fastest run is shorter than this get :data:`EXTRA_TIMING_RUNS` more runs before the last round,
 #: timed only (each repeats an earlier run's seeds, its quality not counted twice): a 0.1 s frame's time moved by
-#: 5-15% from one run to the next, more than the default and path tracing + OIDN differ at budget 1
-#: (docs/experiments.md), while these runs cost the evaluation about 10 s a scene.
-CHEAP_SETTING_SECONDS = 0.3
+#: 5-15% from one run to the next, and the fastest of three 0.3-0.6 s runs by 2-3%, as much as the default and
+#: path tracing + OIDN differ (docs/experiments.md), while these runs cost the evaluation about 45 s a scene.
+CHEAP_SETTING_SECONDS = 1.0
 EXTRA_TIMING_RUNS = 4
 
 
