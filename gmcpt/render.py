@@ -44,9 +44,10 @@ FEATURE_SEED_OFFSET = 0x5EED_F00D
 SCATTER_MODE = dr.ReduceMode.Local
 # the features need UVs (textured albedo) and the shading frame, no surface derivatives
 FEATURE_RAY_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFrame
-#: the frozen kernels (dr.freeze) keep the recordings of the last few resolutions and spp of a scene; a new
-#: one records again, as expected: no warning about it
-FREEZE_OPTIONS = {"limit": 8, "warn_after": 1 << 30}
+#: the frozen kernels (dr.freeze) keep the recordings of the last 64 resolutions and spp of a scene (about 1 MB
+#: each): at 8, a process that renders many settings (the evaluation: 29 spp values a scene) evicted and recorded
+#: them again in nearly every frame, a trace each. A new one records, as expected: no warning about it
+FREEZE_OPTIONS = {"limit": 64, "warn_after": 1 << 30}
 
 
 class FrozenKernel:
