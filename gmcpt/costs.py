@@ -20,8 +20,9 @@ from .held import scene_state
 SPARSE_EXTRA_SECONDS_PER_PIXEL = 1.6e-6
 #: Frames a reading of the scene serves before the frame reads again (a camera that moves may change it): the
 #: probe's readings sit far from their threshold, 0.007-0.057 on the synthetic scenes and 0.23-0.26 on the real ones.
-#: A frame that reads again costs 10-20% more (the probe or first pass adds launches); spread over 32 frames that
-#: is under 1% a frame, where 8 cost 2% and put a reading frame among most settings' timed runs (docs/experiments.md).
+#: A frame that reads again costs up to 12% more (the probe or first pass adds launches); spread over 32 frames
+#: that is under 0.5% a frame, where 8 cost 1.5% and put a reading frame among most settings' timed runs
+#: (docs/experiments.md).
 READ_AGAIN_AFTER = 32
 
 

@@ -59,7 +59,8 @@ def prepare(generator: Generator, device: str) -> Generator:
     weights are there already: ``to`` walks every parameter even when nothing moves (0.3 ms a frame)."""
     layout = memory_format(device)
     kernel = next((weight for weight in generator.parameters() if weight.dim() == 4), None)
-    if kernel is None or kernel.device.type != torch.device(device).type or not kernel.is_contiguous(memory_format=layout):
+    moved = kernel is not None and kernel.device.type == torch.device(device).type
+    if not (moved and kernel.is_contiguous(memory_format=layout)):
         generator.to(device=device, memory_format=layout)
     return generator
 
