@@ -282,21 +282,22 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
     that no pixel has more than ``ceil(budget)``. From :data:`~gmcpt.budget.ADAPTIVE_FROM_BUDGET` the bulk is
     two renders, and where the first finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the
     second is adaptive path tracing's placement instead (:func:`_adaptive_rest`). A recent frame's reading of
-    the scene that says even (:attr:`gmcpt.costs.FrameCosts.concentration`) keeps the one launch."""
+    the scene after a first pass of as many samples that says even (:meth:`gmcpt.costs.FrameCosts.concentration`)
+    keeps the one launch."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
     if trace.sums.samples:
         trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
     trace.first_pass_pixels = int(probe.sum())
     current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget)
-    reading = frame_costs(trace.scene, plan.pixels).concentration
-    if first and reading.remembered() is not None and not adaptive_pays(reading.remembered()):
+    reading = frame_costs(trace.scene, plan.pixels).concentration(first) if first else None
+    if reading is not None and reading.remembered() is not None and not adaptive_pays(reading.remembered()):
         trace.info.update(error_concentration=reading.remembered(), dense_placement="even")
         reading.learn(None)
         first = 0
     if first:
         _native(trace, first, seed)
-        if _adaptive_rest(trace, left - first * plan.pixels, seed):
+        if _adaptive_rest(trace, left - first * plan.pixels, first, seed):
             trace.traced[:] = True
             return
         # the second launch draws other samples than the first
@@ -322,15 +323,15 @@ def _native(trace: _Trace, spp: int, seed: int) -> None:
     frame_costs(trace.scene, trace.sums.size).learn_path((time.perf_counter() - start) / spp)
 
 
-def _adaptive_rest(trace: _Trace, samples: int, seed: int) -> bool:
-    """After a dense frame's first pass, ``samples`` more where the displayed image is noisiest, as
+def _adaptive_rest(trace: _Trace, samples: int, first_spp: int, seed: int) -> bool:
+    """After a dense frame's first pass (``first_spp`` a pixel), ``samples`` more where the displayed image is noisiest, as
     :func:`gmcpt.adaptive.render_adaptive` places them, if its error is concentrated enough to pay
     (:func:`~gmcpt.budget.adaptive_pays`). Returns whether it traced them; ``info`` records the reading."""
     start = time.perf_counter()
     mean, _ = trace.sums.estimate()
     error = display_error(mean.reshape(*trace.shape, 3))
     concentration = error_concentration(error)
-    frame_costs(trace.scene, trace.sums.size).concentration.learn(concentration)
+    frame_costs(trace.scene, trace.sums.size).concentration(first_spp).learn(concentration)
     adaptive = adaptive_pays(concentration)
     trace.info.update(error_concentration=concentration, dense_placement="adaptive" if adaptive else "even")
     if adaptive:

@@ -307,6 +307,23 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
     assert launches == ([6] if placement == "adaptive" else [6, 4])
 
 
+def test_an_even_reading_serves_only_frames_of_its_first_pass(mi, monkeypatch):
+    """The error's concentration grows with the first pass's samples: a budget-8 frame's reading does not keep a
+    budget-16 frame in one launch."""
+    from gmcpt import budget, sampling
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", math.inf)  # every reading says even
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense
+    scene = load_scene(CORNELL, resolution=SIZE)
+    launches = []
+    native = sampling.render_native
+    monkeypatch.setattr(sampling, "render_native", lambda *args: launches.append(args[3]) or native(*args))
+    for frame_budget in (8, 16, 8, 16):
+        _render(scene, frame_budget)
+    assert launches == [5, 3, 10, 6, 8, 16]  # each budget reads once, then keeps the one launch
+
+
 @pytest.mark.parametrize("budget,feature_spp,rays", [(1, 16, 4), (3.9, 16, 4), (6.4, 16, 6), (64, 16, 16),
                                                       (12, 9, 9), (1, 2, 2)])
 def test_guides_take_about_the_budgets_rays_within_their_range(budget, feature_spp, rays):

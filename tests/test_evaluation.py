@@ -266,3 +266,32 @@ def test_a_sequence_record_beside_the_results_gets_its_section_and_plot(tmp_path
     assert "| living-room | path+oidn | 1 | 22.10 | - | 0.200 | 9.50 |" in markdown
     assert "| living-room | path+oidn | 1.61x | 0.66 (0.81) |" in markdown and "(sequences.png)" in markdown
     assert (tmp_path / "sequences.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_equal_time_rounds_warm_up_before_they_time_and_count():
+    """The warm-up round runs every setting once, untimed and uncounted (a first run compiles; the default's first
+    frames read the scene); quality is the mean over the counted runs, time the fastest of them."""
+    import time
+
+    from gmcpt.evaluation import measure
+
+    reference = np.zeros((8, 8, 3), np.float32)
+    calls = []
+
+    def run(index):
+        calls.append(index)
+        if index == 0:
+            time.sleep(0.05)  # a cold first run: its time, as its image, must not count
+            return (np.full((8, 8, 3), 10.0, np.float32),)
+        return (np.full((8, 8, 3), 0.1 * index, np.float32),)
+
+    setting = measure._Setting({}, run)
+    done = []
+    measure._in_rounds([setting], 3, reference, lambda s, result: done.append(result))
+    counted = list(range(measure.WARM_UP_ROUNDS, measure.all_rounds(3)))
+    assert calls[:measure.WARM_UP_ROUNDS] == list(range(measure.WARM_UP_ROUNDS)) and len(done) == 1
+    assert len(setting.metrics) == measure.timed_runs(3) == len(counted)
+    expected = np.mean([measure.all_metrics(np.full((8, 8, 3), 0.1 * i, np.float32), reference)["mse"]
+                        for i in counted])
+    assert np.isclose(np.mean([m["mse"] for m in setting.metrics]), expected)
+    assert set(calls[measure.WARM_UP_ROUNDS:]) <= set(counted) and setting.seconds < 0.05

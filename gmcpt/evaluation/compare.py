@@ -158,11 +158,11 @@ def compare(args, say) -> dict:
     loaded = measure.LoadedScene(scene_name(args.scene), scene, path_integrator(scene), reference)
     weights = [compare_report.setting_weight(s) * 3 for s in (*config.path_spp, *config.adaptive_budgets)]
     weights += [compare_report.setting_weight(b) * 2 for b in config.default_budgets]
-    runs = measure.timed_runs(config.repeats)
-    say(f"{args.scene}: {size[0]}x{size[1]}, {len(weights)} settings, each timed warm {runs} times")
+    say(f"{args.scene}: {size[0]}x{size[1]}, {len(weights)} settings, each timed warm "
+        f"{measure.timed_runs(config.repeats)} times after a warm-up")
     images = {}
     measured = time.perf_counter()
-    rows = measure.equal_time(loaded, config, _Eta(weights, say, runs), images)
+    rows = measure.equal_time(loaded, config, _Eta(weights, say, measure.all_rounds(config.repeats)), images)
     budgets = compare_report.per_budget(rows)
     found, line = compare_report.verdict(rows)
     record = {"command": "gmcpt compare " + " ".join(args.argv),

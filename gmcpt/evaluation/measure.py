@@ -198,9 +198,23 @@ class _Setting:
     render_seconds: float = np.inf
 
 
+#: Rounds over every equal-time setting before the counted ones, neither timed nor counted, for every contender
+#: alike: a setting's first run in a process compiles kernels and loads weights, and the default's first frames
+#: read their scene (the sparse way's cost, a dense frame's first pass) with samples other than path tracing's
+#: at the same seed. One such frame among three counted runs moved a setting's mean by 0.17 dB, as much as 6%
+#: more time buys (docs/experiments.md).
+WARM_UP_ROUNDS = 1
+
+
 def timed_runs(repeats: int) -> int:
-    """Runs of each equal-time setting for a config's ``repeats``: two at least, as the first compiles kernels."""
+    """Counted runs of each equal-time setting for a config's ``repeats`` (two at least), after the
+    :data:`WARM_UP_ROUNDS`."""
     return max(2, repeats)
+
+
+def all_rounds(repeats: int) -> int:
+    """Rounds of the equal-time comparison for a config's ``repeats``: warm-up and counted."""
+    return WARM_UP_ROUNDS + timed_runs(repeats)
 
 
 #: Settings whose fastest run is shorter than this get :data:`EXTRA_TIMING_RUNS` more runs before the last round,
@@ -223,14 +237,14 @@ def _timed_run(setting: _Setting, index: int) -> tuple:
 
 def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
                done: Callable[[_Setting, tuple], None]) -> None:
-    """Run every setting :func:`timed_runs` times, one round over all of them after another, each run timed alone
-    (its metrics after the clock): a setting's time is its fastest run, its quality the mean over its runs. Rounds,
-    not a setting's runs back to back, so that a machine whose pace drifts over minutes (this one's moved by 10%)
-    slows every contender alike; every other round runs backwards. The first round compiles kernels and loads
-    weights. Before the last round, the settings faster than :data:`CHEAP_SETTING_SECONDS` get timed runs of
+    """Run every setting :func:`all_rounds` times, one round over all of them after another; after the
+    :data:`WARM_UP_ROUNDS` each run is timed alone (its metrics after the clock): a setting's time is its fastest
+    counted run, its quality the mean over them. Rounds, not a setting's runs back to back, so that a machine whose
+    pace drifts over minutes (this one's moved by 10%) slows every contender alike; every other round runs
+    backwards. Before the last round, the settings faster than :data:`CHEAP_SETTING_SECONDS` get timed runs of
     their own (:data:`EXTRA_TIMING_RUNS`). ``done(setting, result)`` after a setting's last run, with that run's
     result (no earlier result is kept)."""
-    rounds = timed_runs(repeats)
+    rounds = all_rounds(repeats)
 
     def order(index: int) -> list[_Setting]:
         # every other round backwards, the last forwards: no setting always follows the same one (the default's
@@ -244,8 +258,11 @@ def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
             for extra in range(EXTRA_TIMING_RUNS):
                 for setting in order(index + 1 + extra):
                     if setting.seconds < CHEAP_SETTING_SECONDS:
-                        _timed_run(setting, extra % index)
+                        _timed_run(setting, WARM_UP_ROUNDS + extra % (index - WARM_UP_ROUNDS))
         for setting in order(index):
+            if index < WARM_UP_ROUNDS:
+                setting.run(index)
+                continue
             result = _timed_run(setting, index)
             setting.metrics.append(all_metrics(result[0], reference))
             if setting.noisy is not None:
@@ -272,7 +289,7 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
     are the same either way.
     """
     base = {"scene": loaded.name}
-    runs = timed_runs(config.repeats)
+    runs = all_rounds(config.repeats)
 
     def seed(offset: int, run: int) -> int:
         return config.seed + offset + RUN_SEED_STEP * run
