@@ -63,6 +63,12 @@ PROBE_SPP = 4
 PROBE_SHARE = 0.01
 #: Fewest and most primary rays a pixel of the guide pass: the edge signal was set on passes of 4 to 16.
 GUIDE_SPP_RANGE = (4, 16)
+#: Below this mean albedo difference between the two halves of a 4-ray guide pass (2 rays each), a frame below
+#: budget 4 takes guides of one ray a pixel: such guides barely alias, and 3 more rays buy OIDN less than their
+#: time buys in samples. At 256x256 the veach lamp reads 0.0021 and gains 0.03 dB from 4 rays at budget 1,
+#: proc-2000000 0.0014 and 0.1 dB; the Cornell box 0.0043 and 0.3 dB, the other scenes 0.0046-0.047
+#: (docs/experiments.md).
+GUIDE_ALIASING_BELOW = 0.003
 #: Above this :func:`relative_variance` the frame is traced dense (set in docs/experiments.md).
 DENSE_ABOVE = 0.15
 #: Above this :func:`edge_share` too, at 256x256 (docs/experiments.md); at other sizes :func:`edges_above`.
@@ -208,12 +214,27 @@ def needs_probe(plan: BudgetPlan, edges: float, pays: bool, reading: float | Non
     return not plan.dense_only and choose(plan, reading or 0.0, edges, pays) == SPARSE
 
 
-def guide_spp(budget: float, feature_spp: int) -> int:
+def guide_spp(budget: float, feature_spp: int, aliasing: float | None = None) -> int:
     """Primary rays a pixel of a budget's guide pass: about the budget, within :data:`GUIDE_SPP_RANGE` and at most
-    ``feature_spp`` (what a baseline's renderer gathers over its own samples). From 16 OIDN takes them as clean
-    (:data:`gmcpt.denoise.CLEAN_GUIDE_RAYS`), as it does a baseline's."""
+    ``feature_spp`` (what a baseline's renderer gathers over its own samples); one below the range where the
+    scene's guides barely alias (:func:`guide_aliasing` below :data:`GUIDE_ALIASING_BELOW`). From 16 OIDN takes
+    them as clean (:data:`gmcpt.denoise.CLEAN_GUIDE_RAYS`), as it does a baseline's."""
     low, high = GUIDE_SPP_RANGE
+    if budget < low and aliasing is not None and aliasing < GUIDE_ALIASING_BELOW:
+        return 1
     return max(1, min(feature_spp, high, max(low, int(round(budget)))))
+
+
+def reads_guide_aliasing(budget: float, feature_spp: int) -> bool:
+    """Whether a frame of ``budget`` without a remembered reading traces its guides in two halves to read
+    :func:`guide_aliasing`: below :data:`GUIDE_SPP_RANGE`, where the reading chooses the rays."""
+    return budget < GUIDE_SPP_RANGE[0] and guide_spp(budget, feature_spp) == GUIDE_SPP_RANGE[0]
+
+
+def guide_aliasing(first_albedo: list, second_albedo: list) -> float:
+    """The mean absolute difference of two guide passes' per-pixel albedo (flat planes, 3 each): how much a
+    pixel's guides still change with its rays."""
+    return float(np.mean([np.abs(one - other).mean() for one, other in zip(first_albedo, second_albedo)]))
 
 
 def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:

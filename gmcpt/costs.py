@@ -2,8 +2,9 @@
 
 Per scene and frame size, :class:`FrameCosts` keeps the seconds one sample a pixel of path tracing takes,
 the seconds the sparse way adds to a dense frame (the rest of the feature pass, the placement, the generator),
-and what the last probe read of the scene's noise and the last dense frame of its error's concentration, so that
-the next frames can skip the probe, and a dense frame's second launch where its samples stay even.
+and what the last probe read of the scene's noise, the last dense frame of its error's concentration and the last
+guide pass of its aliasing, so that the next frames can skip the probe, a dense frame's second launch where its
+samples stay even, and guide rays that buy nothing.
 Before a scene's first frame it knows only the probe's pace (an upper bound: a small launch pays its set-up)
 and a per-pixel guess of the sparse way's extra work (:data:`SPARSE_EXTRA_SECONDS_PER_PIXEL`).
 """
@@ -54,6 +55,7 @@ class FrameCosts:
     sparse_extra_seconds: float | None = None  # what the sparse way adds to a dense frame's work
     probe: Reading = field(default_factory=Reading)  # relative variance (gmcpt.budget.relative_variance)
     concentrations: dict = field(default_factory=dict)  # first-pass spp -> Reading (budget.error_concentration)
+    aliasing: Reading = field(default_factory=Reading)  # of the guides' albedo (budget.guide_aliasing)
 
     def concentration(self, first_spp: int) -> Reading:
         """The reading of a dense frame's error concentration after a first pass of ``first_spp`` samples a pixel:

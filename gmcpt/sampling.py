@@ -23,8 +23,8 @@ import numpy as np
 
 from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
 from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, adaptive_first_spp, adaptive_pays,
-                     check_budget, choose, edge_share, error_concentration, even_fill, guide_spp, needs_probe,
-                     plan_budget, relative_variance, sparse_pays)
+                     check_budget, choose, edge_share, error_concentration, even_fill, guide_aliasing, guide_spp,
+                     needs_probe, plan_budget, reads_guide_aliasing, relative_variance, sparse_pays)
 from .costs import completion_seconds, frame_costs
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
@@ -41,6 +41,7 @@ EVEN_SEED_OFFSET = 0xE7E4  # the dense way's blue-noise spread of the samples le
 PROBE_SEED_OFFSET = 0x9B0BE  # the probe's placement
 FIRST_PASS_SEED_OFFSET = 0xF1257  # the sparse way's first pass beside the probe (same seed: same lanes' samples)
 GUIDE_TOP_UP_SEED_OFFSET = 0x6D1E  # the sparse way's feature rays beside the guides'
+GUIDE_HALF_SEED_OFFSET = 0x6A1F  # the second half of a guide pass that reads the guides' aliasing
 
 Say = Callable[[str], None]
 
@@ -197,11 +198,11 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
     (:func:`~gmcpt.budget.needs_probe`), then the sparse way or the dense one. Returns the feature buffers."""
     settings = trace.settings
     height, width = trace.shape
-    guide_rays = guide_spp(plan.budget, settings.feature_spp)
-    guides = trace.features(guide_rays, visibility=False)
+    costs = frame_costs(trace.scene, plan.pixels)
+    guides = _guides(trace, plan.budget)
+    guide_rays = guides.spp
     features = guides.buffers()
     probe = np.zeros(plan.pixels, bool)
-    costs = frame_costs(trace.scene, plan.pixels)
     reading, edges, extra_share, pays, probed = None, None, None, True, False
     if not plan.dense_only:
         reading = costs.probe.remembered()
@@ -215,9 +216,9 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
             extra_share, pays = _sparse_time(trace, plan, costs, costs.path_seconds(probe_pace))
         costs.probe.learn(reading if probed else None)
     choice = choose(plan, reading or 0.0, edges or 0.0, pays)
-    trace.info = {"budget": plan.budget, "budget_choice": choice, "relative_variance": reading,
-                  "probe": "traced" if probed else "remembered" if reading is not None else "none",
-                  "edge_share": edges, "sparse_time_share": extra_share, "guide_spp": guide_rays}
+    trace.info.update({"budget": plan.budget, "budget_choice": choice, "relative_variance": reading,
+                       "probe": "traced" if probed else "remembered" if reading is not None else "none",
+                       "edge_share": edges, "sparse_time_share": extra_share, "guide_spp": guide_rays})
     signals = [f"relative variance {reading:.3f}" if reading is not None else "",
                f"edge share {edges:.2f}" if edges is not None else "",
                f"sparse time +{extra_share:.0%}" if extra_share is not None else ""]
@@ -232,6 +233,27 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
         return features
     _dense(trace, plan, probe)
     return features
+
+
+def _guides(trace: _Trace, budget: float):
+    """The guide pass of a frame of ``budget`` (:func:`~gmcpt.budget.guide_spp`), as :class:`FeatureMeans`. Where
+    its rays depend on the scene's guide aliasing and no recent frame read it
+    (:attr:`gmcpt.costs.FrameCosts.aliasing`), the pass is two halves of other seeds, whose difference is the
+    reading; ``info`` records it (``guide_aliasing``)."""
+    feature_spp = trace.settings.feature_spp
+    reading = frame_costs(trace.scene, trace.sums.size).aliasing
+    if not reads_guide_aliasing(budget, feature_spp):
+        return trace.features(guide_spp(budget, feature_spp), visibility=False)
+    if reading.remembered() is None:
+        rays = guide_spp(budget, feature_spp)
+        first = trace.features(rays // 2, visibility=False)
+        second = trace.features(rays - rays // 2, GUIDE_HALF_SEED_OFFSET, visibility=False)
+        reading.learn(guide_aliasing(first.planes[:3], second.planes[:3]))
+        trace.info["guide_aliasing"] = reading.value
+        return first.merged(second)
+    trace.info["guide_aliasing"] = reading.remembered()
+    reading.learn(None)
+    return trace.features(guide_spp(budget, feature_spp, trace.info["guide_aliasing"]), visibility=False)
 
 
 def _probe(trace: _Trace, plan: BudgetPlan) -> tuple[np.ndarray, float]:
@@ -352,7 +374,7 @@ def _time_passes(trace: _Trace) -> dict:
     (less what the completion is expected to take) pay for at the pace of the passes so
     far. Returns the feature buffers; ``info`` records the samples a pixel spent (``budget``)."""
     settings, seconds = trace.settings, trace.settings.time
-    guides = trace.features(guide_spp(1, settings.feature_spp), visibility=False)
+    guides = _guides(trace, 1)
     spp, pace, index = 1, None, 0
     while True:
         start = time.perf_counter()
@@ -367,8 +389,8 @@ def _time_passes(trace: _Trace) -> dict:
             break
     spent = int(trace.sums.samples // trace.sums.size)
     trace.traced[:] = True
-    trace.info = {"time_budget": seconds, "budget": float(spent), "budget_choice": DENSE,
-                  "guide_spp": guides.spp, "time_short": index == 1 and left < 0}
+    trace.info.update({"time_budget": seconds, "budget": float(spent), "budget_choice": DENSE,
+                       "guide_spp": guides.spp, "time_short": index == 1 and left < 0})
     return guides.buffers()
 
 

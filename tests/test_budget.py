@@ -324,6 +324,41 @@ def test_an_even_reading_serves_only_frames_of_its_first_pass(mi, monkeypatch):
     assert launches == [5, 3, 10, 6, 8, 16]  # each budget reads once, then keeps the one launch
 
 
+@pytest.mark.parametrize("aliasing,budget,rays", [(None, 1, 4), (0.001, 1, 1), (0.001, 3.4, 1), (0.01, 1, 4),
+                                                  (0.001, 4, 4), (0.001, 6.4, 6)])
+def test_guides_below_budget_4_take_one_ray_where_they_barely_alias(aliasing, budget, rays):
+    from gmcpt.budget import guide_spp
+
+    assert guide_spp(budget, 16, aliasing) == rays
+
+
+@pytest.mark.parametrize("threshold,rays", [(math.inf, 1), (0.0, 4)])
+def test_a_guide_pass_in_two_halves_reads_the_aliasing_that_later_frames_choose_their_rays_by(mi, monkeypatch,
+                                                                                              threshold, rays):
+    from gmcpt import budget, render, sampling
+    from gmcpt.costs import READ_AGAIN_AFTER
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "GUIDE_ALIASING_BELOW", threshold)
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense: no feature top-up
+    scene = load_scene(CORNELL, resolution=SIZE)
+    passes = []
+    means = render.feature_means
+    monkeypatch.setattr(sampling, "feature_means", lambda *args: passes.append(args[2]) or means(*args))
+    frame = _render(scene, 1)
+    assert passes == [2, 2] and frame.info["guide_spp"] == 4 and frame.info["guide_aliasing"] > 0
+    passes.clear()
+    for _ in range(READ_AGAIN_AFTER - 1):
+        assert _render(scene, 2).info["guide_spp"] == rays
+    assert passes == [rays] * (READ_AGAIN_AFTER - 1)
+    passes.clear()
+    _render(scene, 1)
+    assert passes == [2, 2]  # read again
+    passes.clear()
+    _render(scene, 6)  # its rays do not depend on the reading
+    assert passes == [6]
+
+
 @pytest.mark.parametrize("budget,feature_spp,rays", [(1, 16, 4), (3.9, 16, 4), (6.4, 16, 6), (64, 16, 16),
                                                       (12, 9, 9), (1, 2, 2)])
 def test_guides_take_about_the_budgets_rays_within_their_range(budget, feature_spp, rays):
