@@ -88,6 +88,12 @@ ADAPTIVE_FROM_BUDGET = 8
 #: The share of the first pass's display error held by its noisiest :data:`TOP_SHARE` of pixels above which
 #: adaptive placement pays (the evaluation scenes read 0.13-0.29; the gain at budget 16 grows with it).
 ADAPTIVE_ABOVE = 0.2
+#: dB adaptive placement gains a dense frame of budget 8 at the threshold, and more per unit of concentration
+#: above it: the least-squares line through the Cornell box (0.26: 0.91 dB), the breakfast room (0.23: 0.48),
+#: the dining room (0.23: 0.06), proc-2000000 (0.29: 1.17) and proc-2000001 (0.20: 0.36), first passes of 5 spp
+#: (docs/experiments.md). :data:`SPARSE_GAIN` is over even samples, so where the dense frame would be adaptive the
+#: sparse way must beat this too (the Cornell box at budget 8: sparse 39.67 dB at 0.30 s, adaptive 39.68 at 0.26).
+ADAPTIVE_GAIN = (0.14, 10.9)
 TOP_SHARE = 0.05
 #: The largest budget, as the largest spp of a masked render.
 MAX_BUDGET = 4096
@@ -179,14 +185,28 @@ def edge_share(features: dict) -> float:
     return float(binned_edges(features["albedo"], features["normal"], features["depth"], features["visibility"]).mean())
 
 
-def sparse_pays(extra_seconds: float, seconds_per_spp: float, budget: float) -> bool:
+def sparse_pays(extra_seconds: float, seconds_per_spp: float, budget: float,
+                concentration: float | None = None) -> bool:
     """True when the sparse way's expected gain at equal samples (:data:`SPARSE_GAIN`) beats what a dense frame
     of ``budget`` samples a pixel would gain from the ``extra_seconds`` the sparse way costs on top of it, spent
-    on more samples at ``seconds_per_spp`` for one sample a pixel (:data:`DENSE_GAIN_PER_DOUBLING`). The
-    seconds buy samples at the path tracer's pace, not the whole frame's: a frame's fixed costs (guides,
-    OIDN) do not grow with its samples, and on a cheap scene the extra 0.06 s buy 16 samples a pixel."""
+    on more samples at ``seconds_per_spp`` for one sample a pixel (:data:`DENSE_GAIN_PER_DOUBLING`), and from
+    adaptive placement (:func:`adaptive_gain`) where the budget allows it and the scene's error reads
+    ``concentration``. The seconds buy samples at the path tracer's pace, not the whole frame's: a frame's fixed
+    costs (guides, OIDN) do not grow with its samples, and on a cheap scene the extra 0.06 s buy 16 samples a
+    pixel."""
     more = max(extra_seconds, 0.0) / max(seconds_per_spp, 1e-12)
-    return SPARSE_GAIN > DENSE_GAIN_PER_DOUBLING * math.log2(1 + more / budget)
+    adaptive = adaptive_gain(concentration) if budget >= ADAPTIVE_FROM_BUDGET else 0.0
+    return SPARSE_GAIN > DENSE_GAIN_PER_DOUBLING * math.log2(1 + more / budget) + adaptive
+
+
+def adaptive_gain(concentration: float | None) -> float:
+    """dB a dense frame is expected to gain from adaptive placement at an error ``concentration``
+    (:func:`error_concentration`; None: not read): none below :data:`ADAPTIVE_ABOVE`, else :data:`ADAPTIVE_GAIN`'s
+    line."""
+    if concentration is None or not adaptive_pays(concentration):
+        return 0.0
+    at_threshold, slope = ADAPTIVE_GAIN
+    return at_threshold + slope * (concentration - ADAPTIVE_ABOVE)
 
 
 def edges_above(pixels: int) -> float:

@@ -274,7 +274,11 @@ def _sparse_time(trace: _Trace, plan: BudgetPlan, costs, path_seconds: float) ->
     """(the sparse way's extra seconds as a share of a dense frame's, whether they pay: :func:`sparse_pays`), with
     ``path_seconds`` for a sample a pixel."""
     dense_seconds = time.perf_counter() - trace.started + plan.budget * path_seconds + trace.completion_seconds
-    return costs.extra_seconds() / dense_seconds, sparse_pays(costs.extra_seconds(), path_seconds, plan.budget)
+    # the highest of any first pass's readings: a budget whose frames go sparse reads none of its own
+    readings = [reading.remembered() for reading in costs.concentrations.values()]
+    concentration = max((value for value in readings if value is not None), default=None)
+    return costs.extra_seconds() / dense_seconds, sparse_pays(costs.extra_seconds(), path_seconds, plan.budget,
+                                                              concentration)
 
 
 def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarray) -> dict:

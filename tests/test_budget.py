@@ -79,6 +79,22 @@ def test_the_sparse_way_pays_when_its_extra_time_is_worth_less_than_its_gain():
     assert sparse_pays(0.06, 0.03, 8.0) and not sparse_pays(0.06, 0.004, 8.0)  # a cheap scene's samples come cheap
 
 
+def test_the_sparse_way_must_beat_adaptive_placement_where_a_dense_frame_would_use_it():
+    from gmcpt.budget import (ADAPTIVE_ABOVE, ADAPTIVE_FROM_BUDGET, DENSE_GAIN_PER_DOUBLING, SPARSE_GAIN,
+                              adaptive_gain, sparse_pays)
+
+    concentrated = ADAPTIVE_ABOVE + 0.05
+    assert adaptive_gain(None) == adaptive_gain(ADAPTIVE_ABOVE - 0.01) == 0.0
+    assert 0 < adaptive_gain(ADAPTIVE_ABOVE) < adaptive_gain(concentrated)
+    # extra seconds worth half the adaptive gain less than the sparse gain: pays against even samples only
+    more = 2 ** ((SPARSE_GAIN - adaptive_gain(concentrated) / 2) / DENSE_GAIN_PER_DOUBLING) - 1
+    budget = ADAPTIVE_FROM_BUDGET
+    assert sparse_pays(more * budget * 0.01, 0.01, budget)
+    assert not sparse_pays(more * budget * 0.01, 0.01, budget, concentrated)
+    low = ADAPTIVE_FROM_BUDGET / 2  # below it a dense frame is never adaptive
+    assert sparse_pays(more * low * 0.01, 0.01, low, concentrated)
+
+
 def test_edge_share_counts_the_frame_near_feature_edges():
     from gmcpt.budget import edge_share
 
