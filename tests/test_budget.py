@@ -230,6 +230,14 @@ def test_the_integrator_renders_a_budget(mi, cornell):
         integrator.render(cornell, spp=8)
 
 
+def test_cli_records_the_guide_aliasing_a_low_budget_frame_reads(tmp_path):
+    out = tmp_path / "low.exr"
+    result = run_cli(CORNELL, "--res", *SIZE, "--budget", "2", "--method", "interp", "--out", out, "-q")
+    assert result.returncode == 0, result.stderr
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["guide_aliasing"] > 0 and record["guide_spp"] == 4  # the first frame reads, with 4 rays
+
+
 def test_cli_budget_records_its_choice_and_refuses_a_rate_beside_it(tmp_path):
     out = tmp_path / "budget.exr"
     result = run_cli(CORNELL, "--res", *SIZE, "--budget", "4.8", "--method", "interp", "--out", out, "-q")
