@@ -241,9 +241,9 @@ def _guides(trace: _Trace, budget: float):
     (:attr:`gmcpt.costs.FrameCosts.aliasing`), the pass is two halves of other seeds, whose difference is the
     reading; ``info`` records it (``guide_aliasing``)."""
     feature_spp = trace.settings.feature_spp
-    reading = frame_costs(trace.scene, trace.sums.size).aliasing
     if not reads_guide_aliasing(budget, feature_spp):
         return trace.features(guide_spp(budget, feature_spp), visibility=False)
+    reading = frame_costs(trace.scene, trace.sums.size).aliasing
     if reading.remembered() is None:
         rays = guide_spp(budget, feature_spp)
         first = trace.features(rays // 2, visibility=False)
