@@ -69,6 +69,16 @@ GUIDE_SPP_RANGE = (4, 16)
 #: proc-2000000 0.0014 and 0.1 dB; the Cornell box 0.0043 and 0.3 dB, the other scenes 0.0046-0.047
 #: (docs/experiments.md).
 GUIDE_ALIASING_BELOW = 0.003
+#: Below budget 16 a dense frame takes 16-ray guides as clean, which runs OIDN's large model, where the scene's
+#: :func:`denoiser_proxy` reads at least this: the scenes that read 1.15 or more gained 0.61-1.26 doublings of
+#: samples from it at budgets 4 and 8, the others -0.14 to 0.80 (``benchmarks/denoiser_gain.py``).
+LARGE_MODEL_PROXY_ABOVE = 1.15
+#: ... and where its extra seconds are under this share of the dense frame's: at the least of those gains it
+#: then still buys more than the time would in samples.
+LARGE_MODEL_SHARE_BELOW = 0.5
+#: OIDN's large model's seconds over its usual model's (0.13 against 0.055 s at 256x256, 4.0 against 1.8 s at
+#: 1920x1080).
+LARGE_MODEL_TIME_RATIO = 2.3
 #: Above this :func:`relative_variance` the frame is traced dense (set in docs/experiments.md).
 DENSE_ABOVE = 0.15
 #: Above this :func:`edge_share` too, at 256x256 (docs/experiments.md); at other sizes :func:`edges_above`.
@@ -249,6 +259,24 @@ def reads_guide_aliasing(budget: float, feature_spp: int) -> bool:
     """Whether a frame of ``budget`` without a remembered reading traces its guides in two halves to read
     :func:`guide_aliasing`: below :data:`GUIDE_SPP_RANGE`, where the reading chooses the rays."""
     return budget < GUIDE_SPP_RANGE[0] and guide_spp(budget, feature_spp) == GUIDE_SPP_RANGE[0]
+
+
+def denoiser_proxy(quarter: np.ndarray, half: np.ndarray, clean_half: np.ndarray) -> float:
+    """How far OIDN's large model moves a half frame's denoised image, over how far doubling the half's samples
+    moves it: (RMS(clean_half - half) / RMS(quarter - half))^2 of the tonemapped images (``quarter``: a quarter of
+    the frame's samples denoised as ``half`` is). No reference needed; it orders the scenes by what the large model
+    gains them (docs/experiments.md)."""
+    from .metrics import tonemap
+
+    half = tonemap(half)
+    moved = lambda image: float(np.mean((tonemap(image) - half) ** 2))  # noqa: E731
+    return moved(clean_half) / max(moved(quarter), 1e-12)
+
+
+def large_model_pays(proxy: float, extra_seconds: float, frame_seconds: float) -> bool:
+    """Whether a dense frame of ``frame_seconds`` takes OIDN's large model for ``extra_seconds`` more, after the
+    scene's :func:`denoiser_proxy` (:data:`LARGE_MODEL_PROXY_ABOVE`, :data:`LARGE_MODEL_SHARE_BELOW`)."""
+    return proxy >= LARGE_MODEL_PROXY_ABOVE and extra_seconds < LARGE_MODEL_SHARE_BELOW * frame_seconds
 
 
 def guide_aliasing(first_albedo: list, second_albedo: list) -> float:

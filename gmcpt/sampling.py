@@ -28,6 +28,7 @@ from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, adaptive_
 from .costs import completion_seconds, frame_costs
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
+from .large_model import large_model_guides, read_denoiser
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
 from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
                     sample_by_density, sample_count, second_pass_mask)
@@ -42,6 +43,7 @@ PROBE_SEED_OFFSET = 0x9B0BE  # the probe's placement
 FIRST_PASS_SEED_OFFSET = 0xF1257  # the sparse way's first pass beside the probe (same seed: same lanes' samples)
 GUIDE_TOP_UP_SEED_OFFSET = 0x6D1E  # the sparse way's feature rays beside the guides'
 GUIDE_HALF_SEED_OFFSET = 0x6A1F  # the second half of a guide pass that reads the guides' aliasing
+SPLIT_SEED_OFFSETS = (0x5B1, 0x5B2)  # the second quarter and the half of a frame that reads the denoiser
 
 Say = Callable[[str], None]
 
@@ -231,8 +233,13 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
         # the generator's seconds join these in gmcpt.pipeline, after the completion
         trace.info["sparse_extra_s"] = trace.timings["features_s"] - features_before + trace.timings["mask_s"]
         return features
-    _dense(trace, plan, probe)
-    return features
+    frame_seconds = None if costs.seconds_per_spp is None else _dense_seconds(trace, plan, costs.seconds_per_spp)
+    guides, clean = large_model_guides(trace, plan, costs, guides, frame_seconds)
+    images = _dense(trace, plan, probe, split=clean is not None)
+    if images is not None:
+        guides = read_denoiser(trace, plan, costs, (guides, clean), images, frame_seconds)
+    trace.info["guide_spp"] = guides.spp
+    return guides.buffers() if guides.spp != guide_rays else features
 
 
 def _guides(trace: _Trace, budget: float):
@@ -273,12 +280,17 @@ def _probe(trace: _Trace, plan: BudgetPlan) -> tuple[np.ndarray, float]:
 def _sparse_time(trace: _Trace, plan: BudgetPlan, costs, path_seconds: float) -> tuple[float, bool]:
     """(the sparse way's extra seconds as a share of a dense frame's, whether they pay: :func:`sparse_pays`), with
     ``path_seconds`` for a sample a pixel."""
-    dense_seconds = time.perf_counter() - trace.started + plan.budget * path_seconds + trace.completion_seconds
+    dense_seconds = _dense_seconds(trace, plan, path_seconds)
     # the highest of any first pass's readings: a budget whose frames go sparse reads none of its own
     readings = [reading.remembered() for reading in costs.concentrations.values()]
     concentration = max((value for value in readings if value is not None), default=None)
     return costs.extra_seconds() / dense_seconds, sparse_pays(costs.extra_seconds(), path_seconds, plan.budget,
                                                               concentration)
+
+
+def _dense_seconds(trace: _Trace, plan: BudgetPlan, path_seconds: float) -> float:
+    """What a dense frame of ``plan`` is expected to take in all, ``path_seconds`` a sample a pixel."""
+    return time.perf_counter() - trace.started + plan.budget * path_seconds + trace.completion_seconds
 
 
 def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarray) -> dict:
@@ -302,14 +314,15 @@ def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarr
     return features
 
 
-def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
+def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray, split: bool = False) -> tuple | None:
     """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
     render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
     that no pixel has more than ``ceil(budget)``. From :data:`~gmcpt.budget.ADAPTIVE_FROM_BUDGET` the bulk is
     two renders, and where the first finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the
     second is adaptive path tracing's placement instead (:func:`_adaptive_rest`). A recent frame's reading of
     the scene after a first pass of as many samples that says even (:meth:`gmcpt.costs.FrameCosts.concentration`)
-    keeps the one launch."""
+    keeps the one launch. With ``split``, one even launch is traced as a quarter, a quarter and a half of its samples
+    instead; returns (the first quarter's image, the half's), else None."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
     if trace.sums.samples:
@@ -325,7 +338,7 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
         _native(trace, first, seed)
         if _adaptive_rest(trace, left - first * plan.pixels, first, seed):
             trace.traced[:] = True
-            return
+            return None
         # the second launch draws other samples than the first
         current[:], left, seed = first, left - first * plan.pixels, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
     start = time.perf_counter()
@@ -333,20 +346,36 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray) -> None:
     trace.timed("mask_s", start)
     # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
     # drawn with it too, are left out of the image)
+    trace.traced[:] = True
+    if split and not current.any() and counts.min() == counts.max() >= 4:
+        return _split_native(trace, int(counts.min()), seed)
     _native(trace, int(counts.min()), seed)
     trace.trace(np.flatnonzero(counts > counts.min()), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the rest
-    trace.traced[:] = True
+    return None
 
 
-def _native(trace: _Trace, spp: int, seed: int) -> None:
-    """Mitsuba's own render of every pixel at ``spp`` (none at 0) into the frame's sums; its pace is learnt."""
+def _native(trace: _Trace, spp: int, seed: int) -> np.ndarray | None:
+    """Mitsuba's own render of every pixel at ``spp`` (none at 0) into the frame's sums; its pace is learnt.
+    Returns the image, flat (N, 3)."""
     if not spp:
-        return
+        return None
     start = time.perf_counter()
     trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render)")
-    trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, spp, seed), spp)
+    image = render_native(trace.scene, trace.sensor, trace.integrator, spp, seed)
+    trace.sums.add_native(image, spp)
     trace.timed("render_s", start)
     frame_costs(trace.scene, trace.sums.size).learn_path((time.perf_counter() - start) / spp)
+    return image
+
+
+def _split_native(trace: _Trace, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Mitsuba's render of every pixel at ``spp`` as a quarter, a quarter and a half (seeds of their own): the
+    first quarter's image and the half's, (H, W, 3) float32, non-finite pixels as 0."""
+    quarter, images = spp // 4, []
+    for count, offset in ((quarter, 0), (quarter, SPLIT_SEED_OFFSETS[0]), (spp - 2 * quarter, SPLIT_SEED_OFFSETS[1])):
+        images.append(_native(trace, count, (seed + offset) % SEED_LIMIT))
+    image = lambda flat: np.nan_to_num(flat).reshape(*trace.shape, 3)  # noqa: E731
+    return image(images[0]), image((images[0] + images[1]) / 2)
 
 
 def _adaptive_rest(trace: _Trace, samples: int, first_spp: int, seed: int) -> bool:

@@ -1,0 +1,70 @@
+"""OIDN's large model for a dense frame below budget 16: its guides topped up to 16 rays, which OIDN takes as clean
+(:data:`gmcpt.denoise.CLEAN_GUIDE_RAYS`), where the scene's reading of what that buys says it pays.
+
+The reading (:func:`gmcpt.budget.denoiser_proxy`) comes from a frame traced as a quarter, a quarter and a half of
+its samples, each denoised: how far the large model moves the half against how far doubling the quarter's samples
+does. It serves the next frames of its budget (:attr:`gmcpt.costs.FrameCosts.denoisers`). The functions take the
+frame's trace (:class:`gmcpt.sampling._Trace`).
+"""
+from __future__ import annotations
+
+import time
+
+from .budget import (LARGE_MODEL_TIME_RATIO, BudgetPlan, adaptive_first_spp, adaptive_pays, denoiser_proxy,
+                     large_model_pays)
+from .denoise import CLEAN_GUIDE_RAYS, denoise_oidn
+
+CLEAN_GUIDE_SEED_OFFSET = 0xC1EA  # the guide rays a dense frame adds up to 16
+
+
+def extra_seconds(trace, guides) -> float:
+    """What the large model adds to a dense frame with ``guides``: its own time over OIDN's usual model's, and the
+    guide rays up to 16 at the pace of the frame's guide pass."""
+    ray_seconds = trace.timings.get("features_s", 0.0) / guides.spp
+    return (LARGE_MODEL_TIME_RATIO - 1) * trace.completion_seconds + (CLEAN_GUIDE_RAYS - guides.spp) * ray_seconds
+
+
+def large_model_guides(trace, plan: BudgetPlan, costs, guides, frame_seconds: float | None):
+    """(guides, clean) of a dense frame expected to take ``frame_seconds`` (None: not known yet): ``guides`` topped
+    up to 16 rays where the scene's reading at this budget says the large model pays
+    (:func:`~gmcpt.budget.large_model_pays`), else ``guides``. Without a reading, a frame that could pay and traces
+    one even launch gets the topped-up guides as ``clean`` too: it splits its launch and reads the scene
+    (:func:`read_denoiser`)."""
+    if not 0 < guides.spp < CLEAN_GUIDE_RAYS or frame_seconds is None:
+        return guides, None
+    extra = extra_seconds(trace, guides)
+    if not large_model_pays(float("inf"), extra, frame_seconds):  # too dear here whatever the scene reads
+        return guides, None
+    reading = costs.denoiser(round(plan.budget))
+    if reading.remembered() is not None:
+        proxy = trace.info["denoiser_proxy"] = reading.remembered()
+        reading.learn(None)
+        return (clean_guides(trace, guides) if large_model_pays(proxy, extra, frame_seconds) else guides), None
+    first = adaptive_first_spp(plan.budget)
+    concentration = costs.concentration(first).remembered() if first else None
+    one_launch = not first or (concentration is not None and not adaptive_pays(concentration))
+    if plan.budget != int(plan.budget) or not one_launch:
+        return guides, None
+    return guides, clean_guides(trace, guides)
+
+
+def clean_guides(trace, guides):
+    """``guides`` topped up to :data:`~gmcpt.denoise.CLEAN_GUIDE_RAYS` rays (other seeds)."""
+    return guides.merged(trace.features(CLEAN_GUIDE_RAYS - guides.spp, CLEAN_GUIDE_SEED_OFFSET, visibility=False))
+
+
+def read_denoiser(trace, plan: BudgetPlan, costs, both: tuple, images: tuple, frame_seconds: float):
+    """Read what the large model buys the scene at this budget from a frame's first quarter and half (``images``,
+    (H, W, 3)), denoised with its guides and with the clean ones (``both``), and return the guides the frame
+    takes after it; ``info`` records the reading (``denoiser_proxy``)."""
+    start = time.perf_counter()
+    guides, clean = both
+    mine, theirs = guides.buffers(), clean.buffers()
+    quarter, half = images
+    proxy = denoiser_proxy(denoise_oidn(quarter, mine["albedo"], mine["normal"], guides.spp),
+                           denoise_oidn(half, mine["albedo"], mine["normal"], guides.spp),
+                           denoise_oidn(half, theirs["albedo"], theirs["normal"], clean.spp))
+    costs.denoiser(round(plan.budget)).learn(proxy)
+    trace.info["denoiser_proxy"] = proxy
+    trace.timed("mask_s", start)
+    return clean if large_model_pays(proxy, extra_seconds(trace, guides), frame_seconds) else guides
