@@ -43,7 +43,7 @@ def large_model_guides(trace, plan: BudgetPlan, costs, guides, frame_seconds: fl
     first = adaptive_first_spp(plan.budget)
     concentration = costs.concentration(first).remembered() if first else None
     one_launch = not first or (concentration is not None and not adaptive_pays(concentration))
-    if plan.budget != int(plan.budget) or not one_launch:
+    if int(plan.budget) < 4 or not one_launch:  # a split launch needs a quarter of a sample at least
         return guides, None
     return guides, clean_guides(trace, guides)
 

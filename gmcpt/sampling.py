@@ -321,8 +321,8 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray, split: bool = Fal
     two renders, and where the first finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the
     second is adaptive path tracing's placement instead (:func:`_adaptive_rest`). A recent frame's reading of
     the scene after a first pass of as many samples that says even (:meth:`gmcpt.costs.FrameCosts.concentration`)
-    keeps the one launch. With ``split``, one even launch is traced as a quarter, a quarter and a half of its samples
-    instead; returns (the first quarter's image, the half's), else None."""
+    keeps the one launch. With ``split``, an even launch of 4 samples a pixel or more is traced as a quarter, a
+    quarter and a half of them instead; returns (the first quarter's image, the half's), else None."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
     if trace.sums.samples:
@@ -347,11 +347,13 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray, split: bool = Fal
     # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
     # drawn with it too, are left out of the image)
     trace.traced[:] = True
-    if split and not current.any() and counts.min() == counts.max() >= 4:
-        return _split_native(trace, int(counts.min()), seed)
-    _native(trace, int(counts.min()), seed)
+    images = None
+    if split and not current.any() and counts.min() >= 4:
+        images = _split_native(trace, int(counts.min()), seed)
+    else:
+        _native(trace, int(counts.min()), seed)
     trace.trace(np.flatnonzero(counts > counts.min()), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the rest
-    return None
+    return images
 
 
 def _native(trace: _Trace, spp: int, seed: int) -> np.ndarray | None:
