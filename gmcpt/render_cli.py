@@ -217,7 +217,8 @@ def run(args, say=lambda message: None, extra: dict | None = None,
         "traced_pixels": frame.info["traced_pixels"],
         "path_samples": frame.info["path_samples"],
         **{key: frame.info[key] for key in ("budget_choice", "probe", "relative_variance", "edge_share", "guide_spp",
-                                            "guide_aliasing", "dense_placement", "error_concentration", "time_spent")
+                                            "guide_aliasing", "dense_placement", "error_concentration", "denoiser_proxy",
+                                            "time_spent")
            if key in frame.info},
         **({"spent_budget": frame.info["budget"]} if settings.time else {}),
         **({"first_pass_pixels": frame.info["first_pass_pixels"]} if settings.pattern == "two_pass" else {}),

@@ -389,3 +389,60 @@ def test_guides_take_about_the_budgets_rays_within_their_range(budget, feature_s
     from gmcpt.budget import guide_spp
 
     assert guide_spp(budget, feature_spp) == rays
+
+
+def test_the_denoiser_proxy_compares_the_large_models_move_with_a_doubling_of_samples():
+    from gmcpt.budget import denoiser_proxy
+
+    rng = np.random.default_rng(3)
+    half = rng.uniform(0.2, 0.6, (16, 16, 3)).astype(np.float32)
+    quarter = half + rng.normal(0, 0.05, half.shape).astype(np.float32)
+    assert denoiser_proxy(quarter, half, half) == 0.0
+    assert denoiser_proxy(quarter, half, quarter) == pytest.approx(1.0)
+    assert denoiser_proxy(quarter, half, half + 2 * (quarter - half)) > 3.5  # twice as far: four times the square
+
+
+@pytest.mark.parametrize("proxy,extra,frame,pays", [(1.3, 0.1, 0.3, True), (1.0, 0.1, 0.3, False),
+                                                    (1.3, 0.2, 0.3, False)])
+def test_the_large_model_pays_where_the_scene_reads_high_and_it_costs_under_half_the_frame(proxy, extra, frame, pays):
+    from gmcpt.budget import large_model_pays
+
+    assert large_model_pays(proxy, extra, frame) is pays
+
+
+@pytest.mark.parametrize("remembered,rays", [(2.0, 16), (0.5, 4)])
+def test_a_dense_frame_takes_16_ray_guides_where_the_scenes_denoiser_reading_says_so(mi, monkeypatch, remembered, rays):
+    from gmcpt import budget
+    from gmcpt.costs import frame_costs
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense without a probe
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)  # the time never stands in the way
+    scene = load_scene(CORNELL, resolution=SIZE)
+    first = _render(scene, 4.0)  # learns the path tracer's pace: no reading before it
+    assert first.info["guide_spp"] == 4 and "denoiser_proxy" not in first.info
+    frame_costs(scene, SIZE[0] * SIZE[1]).denoiser(4).learn(remembered)
+    frame = _render(scene, 4.0, seed=1)
+    assert frame.info["guide_spp"] == rays and frame.info["denoiser_proxy"] == remembered
+    assert frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1]
+
+
+def test_a_dense_frame_without_a_denoiser_reading_splits_its_launch_and_reads_one(mi, monkeypatch):
+    from gmcpt import budget
+    from gmcpt.costs import frame_costs
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)
+    scene = load_scene(CORNELL, resolution=SIZE)
+    _render(scene, 4.0)
+    frame = _render(scene, 4.0, seed=1)
+    reading = frame_costs(scene, SIZE[0] * SIZE[1]).denoiser(4)
+    assert frame.info["denoiser_proxy"] > 0 and reading.value == frame.info["denoiser_proxy"]
+    assert frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1] and np.isfinite(frame.radiance).all()
+    assert frame.info["guide_spp"] == (16 if frame.info["denoiser_proxy"] >= budget.LARGE_MODEL_PROXY_ABOVE else 4)
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # too dear: neither read nor taken
+    fresh = load_scene(CORNELL, resolution=SIZE)
+    _render(fresh, 4.0)
+    frame = _render(fresh, 4.0, seed=1)
+    assert "denoiser_proxy" not in frame.info and frame.info["guide_spp"] == 4
