@@ -148,6 +148,7 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     monkeypatch.setattr(budget, "DENSE_ABOVE", threshold)
     monkeypatch.setattr(budget, "EDGES_ABOVE", threshold)
     monkeypatch.setattr(budget, "SPARSE_GAIN", threshold)  # the sparse way's time always pays, or never
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
     pixels = SIZE[0] * SIZE[1]
     frame = _render(cornell, 4.8)
     plan = plan_budget(4.8, pixels)
@@ -309,6 +310,7 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
     from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", threshold)
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense
     scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: no earlier frame's reading
     launches = []
@@ -338,6 +340,7 @@ def test_an_even_reading_serves_only_frames_of_its_first_pass(mi, monkeypatch):
     from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", math.inf)  # every reading says even
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense
     scene = load_scene(CORNELL, resolution=SIZE)
     launches = []
