@@ -48,7 +48,8 @@ def main() -> int:
     from gmcpt.evaluation.measure import FULL_REFERENCES
     from gmcpt.evaluation.reference import cached_only, render_reference
     from gmcpt.evaluation.scenes import by_name, evaluation_scenes
-    from gmcpt.metrics import psnr, tonemap
+    from gmcpt.budget import denoiser_proxy
+    from gmcpt.metrics import psnr
     from gmcpt.render import render_features, render_native
     from gmcpt.scene import path_integrator
 
@@ -77,9 +78,6 @@ def main() -> int:
         def denoised(image, guides: dict, rays: int):
             return denoise_oidn(image, guides["albedo"], guides["normal"], rays)
 
-        def moved(a, b) -> float:
-            return float(np.sqrt(np.mean((tonemap(a) - tonemap(b)) ** 2)))
-
         for budget in args.budgets:
             readings = []
             for seed in range(0, 1000 * args.seeds, 1000):
@@ -94,7 +92,7 @@ def main() -> int:
                 gain_at_budget = (psnr(denoised(whole, clean, CLEAN_RAYS), reference)
                                   - psnr(denoised(whole, guides, budget), reference))
                 doublings = (psnr(dc, reference) - psnr(ds, reference)) / (psnr(ds, reference) - psnr(d1, reference))
-                readings.append(((moved(dc, ds) / moved(d1, ds)) ** 2, doublings, gain_at_budget))
+                readings.append((denoiser_proxy(d1, ds, dc), doublings, gain_at_budget))
             proxy, doublings, gain = np.mean(readings, axis=0)
             print(f"{eval_scene.name:<20} {budget:>6} {proxy:>6.2f} {doublings:>9.2f} {gain:>+8.2f}", flush=True)
     return 0
