@@ -25,27 +25,28 @@ def extra_seconds(trace, guides) -> float:
 
 
 def large_model_guides(trace, plan: BudgetPlan, costs, guides, frame_seconds: float | None):
-    """(guides, clean) of a dense frame expected to take ``frame_seconds`` (None: not known yet): ``guides`` topped
-    up to 16 rays where the scene's reading at this budget says the large model pays
+    """(guides, clean, price) of a dense frame expected to take ``frame_seconds`` (None: not known yet): ``guides``
+    topped up to 16 rays where the scene's reading at this budget says the large model pays
     (:func:`~gmcpt.budget.large_model_pays`), else ``guides``. Without a reading, a frame that could pay and traces
     one even launch gets the topped-up guides as ``clean`` too: it splits its launch and reads the scene
-    (:func:`read_denoiser`)."""
+    (:func:`read_denoiser`, which takes ``price``: the large model's extra seconds and the frame's, priced
+    before any guide ray is added)."""
     if not 0 < guides.spp < CLEAN_GUIDE_RAYS or frame_seconds is None:
-        return guides, None
-    extra = extra_seconds(trace, guides)
-    if not large_model_pays(float("inf"), extra, frame_seconds):  # too dear here whatever the scene reads
-        return guides, None
+        return guides, None, None
+    price = (extra_seconds(trace, guides), frame_seconds)
+    if not large_model_pays(float("inf"), *price):  # too dear here whatever the scene reads
+        return guides, None, None
     reading = costs.denoiser(round(plan.budget))
     if reading.remembered() is not None:
         proxy = trace.info["denoiser_proxy"] = reading.remembered()
         reading.learn(None)
-        return (clean_guides(trace, guides) if large_model_pays(proxy, extra, frame_seconds) else guides), None
+        return (clean_guides(trace, guides) if large_model_pays(proxy, *price) else guides), None, None
     first = adaptive_first_spp(plan.budget)
     concentration = costs.concentration(first).remembered() if first else None
     one_launch = not first or (concentration is not None and not adaptive_pays(concentration))
     if int(plan.budget) < 4 or not one_launch:  # a split launch needs a quarter of a sample at least
-        return guides, None
-    return guides, clean_guides(trace, guides)
+        return guides, None, None
+    return guides, clean_guides(trace, guides), price
 
 
 def clean_guides(trace, guides):
@@ -53,10 +54,11 @@ def clean_guides(trace, guides):
     return guides.merged(trace.features(CLEAN_GUIDE_RAYS - guides.spp, CLEAN_GUIDE_SEED_OFFSET, visibility=False))
 
 
-def read_denoiser(trace, plan: BudgetPlan, costs, both: tuple, images: tuple, frame_seconds: float):
+def read_denoiser(trace, plan: BudgetPlan, costs, both: tuple, images: tuple, price: tuple):
     """Read what the large model buys the scene at this budget from a frame's first quarter and half (``images``,
     (H, W, 3)), denoised with its guides and with the clean ones (``both``), and return the guides the frame
-    takes after it; ``info`` records the reading (``denoiser_proxy``)."""
+    takes after it (``price`` as :func:`large_model_guides` gives it); ``info`` records the reading
+    (``denoiser_proxy``)."""
     start = time.perf_counter()
     guides, clean = both
     mine, theirs = guides.buffers(), clean.buffers()
@@ -67,4 +69,4 @@ def read_denoiser(trace, plan: BudgetPlan, costs, both: tuple, images: tuple, fr
     costs.denoiser(round(plan.budget)).learn(proxy)
     trace.info["denoiser_proxy"] = proxy
     trace.timed("mask_s", start)
-    return clean if large_model_pays(proxy, extra_seconds(trace, guides), frame_seconds) else guides
+    return clean if large_model_pays(proxy, *price) else guides

@@ -234,10 +234,10 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
         trace.info["sparse_extra_s"] = trace.timings["features_s"] - features_before + trace.timings["mask_s"]
         return features
     frame_seconds = None if costs.seconds_per_spp is None else _dense_seconds(trace, plan, costs.seconds_per_spp)
-    guides, clean = large_model_guides(trace, plan, costs, guides, frame_seconds)
+    guides, clean, price = large_model_guides(trace, plan, costs, guides, frame_seconds)
     images = _dense(trace, plan, probe, split=clean is not None)
     if images is not None:
-        guides = read_denoiser(trace, plan, costs, (guides, clean), images, frame_seconds)
+        guides = read_denoiser(trace, plan, costs, (guides, clean), images, price)
     trace.info["guide_spp"] = guides.spp
     return guides.buffers() if guides.spp != guide_rays else features
 

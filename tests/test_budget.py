@@ -449,3 +449,30 @@ def test_a_dense_frame_without_a_denoiser_reading_splits_its_launch_and_reads_on
     _render(fresh, 4.0)
     frame = _render(fresh, 4.0, seed=1)
     assert "denoiser_proxy" not in frame.info and frame.info["guide_spp"] == 4
+
+
+def test_the_large_models_price_is_read_before_its_guide_rays_are_added():
+    from gmcpt.budget import BudgetPlan
+    from gmcpt.costs import FrameCosts
+    from gmcpt.large_model import extra_seconds, large_model_guides
+
+    class Guides:
+        def __init__(self, spp):
+            self.spp = spp
+
+        def merged(self, other):
+            return Guides(self.spp + other.spp)
+
+    class Trace:  # a guide pass of 4 rays took 0.04 s; every ray added takes 0.01 s more
+        timings, completion_seconds, info = {"features_s": 0.04}, 0.05, {}
+
+        def features(self, spp, seed_offset=0, visibility=True):
+            self.timings["features_s"] += 0.01 * spp
+            return Guides(spp)
+
+    trace, guides = Trace(), Guides(4)
+    expected = extra_seconds(trace, guides)
+    plan = BudgetPlan(budget=4.0, pixels=64, samples=256, sparse_pixels=16)
+    kept, clean, price = large_model_guides(trace, plan, FrameCosts(64), guides, frame_seconds=1.0)
+    assert kept is guides and clean.spp == 16 and trace.timings["features_s"] == pytest.approx(0.16)
+    assert price == (pytest.approx(expected), 1.0) and extra_seconds(trace, guides) > 2 * expected

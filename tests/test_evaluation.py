@@ -295,3 +295,20 @@ def test_equal_time_rounds_warm_up_before_they_time_and_count():
                         for i in counted])
     assert np.isclose(np.mean([m["mse"] for m in setting.metrics]), expected)
     assert set(calls[measure.WARM_UP_ROUNDS:]) <= set(counted) and setting.seconds < 0.05
+
+
+def test_a_setting_that_reads_its_scene_twice_warms_up_twice_and_counts_neither():
+    """The default's readings wait on one another: its warm-up runs both reading frames, and only what follows counts."""
+    from gmcpt.evaluation import measure
+
+    images = {0: 10.0, 1: 5.0}  # the two reading frames of the warm-up, far from the reference
+    calls = []
+
+    def run(index):
+        calls.append(index)
+        return (np.full((8, 8, 3), images.pop(len(calls) - 1, 0.0), np.float32),)
+
+    setting = measure._Setting({}, run, warm_ups=2)
+    measure._in_rounds([setting], 3, np.zeros((8, 8, 3), np.float32), lambda s, result: None)
+    assert calls[:2] == [0, 0] and len(setting.metrics) == measure.timed_runs(3)
+    assert all(m["mse"] == 0.0 for m in setting.metrics)
