@@ -76,9 +76,6 @@ LARGE_MODEL_PROXY_ABOVE = 1.15
 #: ... and where its extra seconds are under this share of the dense frame's: at the least of those gains it
 #: then still buys more than the time would in samples.
 LARGE_MODEL_SHARE_BELOW = 0.5
-#: OIDN's large model's seconds over its usual model's (0.13 against 0.055 s at 256x256, 4.0 against 1.8 s at
-#: 1920x1080).
-LARGE_MODEL_TIME_RATIO = 2.3
 #: Above this :func:`relative_variance` the frame is traced dense (set in docs/experiments.md).
 DENSE_ABOVE = 0.15
 #: Above this :func:`edge_share` too, at 256x256 (docs/experiments.md); at other sizes :func:`edges_above`.

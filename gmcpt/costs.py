@@ -85,20 +85,31 @@ class FrameCosts:
         self.sparse_extra_seconds = min(seconds, self.sparse_extra_seconds or np.inf)
 
 
-#: The fewest seconds per pixel the denoiser has taken in this process (first guess: OIDN on 2 cores, about
-#: 0.06 s at 256x256 and 1.9 s at 1920x1080): what a time budget keeps back for the completion, and what a
-#: budget's chooser counts in a dense frame. The fewest, as the first call in a process loads the denoiser.
-_denoise_pace = {"seconds_per_pixel": 1.0e-6}
+#: OIDN's seconds a pixel before the process has run it (2 cores: about 0.06 s at 256x256 and 1.9 s at 1920x1080 on
+#: one machine, 0.11 s at 256x256 on a slower one), and its large model's over its usual model's before that has run
+#: (2.3 there: 0.13 against 0.055 s at 256x256, 4.0 against 1.8 s at 1920x1080).
+DENOISE_SECONDS_PER_PIXEL = 1.0e-6
+LARGE_MODEL_TIME_RATIO = 2.3
+
+#: The fewest seconds a pixel each of OIDN's models has taken in this process (None: not run yet): what a time
+#: budget keeps back for the completion, and what a budget's chooser counts in a dense frame. The fewest, as the
+#: first call in a process loads the denoiser.
+_denoise_pace = {"usual": None, "large": None}
 
 
-def completion_seconds(pixels: int) -> float:
-    """Seconds the denoiser is expected to take on a frame of ``pixels`` pixels."""
-    return _denoise_pace["seconds_per_pixel"] * pixels
+def completion_seconds(pixels: int, large: bool = False) -> float:
+    """Seconds the denoiser is expected to take on a frame of ``pixels`` pixels: its usual model, or with ``large``
+    its large model (OIDN over clean guides, :func:`gmcpt.denoise.takes_clean_guides`)."""
+    usual = _denoise_pace["usual"] or DENOISE_SECONDS_PER_PIXEL
+    if large:
+        return pixels * (_denoise_pace["large"] or LARGE_MODEL_TIME_RATIO * usual)
+    return pixels * usual
 
 
-def record_denoise(seconds: float, pixels: int) -> None:
-    """Learn from a denoiser run of ``seconds`` on ``pixels`` pixels."""
-    _denoise_pace["seconds_per_pixel"] = min(_denoise_pace["seconds_per_pixel"], seconds / max(pixels, 1))
+def record_denoise(seconds: float, pixels: int, large: bool = False) -> None:
+    """Learn from a denoiser run of ``seconds`` on ``pixels`` pixels (its large model's with ``large``)."""
+    key = "large" if large else "usual"
+    _denoise_pace[key] = min(seconds / max(pixels, 1), _denoise_pace[key] or np.inf)
 
 
 def frame_costs(scene, pixels: int) -> FrameCosts:

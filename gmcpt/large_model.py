@@ -10,18 +10,20 @@ from __future__ import annotations
 
 import time
 
-from .budget import (LARGE_MODEL_TIME_RATIO, BudgetPlan, adaptive_first_spp, adaptive_pays, denoiser_proxy,
-                     large_model_pays)
+from .budget import BudgetPlan, adaptive_first_spp, adaptive_pays, denoiser_proxy, large_model_pays
+from .costs import completion_seconds
 from .denoise import CLEAN_GUIDE_RAYS, denoise_oidn
 
 CLEAN_GUIDE_SEED_OFFSET = 0xC1EA  # the guide rays a dense frame adds up to 16
 
 
 def extra_seconds(trace, guides) -> float:
-    """What the large model adds to a dense frame with ``guides``: its own time over OIDN's usual model's, and the
-    guide rays up to 16 at the pace of the frame's guide pass."""
+    """What the large model adds to a dense frame with ``guides``: its own time over OIDN's usual model's (each as
+    this process has measured it, :func:`gmcpt.costs.completion_seconds`), and the guide rays up to 16 at the pace
+    of the frame's guide pass."""
     ray_seconds = trace.timings.get("features_s", 0.0) / guides.spp
-    return (LARGE_MODEL_TIME_RATIO - 1) * trace.completion_seconds + (CLEAN_GUIDE_RAYS - guides.spp) * ray_seconds
+    large = completion_seconds(trace.sums.size, large=True) - completion_seconds(trace.sums.size)
+    return large + (CLEAN_GUIDE_RAYS - guides.spp) * ray_seconds
 
 
 def large_model_guides(trace, plan: BudgetPlan, costs, guides, frame_seconds: float | None):

@@ -45,9 +45,8 @@ def render_and_complete(scene, integrator, settings: RenderSettings = RenderSett
     say(f"completing with {method!r}")
     result = complete(frame, method, **(options or {}))
     timings = {**timings, **result.timings}
-    # a method without OIDN says nothing of OIDN's usual pace, nor does its large model (clean guides)
-    if "denoise_s" in timings and not takes_clean_guides(oidn_guide_rays(frame)):
-        record_denoise(timings["denoise_s"], frame.mask.size)
+    if "denoise_s" in timings:  # a method without OIDN says nothing of OIDN's pace
+        record_denoise(timings["denoise_s"], frame.mask.size, large=takes_clean_guides(oidn_guide_rays(frame)))
     if "sparse_extra_s" in frame.info:  # what this sparse frame added to a dense one's work, the generator's included
         extra = frame.info.pop("sparse_extra_s") + timings.get("pre_completion_s", 0.0)
         if _warm["sparse frames"]:  # the first one in a process loads and compiles the generator

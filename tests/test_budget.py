@@ -1,6 +1,7 @@
 """A sample budget instead of a rate: the plan, the chooser's signal and choice, exact totals, the front doors."""
 import json
 import math
+import types
 
 import numpy as np
 import pytest
@@ -464,7 +465,7 @@ def test_the_large_models_price_is_read_before_its_guide_rays_are_added():
             return Guides(self.spp + other.spp)
 
     class Trace:  # a guide pass of 4 rays took 0.04 s; every ray added takes 0.01 s more
-        timings, completion_seconds, info = {"features_s": 0.04}, 0.05, {}
+        timings, info, sums = {"features_s": 0.04}, {}, types.SimpleNamespace(size=64)
 
         def features(self, spp, seed_offset=0, visibility=True):
             self.timings["features_s"] += 0.01 * spp
@@ -476,3 +477,18 @@ def test_the_large_models_price_is_read_before_its_guide_rays_are_added():
     kept, clean, price = large_model_guides(trace, plan, FrameCosts(64), guides, frame_seconds=1.0)
     assert kept is guides and clean.spp == 16 and trace.timings["features_s"] == pytest.approx(0.16)
     assert price == (pytest.approx(expected), 1.0) and extra_seconds(trace, guides) > 2 * expected
+
+
+def test_the_denoisers_pace_is_what_this_process_measured_for_each_model(monkeypatch):
+    from gmcpt import costs
+
+    monkeypatch.setattr(costs, "_denoise_pace", {"usual": None, "large": None})
+    guess = costs.completion_seconds(1000)
+    assert guess == pytest.approx(1000 * costs.DENOISE_SECONDS_PER_PIXEL)
+    costs.record_denoise(0.004, 1000)  # slower than the first guess: the measurement replaces it
+    assert costs.completion_seconds(1000) == pytest.approx(0.004)
+    assert costs.completion_seconds(1000, large=True) == pytest.approx(0.004 * costs.LARGE_MODEL_TIME_RATIO)
+    costs.record_denoise(0.02, 1000, large=True)
+    costs.record_denoise(0.03, 1000, large=True)  # the fewest counts: a first run loads the model
+    assert costs.completion_seconds(1000, large=True) == pytest.approx(0.02)
+    assert costs.completion_seconds(1000) == pytest.approx(0.004)
