@@ -91,10 +91,11 @@ class FrameCosts:
 DENOISE_SECONDS_PER_PIXEL = 1.0e-6
 LARGE_MODEL_TIME_RATIO = 2.3
 
-#: The fewest seconds a pixel each of OIDN's models has taken in this process (None: not run yet): what a time
-#: budget keeps back for the completion, and what a budget's chooser counts in a dense frame. The fewest, as the
-#: first call in a process loads the denoiser.
+#: The fewest seconds a pixel each of OIDN's models has taken in this process (None: not measured yet): what a
+#: time budget keeps back for the completion, and what a budget's chooser counts in a dense frame. A model's first
+#: run in a process loads it (2 s against 0.11 at 256x256) and is not counted.
 _denoise_pace = {"usual": None, "large": None}
+_denoise_runs = {"usual": 0, "large": 0}
 
 
 def completion_seconds(pixels: int, large: bool = False) -> float:
@@ -107,9 +108,12 @@ def completion_seconds(pixels: int, large: bool = False) -> float:
 
 
 def record_denoise(seconds: float, pixels: int, large: bool = False) -> None:
-    """Learn from a denoiser run of ``seconds`` on ``pixels`` pixels (its large model's with ``large``)."""
+    """Learn from a denoiser run of ``seconds`` on ``pixels`` pixels (its large model's with ``large``), but its
+    first in the process."""
     key = "large" if large else "usual"
-    _denoise_pace[key] = min(seconds / max(pixels, 1), _denoise_pace[key] or np.inf)
+    _denoise_runs[key] += 1
+    if _denoise_runs[key] > 1:
+        _denoise_pace[key] = min(seconds / max(pixels, 1), _denoise_pace[key] or np.inf)
 
 
 def frame_costs(scene, pixels: int) -> FrameCosts:

@@ -406,8 +406,8 @@ def _adaptive_rest(trace: _Trace, samples: int, first_spp: int, seed: int) -> bo
 
 def _time_passes(trace: _Trace) -> dict:
     """A time budget: guides, then every pixel at one sample, then passes of as many samples as the seconds left
-    (less what the completion is expected to take) pay for at the pace of the passes so
-    far. Returns the feature buffers; ``info`` records the samples a pixel spent (``budget``)."""
+    (less what the completion is expected to take) pay for at the pace of the passes so far, in powers of two
+    (:func:`_pass_size`). Returns the feature buffers; ``info`` records the samples a pixel spent (``budget``)."""
     settings, seconds = trace.settings, trace.settings.time
     guides = _guides(trace, 1)
     spp, pace, index = 1, None, 0
@@ -419,7 +419,7 @@ def _time_passes(trace: _Trace) -> dict:
         trace.timed("render_s", start)
         pace = (time.perf_counter() - start) / spp  # seconds per sample a pixel, the launch's own cost included
         left = seconds - (time.perf_counter() - trace.started) - trace.completion_seconds
-        spp, index = int(left // pace), index + 1
+        spp, index = _pass_size(int(left // pace)), index + 1
         if spp < 1:
             break
     spent = int(trace.sums.samples // trace.sums.size)
@@ -427,6 +427,14 @@ def _time_passes(trace: _Trace) -> dict:
     trace.info.update({"time_budget": seconds, "budget": float(spent), "budget_choice": DENSE,
                        "guide_spp": guides.spp, "time_short": index == 1 and left < 0})
     return guides.buffers()
+
+
+def _pass_size(affordable: int) -> int:
+    """The samples a pixel of a time budget's next pass: the largest power of two within ``affordable`` (0 for
+    none). Each pass size is a kernel of its own, compiled on its first launch on a machine (about 2 s at 256x256 on
+    2 cores, then cached on disk): passes of whatever the seconds afford overran a budget of 2 s by up to 2x for
+    every new size, where powers of two keep a scene to a few kernels; the next passes take the rest."""
+    return 1 << (affordable.bit_length() - 1) if affordable >= 1 else 0
 
 
 def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sensor: mi.Sensor | None = None,

@@ -483,8 +483,12 @@ def test_the_denoisers_pace_is_what_this_process_measured_for_each_model(monkeyp
     from gmcpt import costs
 
     monkeypatch.setattr(costs, "_denoise_pace", {"usual": None, "large": None})
+    monkeypatch.setattr(costs, "_denoise_runs", {"usual": 0, "large": 0})
     guess = costs.completion_seconds(1000)
     assert guess == pytest.approx(1000 * costs.DENOISE_SECONDS_PER_PIXEL)
+    costs.record_denoise(2.0, 1000)  # the first run loads OIDN: not counted
+    costs.record_denoise(2.0, 1000, large=True)
+    assert costs.completion_seconds(1000) == guess
     costs.record_denoise(0.004, 1000)  # slower than the first guess: the measurement replaces it
     assert costs.completion_seconds(1000) == pytest.approx(0.004)
     assert costs.completion_seconds(1000, large=True) == pytest.approx(0.004 * costs.LARGE_MODEL_TIME_RATIO)

@@ -37,6 +37,18 @@ def test_more_seconds_buy_more_samples_every_pixel_alike(cornell):
     assert long.frame.info["time_spent"] <= 1.5 * 1.5
 
 
+def test_a_time_budgets_passes_are_powers_of_two_that_add_up_to_its_samples(cornell, monkeypatch):
+    """Each pass size is a kernel compiled on its first launch: powers of two keep a scene to a few of them."""
+    from gmcpt import sampling
+
+    sizes, native = [], sampling.render_native
+    monkeypatch.setattr(sampling, "render_native", lambda *args: sizes.append(args[3]) or native(*args))
+    rendered = _render(cornell, 0.5)
+    assert len(sizes) > 1 and all(size & (size - 1) == 0 for size in sizes)
+    assert sum(sizes) == rendered.frame.info["budget"]
+    assert [sampling._pass_size(n) for n in (0, 1, 3, 39, 64)] == [0, 1, 2, 32, 64]
+
+
 def test_a_time_below_one_frame_says_so_and_renders_one_sample(cornell):
     rendered = _render(cornell, 1e-4)
     assert rendered.frame.info["time_short"] and rendered.frame.info["budget"] == 1
