@@ -2,9 +2,11 @@
 (:data:`gmcpt.denoise.CLEAN_GUIDE_RAYS`), where the scene's reading of what that buys says it pays.
 
 The reading (:func:`gmcpt.budget.denoiser_proxy`) comes from a frame traced as a quarter, a quarter and a half of
-its samples, each denoised: how far the large model moves the half against how far doubling the quarter's samples
-does. It serves the next frames of its budget (:attr:`gmcpt.costs.FrameCosts.denoisers`). The functions take the
-frame's trace (:class:`gmcpt.sampling._Trace`).
+its samples (from 2 to 7 samples a pixel: one, one and the rest), each denoised: how far the large model moves the
+half against how far doubling the quarter's samples does. At budgets 2-7 that is the reading at 1 and 2 spp,
+which was calibrated against the large model's gain at 2 spp (docs/experiments.md). It serves the next frames of
+its budget (:attr:`gmcpt.costs.FrameCosts.denoisers`). The functions take the frame's trace
+(:class:`gmcpt.sampling._Trace`).
 """
 from __future__ import annotations
 
@@ -46,7 +48,7 @@ def large_model_guides(trace, plan: BudgetPlan, costs, guides, frame_seconds: fl
     first = adaptive_first_spp(plan.budget)
     concentration = costs.concentration(first).remembered() if first else None
     one_launch = not first or (concentration is not None and not adaptive_pays(concentration))
-    if int(plan.budget) < 4 or not one_launch:  # a split launch needs a quarter of a sample at least
+    if int(plan.budget) < 2 or not one_launch:  # a split launch needs a sample a pixel in each of its first two
         return guides, None, None
     return guides, clean_guides(trace, guides), price
 

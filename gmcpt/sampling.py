@@ -321,8 +321,8 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray, split: bool = Fal
     two renders, and where the first finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the
     second is adaptive path tracing's placement instead (:func:`_adaptive_rest`). A recent frame's reading of
     the scene after a first pass of as many samples that says even (:meth:`gmcpt.costs.FrameCosts.concentration`)
-    keeps the one launch. With ``split``, an even launch of 4 samples a pixel or more is traced as a quarter, a
-    quarter and a half of them instead; returns (the first quarter's image, the half's), else None."""
+    keeps the one launch. With ``split``, an even launch of 2 samples a pixel or more is traced in three instead
+    (:func:`_split_native`); returns (the first quarter's image, the half's), else None."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
     if trace.sums.samples:
@@ -348,7 +348,7 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray, split: bool = Fal
     # drawn with it too, are left out of the image)
     trace.traced[:] = True
     images = None
-    if split and not current.any() and counts.min() >= 4:
+    if split and not current.any() and counts.min() >= 2:
         images = _split_native(trace, int(counts.min()), seed)
     else:
         _native(trace, int(counts.min()), seed)
@@ -371,12 +371,13 @@ def _native(trace: _Trace, spp: int, seed: int) -> np.ndarray | None:
 
 
 def _split_native(trace: _Trace, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Mitsuba's render of every pixel at ``spp`` as a quarter, a quarter and a half (seeds of their own): the
-    first quarter's image and the half's, (H, W, 3) float32, non-finite pixels as 0."""
-    quarter, images = spp // 4, []
+    """Mitsuba's render of every pixel at ``spp`` as a quarter, a quarter and a half (seeds of their own; below 4
+    samples, one, one and the rest): the first quarter's image and the half's, (H, W, 3) float32, non-finite
+    pixels as 0."""
+    quarter, images = max(1, spp // 4), []
     for count, offset in ((quarter, 0), (quarter, SPLIT_SEED_OFFSETS[0]), (spp - 2 * quarter, SPLIT_SEED_OFFSETS[1])):
         images.append(_native(trace, count, (seed + offset) % SEED_LIMIT))
-    image = lambda flat: np.nan_to_num(flat).reshape(*trace.shape, 3)  # noqa: E731
+    image = lambda flat: np.nan_to_num(flat, posinf=0.0, neginf=0.0).reshape(*trace.shape, 3)  # noqa: E731
     return image(images[0]), image((images[0] + images[1]) / 2)
 
 

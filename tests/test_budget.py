@@ -369,6 +369,7 @@ def test_a_guide_pass_in_two_halves_reads_the_aliasing_that_later_frames_choose_
 
     monkeypatch.setattr(budget, "GUIDE_ALIASING_BELOW", threshold)
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense: no feature top-up
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its guides go to 16 rays
     scene = load_scene(CORNELL, resolution=SIZE)
     passes = []
     means = render.feature_means
@@ -431,7 +432,8 @@ def test_a_dense_frame_takes_16_ray_guides_where_the_scenes_denoiser_reading_say
     assert frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1]
 
 
-def test_a_dense_frame_without_a_denoiser_reading_splits_its_launch_and_reads_one(mi, monkeypatch):
+@pytest.mark.parametrize("samples", [4, 3, 2])
+def test_a_dense_frame_without_a_denoiser_reading_splits_its_launch_and_reads_one(mi, monkeypatch, samples):
     from gmcpt import budget
     from gmcpt.costs import frame_costs
     from gmcpt.scene import load_scene
@@ -439,17 +441,28 @@ def test_a_dense_frame_without_a_denoiser_reading_splits_its_launch_and_reads_on
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)
     scene = load_scene(CORNELL, resolution=SIZE)
-    _render(scene, 4.0)
-    frame = _render(scene, 4.0, seed=1)
-    reading = frame_costs(scene, SIZE[0] * SIZE[1]).denoiser(4)
+    _render(scene, samples)
+    frame = _render(scene, samples, seed=1)
+    reading = frame_costs(scene, SIZE[0] * SIZE[1]).denoiser(samples)
     assert frame.info["denoiser_proxy"] > 0 and reading.value == frame.info["denoiser_proxy"]
-    assert frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1] and np.isfinite(frame.radiance).all()
+    assert frame.info["path_samples"] == samples * SIZE[0] * SIZE[1] and np.isfinite(frame.radiance).all()
     assert frame.info["guide_spp"] == (16 if frame.info["denoiser_proxy"] >= budget.LARGE_MODEL_PROXY_ABOVE else 4)
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # too dear: neither read nor taken
     fresh = load_scene(CORNELL, resolution=SIZE)
-    _render(fresh, 4.0)
-    frame = _render(fresh, 4.0, seed=1)
+    _render(fresh, samples)
+    frame = _render(fresh, samples, seed=1)
     assert "denoiser_proxy" not in frame.info and frame.info["guide_spp"] == 4
+
+
+def test_a_frame_of_one_sample_a_pixel_reads_no_denoiser(mi, monkeypatch):
+    from gmcpt import budget
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)
+    scene = load_scene(CORNELL, resolution=SIZE)
+    _render(scene, 1.0)
+    assert "denoiser_proxy" not in _render(scene, 1.0, seed=1).info  # one launch cannot be split in two
 
 
 def test_the_large_models_price_is_read_before_its_guide_rays_are_added():
