@@ -5,7 +5,8 @@
 #   run(command="bash scripts/device_check.sh", carry=[".device"], timeout_s=600)
 #   OUT=/tmp/dc PYTHON=.venv/bin/python scripts/device_check.sh --dry-run   # here: CPU, tiny settings, ~30 s
 #
-# Unpacks .device/site.tar.xz (Mitsuba, Dr.Jit, ... for the device's Python), runs the tests marked cuda,
+# Unpacks .device/site.tar.xz (Mitsuba, Dr.Jit, ... for the device's Python), declares the checkout's entry points
+# (masked_path) beside them, runs the tests marked cuda,
 # renders `make demo`'s image with GMCPT_DEVICE=cuda (the completion tests instead where that fails), and
 # trains the gpu preset on every dataset under .device/data for what is left of the command's time, at
 # most 9 minutes. Writes under $OUT: gan-gpu-device.pt and .json (the weights), demo.exr/.png/.json,
@@ -69,14 +70,28 @@ else
     device=cuda
     demo_size=()
     train_sets=()
+    mkdir -p "$work/site"
     if [[ -f .device/site.tar.xz ]]; then
-        mkdir -p "$work/site"
         stage packages 120 "$PYTHON" -c 'import sys, tarfile; tarfile.open(sys.argv[1]).extractall(sys.argv[2], filter="tar")' \
             .device/site.tar.xz "$work/site"  # Python's lzma: the machine may have no xz
-        export PYTHONPATH="$PYTHONPATH:$work/site"
     else
         say "no .device/site.tar.xz: using the packages installed (python scripts/pack_device.py packs them)"
     fi
+    # the checkout is not pip-installed there: without pyproject's entry points Mitsuba finds no masked_path
+    export PYTHONPATH="$PYTHONPATH:$work/site"
+    stage entry-points 60 "$PYTHON" - "$work/site" <<'EOF'
+import sys, tomllib
+from pathlib import Path
+
+project = tomllib.loads(Path("pyproject.toml").read_text())["project"]
+info = Path(sys.argv[1]) / f"{project['name']}-{project['version']}.dist-info"
+info.mkdir(exist_ok=True)
+(info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {project['name']}\nVersion: {project['version']}\n")
+(info / "entry_points.txt").write_text("".join(
+    f"[{group}]\n" + "".join(f"{name} = {target}\n" for name, target in points.items())
+    for group, points in project["entry-points"].items()))
+print(f"{info.name}: {project['entry-points']}")
+EOF
 fi
 
 stage environment 120 "$PYTHON" - "$work/environment.json" <<'EOF'

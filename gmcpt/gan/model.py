@@ -133,7 +133,8 @@ class ModulatedResBlock(nn.Module):
     def _modulation(self, condition: torch.Tensor) -> torch.Tensor:
         """The four maps, the scales with their +1: one product with the bias as the weight of a channel of
         ones (a 1x1 convolution with a bias first copies the bias into every pixel of its output, slowly)."""
-        bias = self.modulation.bias.view(4, -1) + torch.tensor([[1.0], [0.0], [1.0], [0.0]], dtype=condition.dtype)
+        bias = self.modulation.bias.view(4, -1) + torch.tensor([[1.0], [0.0], [1.0], [0.0]],
+                                                                dtype=condition.dtype, device=condition.device)
         weight = torch.cat([self.modulation.weight, bias.view(-1, 1, 1, 1)], 1)
         ones = torch.ones_like(condition[:, :1])
         return F.conv2d(torch.cat([condition, ones], 1), weight)

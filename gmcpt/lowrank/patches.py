@@ -55,8 +55,15 @@ def pixel_indices(groups: torch.Tensor, width: int, patch_size: int) -> torch.Te
 
 
 def aggregate(estimates: torch.Tensor, pix: torch.Tensor, numerator: torch.Tensor) -> None:
-    """Add ``(G, K, d)`` patch estimates into a flat ``(H*W, C)`` image sum, in place."""
-    numerator.index_add_(0, pix.reshape(-1), estimates.reshape(-1, numerator.shape[1]))
+    """Add ``(G, K, d)`` patch estimates into a flat ``(H*W, C)`` image sum, in place.
+
+    On CUDA ``index_add_`` adds with atomics, in an order that changes from run to run; ``index_put_`` with
+    ``accumulate`` sorts the indices first, so the same input gives the same sum (the CPU's is ordered already)."""
+    index, values = pix.reshape(-1), estimates.reshape(-1, numerator.shape[1])
+    if numerator.is_cuda:
+        numerator.index_put_((index,), values, accumulate=True)
+    else:
+        numerator.index_add_(0, index, values)
 
 
 def coverage(pix: torch.Tensor, size: int, dtype=torch.float32) -> torch.Tensor:

@@ -41,8 +41,8 @@ Tiling only partitions the *reference patches*: each tile matches its
 references against the whole current image (candidates may lie in the
 neighbouring tiles) and adds its estimates into one global sum, so the result
 does not depend on the tile layout beyond float rounding (measured: 1e-4 on
-the 0..255 scale).  Results are deterministic on CPU; on CUDA ``index_add_``
-sums in arbitrary order, so repeated runs differ by float rounding.
+the 0..255 scale).  Results are deterministic on the CPU and on CUDA (the sums there
+are added in sorted order: :func:`~gmcpt.lowrank.patches.aggregate`).
 """
 from __future__ import annotations
 
