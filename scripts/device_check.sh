@@ -35,6 +35,7 @@ cap=${DEVICE_CHECK_MINUTES:-$( ((dry)) && echo 0.2 || echo 9)}
 data=${DEVICE_CHECK_DATA:-.device/data}
 log=$OUT/device-check.log
 work=$(mktemp -d)
+mkdir -p "$work/site"  # the device's packages, unpacked
 trap 'rm -rf "$work"' EXIT
 : >"$log"
 : >"$work/stages.tsv"
@@ -70,16 +71,17 @@ else
     device=cuda
     demo_size=()
     train_sets=()
-    mkdir -p "$work/site"
     if [[ -f .device/site.tar.xz ]]; then
         stage packages 120 "$PYTHON" -c 'import sys, tarfile; tarfile.open(sys.argv[1]).extractall(sys.argv[2], filter="tar")' \
             .device/site.tar.xz "$work/site"  # Python's lzma: the machine may have no xz
     else
         say "no .device/site.tar.xz: using the packages installed (python scripts/pack_device.py packs them)"
     fi
-    # the checkout is not pip-installed there: without pyproject's entry points Mitsuba finds no masked_path
-    export PYTHONPATH="$PYTHONPATH:$work/site"
-    stage entry-points 60 "$PYTHON" - "$work/site" <<'EOF'
+fi
+
+# the checkout is not pip-installed on the device: without pyproject's entry points Mitsuba finds no masked_path
+export PYTHONPATH="$PYTHONPATH:$work/site"
+stage entry-points 60 "$PYTHON" - "$work/site" <<'EOF'
 import sys, tomllib
 from pathlib import Path
 
@@ -92,7 +94,6 @@ info.mkdir(exist_ok=True)
     for group, points in project["entry-points"].items()))
 print(f"{info.name}: {project['entry-points']}")
 EOF
-fi
 
 stage environment 120 "$PYTHON" - "$work/environment.json" <<'EOF'
 import ctypes.util, json, platform, shutil, subprocess, sys

@@ -29,7 +29,7 @@ def test_dry_run_trains_renders_and_writes_what_comes_back(tmp_path):
     assert {p.name for p in out.iterdir()} == RESULTS   # at most 8 files come back from a device call
     summary = json.loads((out / "summary.json").read_text())
     assert summary["ok"] and summary["dry_run"] and summary["environment"]["torch_cuda"] is False
-    assert set(summary["stages"]) == {"environment", "cuda-tests", "demo", "train"}
+    assert set(summary["stages"]) == {"entry-points", "environment", "cuda-tests", "demo", "train"}
     assert summary["training"]["stopped_early"] and summary["training"]["steps"] > 0
     assert summary["demo"]["device"] == "cpu"
     generator, metadata = load_generator(out / "gan-gpu-device.pt")

@@ -171,3 +171,16 @@ def test_generator_runs_channels_last_on_the_cpu_with_the_same_output():
     assert prepared.head.weight.is_contiguous(memory_format=torch.channels_last)
     output = generate(prepared, radiance, features)
     assert float((output - reference).abs().max()) < 1e-4 and float(reference.std()) > 1e-2
+
+
+def test_the_networks_make_no_tensor_off_their_device():
+    """On PyTorch's data-less ``meta`` device a tensor made on the CPU inside a forward pass fails at once, as it
+    does on a GPU (a bias made without the condition's device stopped the first training step on CUDA)."""
+    radiance, features = (t.to("meta") for t in generator_inputs())
+    generator, critic = Generator(SMALL).to("meta"), Critic(SMALL.feature_channels, CriticConfig(widths=(8, 8))).to("meta")
+    fake = generator(radiance, features, torch.empty_like(radiance))
+    penalty = losses.gradient_penalty(critic, fake, fake.detach(), features)
+    (critic(fake, features).mean() + penalty + sum(f.mean() for f in losses.FixedFeatureExtractor().to("meta")(fake))
+     ).backward()
+    assert fake.shape == radiance.shape and fake.device.type == "meta"
+    assert all(p.grad is not None and p.grad.device.type == "meta" for p in generator.parameters())
