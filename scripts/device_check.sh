@@ -2,7 +2,7 @@
 # gmcpt on a lent GPU in one call of the device tool (docs/design.md, section 10, "Devices").
 #
 #   python scripts/pack_device.py --dataset data/procedural   # here first: fills .device/, prints the call:
-#   run(command="bash scripts/device_check.sh", carry=[".device"], timeout_s=600)
+#   run(command="bash scripts/device_check.sh", carry=[".device"], timeout_s=360)
 #   OUT=/tmp/dc PYTHON=.venv/bin/python scripts/device_check.sh --dry-run   # here: CPU, tiny settings, ~30 s
 #
 # Unpacks .device/site.tar.xz (Mitsuba, Dr.Jit, ... for the device's Python), declares the checkout's entry points
@@ -13,7 +13,8 @@
 # curves.png, device-check.log and summary.json (each stage's exit status and seconds, the environment,
 # the training summary): 8 files, the most a call brings back. A failed stage is recorded and the next
 # one runs; the exit status is 1 if any failed (or, off the dry run, torch saw no GPU), 2 for bad usage.
-# Environment: OUT (required); PYTHON (python3); DEVICE_CHECK_SECONDS (the whole run: 570, dry 90);
+# Environment: OUT (required); PYTHON (python3); DEVICE_CHECK_SECONDS (the whole run: 300, so that a first call
+# that fails leaves device time to fix and call again; 570 fits a call of 600 s; dry 90);
 # DEVICE_CHECK_MINUTES (training at most: 9, dry 0.2); DEVICE_CHECK_DATA (a folder of dataset folders:
 # .device/data; dry: one of 3 scenes rendered on the fly).
 set -euo pipefail
@@ -30,7 +31,7 @@ esac
 [[ -n "${OUT:-}" ]] || { echo "error: set OUT to the folder for the results" >&2; exit 2; }
 mkdir -p "$OUT"
 PYTHON=${PYTHON:-python3}
-budget=${DEVICE_CHECK_SECONDS:-$((dry ? 90 : 570))}
+budget=${DEVICE_CHECK_SECONDS:-$((dry ? 90 : 300))}
 cap=${DEVICE_CHECK_MINUTES:-$( ((dry)) && echo 0.2 || echo 9)}
 data=${DEVICE_CHECK_DATA:-.device/data}
 log=$OUT/device-check.log

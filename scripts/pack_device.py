@@ -40,7 +40,7 @@ PACKAGES = ("mitsuba", "drjit", "OpenEXR", "colour-science", "flip-evaluator")
 STRIP = ("mitsuba/*_mono*.so", "mitsuba/*_spectral*.so", "mitsuba/scalar_*.so", "mitsuba/data/srgb.coeff",
          "mitsuba/include", "mitsuba/mitsuba_stubs", "mitsuba/cmake", "mitsuba/pkgconfig", "drjit/include",
          "**/*.pyi", "colour/htmlcov", "colour/**/tests")
-CALL = 'run(command="bash scripts/device_check.sh", carry=[".device"], timeout_s=600)'
+CALL = 'run(command="bash scripts/device_check.sh", carry=[".device"], timeout_s=360)'
 
 
 def fail(message: str) -> None:
