@@ -36,8 +36,8 @@ cap=${DEVICE_CHECK_MINUTES:-$( ((dry)) && echo 0.2 || echo 9)}
 data=${DEVICE_CHECK_DATA:-.device/data}
 log=$OUT/device-check.log
 work=$(mktemp -d)
-mkdir -p "$work/site"  # the device's packages, unpacked
 trap 'rm -rf "$work"' EXIT
+mkdir -p "$work/site"  # the device's packages, unpacked
 : >"$log"
 : >"$work/stages.tsv"
 export PYTHONUNBUFFERED=1 PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
