@@ -295,6 +295,32 @@ def test_equal_time_rounds_warm_up_before_they_time_and_count():
                         for i in counted])
     assert np.isclose(np.mean([m["mse"] for m in setting.metrics]), expected)
     assert set(calls[measure.WARM_UP_ROUNDS:]) <= set(counted) and setting.seconds < 0.05
+    # a cheap setting: every counted round and every extra timing run has its time, by round
+    assert sorted(setting.times) == list(range(measure.timing_rounds(3)))
+    assert setting.seconds == np.median(list(setting.times.values()))
+
+
+def test_the_speedup_pairs_the_runs_of_one_round():
+    """By hand: the default's 26 dB is path+oidn's 2-spp setting. Round 0 ran slow for both (2.0 s against 2.2 s),
+    rounds 1 and 2 fast; ratios 0.909, 0.909 and 1.1: the median is 0.909x, where the fastest runs would say 1.0x.
+    A baseline setting that missed a round counts at its median; of an even number of ratios the lower middle."""
+    from gmcpt.evaluation import report
+
+    def row(contender, psnr, times, spp=1):
+        return {"scene": "s", "contender": contender, "rate": 1.0, "spp": spp, "psnr": psnr,
+                "seconds": float(np.median([t for t in times if t is not None])), "round_seconds": times}
+
+    rows = [row("path+oidn", 20.0, [1.0, 0.5, 0.5]), row("path+oidn", 26.0, [2.0, 1.0, 1.1], spp=2),
+            row("path+oidn", 30.0, [4.0, None, 2.0], spp=4), row("gan_oidn", 26.0, [2.2, 1.1, 1.0], spp=16)]
+    bound, ratio = report.speedup(rows, rows[-1], "path+oidn")
+    assert bound == "=" and ratio == pytest.approx(1.0 / 1.1)
+    # 28 dB lies halfway in log time between the 2- and 4-spp settings; round 1 takes the 4-spp one's median 3 s
+    two = dict(rows[-1], psnr=28.0, round_seconds=[4.0, 2.0])
+    expected = sorted([np.sqrt(2.0 * 4.0) / 4.0, np.sqrt(1.0 * 3.0) / 2.0])[0]
+    assert report.speedup(rows, two, "path+oidn")[1] == pytest.approx(expected)
+    # rows without round times (an older results.json): each setting's own time
+    plain = [{k: v for k, v in r.items() if k != "round_seconds"} for r in rows]
+    assert report.speedup(plain, plain[-1], "path+oidn")[1] == pytest.approx(1.1 / 1.1)
 
 
 def test_a_setting_that_reads_its_scene_twice_warms_up_twice_and_counts_neither():

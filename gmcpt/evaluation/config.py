@@ -40,7 +40,7 @@ class EvalConfig:
         full-resolution check: on ``full_scene`` at ``full_size`` (W, H), the default at each of
         ``full_budgets`` samples a pixel, whose times are the budgets, against both baselines at their
         settings (reference cached under ``data/references``).
-    repeats : timed runs of each render (the fastest counts: the first may trace kernels).
+    repeats : timed runs of each render (the fastest frame counts; at equal time, after a warm-up round, the median).
     """
 
     name: str

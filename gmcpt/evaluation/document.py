@@ -198,7 +198,7 @@ def results_markdown(run: dict) -> str:
         f"{timed_runs(c['repeats'])} times, each run with seeds of its own (path "
         "tracing's the default's: a dense frame at an integral budget is the same render, so the two differ by their "
         "guides and time, not by one seed's luck), in rounds of every setting once: the "
-        "fastest run is its time (kernels compiled, weights loaded), the mean over the runs its quality. For each budget, each contender's best setting that fits it: "
+        "median run is its time (kernels compiled, weights loaded), the mean over the runs its quality. For each budget, each contender's best setting that fits it: "
         "PSNR dB / SSIM / FLIP. Path tracing cannot spend less than 1 sample per pixel.",
         "",
         "### Crossover",
@@ -223,7 +223,7 @@ def results_markdown(run: dict) -> str:
         "",
         f"For each setting of the default (`{DEFAULT_VARIANT}`), the time each baseline needs to reach its PSNR "
         "(interpolated in log time on the baseline's best-PSNR-within-time curve), as a multiple of the default's "
-        "time: above 1x the default is faster. `>`: even the baseline's slowest setting falls short; `<`: its "
+        "time, taken from one round's runs at a time and the median over the rounds: above 1x the default is faster. `>`: even the baseline's slowest setting falls short; `<`: its "
         "fastest already does better. Means are geometric. *The better of the two* takes, for each setting, the "
         "baseline that needs less time; its *all settings* column is the equal-time verdict of the table at a glance "
         "and of `gmcpt compare` (one function, `report.equal_time_verdict`).",

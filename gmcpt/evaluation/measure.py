@@ -5,7 +5,8 @@ the quality figures. Renders are timed ``config.repeats`` times and the
 fastest counts (the first call in a process traces Dr.Jit kernels); in the
 equal-time comparison every contender's whole pipeline runs so, in one warm
 process: guides, probe, placement, render and completion for the completion
-methods; render, guides and OIDN for the baselines. Each run there draws seeds of
+methods; render, guides and OIDN for the baselines, and the median run counts
+(:func:`median_seconds`). Each run there draws seeds of
 its own, and the figures are the means over the runs: one seed's PSNR moves by
 0.1-0.2 dB, as much as 5-10 % more samples buy. A baseline's guides are the
 project's own feature pass at its own samples (:func:`baseline_guides`: OIDN
@@ -192,11 +193,32 @@ class _Setting:
     row: dict
     run: Callable[[int], tuple]
     noisy: Callable[[tuple], np.ndarray] | None = None
-    seconds: float = np.inf
     metrics: list = field(default_factory=list)
     noisy_metrics: list = field(default_factory=list)
-    render_seconds: float = np.inf
+    times: dict = field(default_factory=dict)  # timing round -> seconds
+    render_times: dict = field(default_factory=dict)  # timing round -> its path render's seconds (``noisy``)
     warm_ups: int = 1  # runs in each warm-up round
+
+    @property
+    def seconds(self) -> float:
+        """The median of its timed runs (:func:`median_seconds`)."""
+        return median_seconds(self.times)
+
+    @property
+    def render_seconds(self) -> float:
+        return median_seconds(self.render_times)
+
+    def round_seconds(self, rounds: int, render: bool = False) -> list:
+        """Its time in each of ``rounds`` timing rounds, None where it did not run."""
+        times = self.render_times if render else self.times
+        return [times.get(index) for index in range(rounds)]
+
+
+def median_seconds(times: dict) -> float:
+    """A setting's time: the median of its timed runs (inf before any). Not the fastest run: on a machine whose
+    pace moves by 10% from one run to the next, one lucky run set a setting's time and moved a scene's verdict by
+    5% (docs/experiments.md); the median moves less, and the verdict pairs runs of one round (:mod:`.report`)."""
+    return float(np.median(list(times.values()))) if times else np.inf
 
 
 #: Rounds over every equal-time setting before the counted ones, neither timed nor counted, for every contender
@@ -223,7 +245,7 @@ def all_rounds(repeats: int) -> int:
     return WARM_UP_ROUNDS + timed_runs(repeats)
 
 
-#: Settings whose fastest run is shorter than this get :data:`EXTRA_TIMING_RUNS` more runs before the last round,
+#: Settings whose time after the counted rounds is shorter than this get :data:`EXTRA_TIMING_RUNS` more runs before the last round,
 #: timed only (each repeats an earlier run's seeds, its quality not counted twice): a 0.1 s frame's time moved by
 #: 5-15% from one run to the next, and the fastest of three 0.3-0.6 s runs by 2-3%, as much as the default and
 #: path tracing + OIDN differ (docs/experiments.md), while these runs cost the evaluation about 45 s a scene.
@@ -231,21 +253,27 @@ CHEAP_SETTING_SECONDS = 1.0
 EXTRA_TIMING_RUNS = 4
 
 
-def _timed_run(setting: _Setting, index: int) -> tuple:
-    """``setting.run(index)``, its time and its path render's kept if they are the fastest so far."""
+def timing_rounds(repeats: int) -> int:
+    """Timing rounds of the equal-time comparison: the counted rounds, then the :data:`EXTRA_TIMING_RUNS`."""
+    return timed_runs(repeats) + EXTRA_TIMING_RUNS
+
+
+def _timed_run(setting: _Setting, index: int, slot: int) -> tuple:
+    """``setting.run(index)``, its time and its path render's kept as timing round ``slot``'s."""
     start = time.perf_counter()
     result = setting.run(index)
-    setting.seconds = min(setting.seconds, time.perf_counter() - start)
+    setting.times[slot] = time.perf_counter() - start
     if setting.noisy is not None:
-        setting.render_seconds = min(setting.render_seconds, result[2]["render_s"])
+        setting.render_times[slot] = result[2]["render_s"]
     return result
 
 
 def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
                done: Callable[[_Setting, tuple], None]) -> None:
     """Run every setting :func:`all_rounds` times, one round over all of them after another; after the
-    :data:`WARM_UP_ROUNDS` each run is timed alone (its metrics after the clock): a setting's time is its fastest
-    counted run, its quality the mean over them. Rounds, not a setting's runs back to back, so that a machine whose
+    :data:`WARM_UP_ROUNDS` each run is timed alone (its metrics after the clock): a setting's time is the median of
+    its timed runs (each kept by timing round, :meth:`_Setting.round_seconds`), its quality the mean over the counted
+    ones. Rounds, not a setting's runs back to back, so that a machine whose
     pace drifts over minutes (this one's moved by 10%) slows every contender alike; every other round runs
     backwards. Before the last round, the settings faster than :data:`CHEAP_SETTING_SECONDS` get timed runs of
     their own (:data:`EXTRA_TIMING_RUNS`). ``done(setting, result)`` after a setting's last run, with that run's
@@ -264,13 +292,14 @@ def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
             for extra in range(EXTRA_TIMING_RUNS):
                 for setting in order(index + 1 + extra):
                     if setting.seconds < CHEAP_SETTING_SECONDS:
-                        _timed_run(setting, WARM_UP_ROUNDS + extra % (index - WARM_UP_ROUNDS))
+                        _timed_run(setting, WARM_UP_ROUNDS + extra % (index - WARM_UP_ROUNDS),
+                                   index - WARM_UP_ROUNDS + 1 + extra)
         for setting in order(index):
             if index < WARM_UP_ROUNDS:
                 for _ in range(setting.warm_ups):
                     setting.run(index)
                 continue
-            result = _timed_run(setting, index)
+            result = _timed_run(setting, index, index - WARM_UP_ROUNDS)
             setting.metrics.append(all_metrics(result[0], reference))
             if setting.noisy is not None:
                 setting.noisy_metrics.append(all_metrics(setting.noisy(result), reference))
@@ -343,7 +372,8 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
         contender, pattern = row["contender"], row.pop("pattern", None)
         if setting.noisy is not None:
             noisy = _mean_metrics(setting.noisy_metrics)
-            rows.append({**row, "contender": "path", "seconds": setting.render_seconds, **noisy})
+            rows.append({**row, "contender": "path", "seconds": setting.render_seconds,
+                         "round_seconds": setting.round_seconds(slots, render=True), **noisy})
             if images is not None:
                 images[("path", float(row["spp"]))] = setting.noisy(last)
             say(f"  {loaded.name} path {row['spp']:>3} spp: {noisy['psnr']:6.2f} dB, + OIDN {metrics['psnr']:6.2f} dB "
@@ -357,10 +387,13 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
             where = (f"budget {row['rate'] * row['spp']:g} ({info['budget_choice']})" if pattern
                      else f"rate {row['rate']:.3f} x {row['spp']:>2} spp")
             say(f"  {loaded.name} {contender} {where}: {metrics['psnr']:6.2f} dB ({setting.seconds:.2f} s)")
-        rows.append({**row, "seconds": setting.seconds, **metrics})
+        rows.append({**row, "seconds": setting.seconds, "round_seconds": setting.round_seconds(slots), **metrics})
         if images is not None:
             images[(contender, row["rate"] * row["spp"])] = image
 
+    slots = timing_rounds(config.repeats)
+    # settings of like cost side by side in each round, so that the runs a verdict pairs ran close in time
+    settings.sort(key=lambda setting: setting.row.get("samples_per_pixel", setting.row["rate"] * setting.row["spp"]))
     _in_rounds(settings, config.repeats, loaded.reference, done)
     return rows
 

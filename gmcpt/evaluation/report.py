@@ -267,9 +267,30 @@ def time_to_reach(rows: list[dict], contender: str, psnr: float) -> tuple[str, f
 
 def speedup(rows: list[dict], setting: dict, baseline: str) -> tuple[str, float] | None:
     """(bound, ratio): the time ``baseline`` needs for the PSNR of ``setting`` (a row of the default) over
-    the default's time; above 1 the default is faster. ``bound`` as in :func:`time_to_reach`."""
-    reached = time_to_reach([r for r in rows if r["scene"] == setting["scene"]], baseline, setting["psnr"])
-    return None if reached is None else (reached[0], reached[1] / setting["seconds"])
+    the default's time; above 1 the default is faster. ``bound`` as in :func:`time_to_reach`.
+
+    Where the rows keep each timing round's seconds (``round_seconds``, :mod:`.measure`), the ratio is the median
+    of the ratios of one round each (the lower of the two middle ones where their number is even), every baseline
+    setting that missed a round counted at its own median: runs of one round ran minutes apart at most, so a pace
+    that drifts slows both sides of a ratio alike."""
+    mine = [r for r in rows if r["scene"] == setting["scene"] and r["contender"] == baseline]
+    rounds = [i for i, seconds in enumerate(setting.get("round_seconds") or []) if seconds is not None]
+    if not rounds:
+        reached = time_to_reach(mine, baseline, setting["psnr"])
+        return None if reached is None else (reached[0], reached[1] / setting["seconds"])
+    found = []
+    for index in rounds:
+        reached = time_to_reach([_in_round(r, index) for r in mine], baseline, setting["psnr"])
+        if reached is None:
+            return None
+        found.append((reached[0], reached[1] / setting["round_seconds"][index]))
+    return sorted(found, key=lambda f: f[1])[(len(found) - 1) // 2]
+
+
+def _in_round(row: dict, index: int) -> dict:
+    """``row`` with its time in timing round ``index`` (its median where it did not run in that round)."""
+    times = row.get("round_seconds") or []
+    return dict(row, seconds=times[index]) if index < len(times) and times[index] is not None else row
 
 
 def better_speedup(rows: list[dict], setting: dict, baselines=BASELINES) -> tuple[str, float] | None:
