@@ -5,6 +5,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from conftest import ROOT
 from gan_helpers import tiny_dataset
 
@@ -18,6 +20,7 @@ def _run(*args, **env):
                           env={**os.environ, "PYTHON": sys.executable, **env})
 
 
+@pytest.mark.slow  # 40 s here: `make test` stays under 15 min; `make test-slow` runs it
 def test_dry_run_trains_renders_and_writes_what_comes_back(tmp_path):
     from gmcpt.gan.weights import load_generator
 

@@ -25,6 +25,7 @@ def torchrun(data, out, processes=2):
     return json.loads(result.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow  # 28 s here: `make test` stays under 15 min; `make test-slow` runs it
 def test_two_ranks_train_to_identical_weights_and_resume(tmp_path):
     from gmcpt.gan.distributed import weights_digest
     from gmcpt.gan.train import Trainer, load_config
