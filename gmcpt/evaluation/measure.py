@@ -246,9 +246,10 @@ def all_rounds(repeats: int) -> int:
 
 
 #: Settings whose time after the counted rounds is shorter than this get :data:`EXTRA_TIMING_RUNS` more runs before
-#: the last round, timed only (each repeats an earlier run's seeds, its quality not counted twice): a 0.1 s frame's time moved by
-#: 5-15% from one run to the next, and the fastest of three 0.3-0.6 s runs by 2-3%, as much as the default and
-#: path tracing + OIDN differ (docs/experiments.md), while these runs cost the evaluation about 45 s a scene.
+#: the last round, timed only (each repeats an earlier run's seeds, its quality not counted twice): a 0.1 s frame's
+#: time moved by 5-15% from one run to the next, and the fastest of three 0.3-0.6 s runs by 2-3%, as much as the
+#: default and path tracing + OIDN differ (docs/experiments.md), while these runs cost the evaluation about 45 s a
+#: scene.
 CHEAP_SETTING_SECONDS = 1.0
 EXTRA_TIMING_RUNS = 4
 
