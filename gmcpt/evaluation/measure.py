@@ -279,7 +279,7 @@ def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
     backwards. Before the last round, the settings faster than :data:`CHEAP_SETTING_SECONDS` get timed runs of
     their own (:data:`EXTRA_TIMING_RUNS`). ``done(setting, result)`` after a setting's last run, with that run's
     result (no earlier result is kept)."""
-    rounds = all_rounds(repeats)
+    rounds, counted = all_rounds(repeats), timed_runs(repeats)
 
     def order(index: int) -> list[_Setting]:
         # every other round backwards, the last forwards: no setting always follows the same one (the default's
@@ -293,8 +293,8 @@ def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
             for extra in range(EXTRA_TIMING_RUNS):
                 for setting in order(index + 1 + extra):
                     if setting.seconds < CHEAP_SETTING_SECONDS:
-                        _timed_run(setting, WARM_UP_ROUNDS + extra % (index - WARM_UP_ROUNDS),
-                                   index - WARM_UP_ROUNDS + 1 + extra)
+                        # the seeds of one of the counted rounds before the last; slots after the counted ones
+                        _timed_run(setting, WARM_UP_ROUNDS + extra % (counted - 1), counted + extra)
         for setting in order(index):
             if index < WARM_UP_ROUNDS:
                 for _ in range(setting.warm_ups):

@@ -274,23 +274,25 @@ def speedup(rows: list[dict], setting: dict, baseline: str) -> tuple[str, float]
     setting that missed a round counted at its own median: runs of one round ran minutes apart at most, so a pace
     that drifts slows both sides of a ratio alike."""
     mine = [r for r in rows if r["scene"] == setting["scene"] and r["contender"] == baseline]
-    rounds = [i for i, seconds in enumerate(setting.get("round_seconds") or []) if seconds is not None]
-    if not rounds:
-        reached = time_to_reach(mine, baseline, setting["psnr"])
-        return None if reached is None else (reached[0], reached[1] / setting["seconds"])
+    # Rows without round times (older results files) count as one round of their own seconds.
+    rounds = ([(i, seconds) for i, seconds in enumerate(setting.get("round_seconds") or []) if seconds is not None]
+              or [(None, setting["seconds"])])
     found = []
-    for index in rounds:
+    for index, seconds in rounds:
         reached = time_to_reach([_in_round(r, index) for r in mine], baseline, setting["psnr"])
         if reached is None:
             return None
-        found.append((reached[0], reached[1] / setting["round_seconds"][index]))
+        found.append((reached[0], reached[1] / seconds))
     return sorted(found, key=lambda f: f[1])[(len(found) - 1) // 2]
 
 
-def _in_round(row: dict, index: int) -> dict:
-    """``row`` with its time in timing round ``index`` (its median where it did not run in that round)."""
+def _in_round(row: dict, index: int | None) -> dict:
+    """``row`` with its time in timing round ``index`` (its median where it did not run in that round, or where
+    ``index`` is None)."""
     times = row.get("round_seconds") or []
-    return dict(row, seconds=times[index]) if index < len(times) and times[index] is not None else row
+    if index is None or index >= len(times) or times[index] is None:
+        return row
+    return dict(row, seconds=times[index])
 
 
 def better_speedup(rows: list[dict], setting: dict, baselines=BASELINES) -> tuple[str, float] | None:
