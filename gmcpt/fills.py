@@ -20,6 +20,7 @@ import numpy as np
 
 from .domain import WorkingDomain
 from .frame import SparseFrame
+from .workers import cpu_threads, map_threads
 
 
 @dataclass(frozen=True)
@@ -204,13 +205,13 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     padded_values = _padded_planes([(values[..., channel], mask) for channel in range(values.shape[-1])], pad, False)
     padded_mask = np.pad(mask.astype(np.float32), pad)
     padded_depth = np.pad(depth, pad, mode="edge")
-    numerator = np.empty((values.shape[-1],) + mask.shape, np.float32)
-    denominator = np.empty(mask.shape, np.float32)
     band = max(1, BAND_PIXELS // mask.shape[1])
-    for first in range(0, mask.shape[0], band):
-        rows = slice(first, min(first + band, mask.shape[0]))
-        numerator[:, rows], denominator[rows] = _weighted_sums(padded_values, padded_mask, planes, norms,
-                                                               padded_depth, depth_scale, radius, sigma_space, rows)
+    bands = [slice(first, min(first + band, mask.shape[0])) for first in range(0, mask.shape[0], band)]
+    # numpy's loops release the GIL: bands on threads use every core (each band's sums are its own)
+    sums = map_threads(lambda rows: _weighted_sums(padded_values, padded_mask, planes, norms, padded_depth,
+                                                   depth_scale, radius, sigma_space, rows), bands, cpu_threads())
+    numerator = np.concatenate([numerator for numerator, _ in sums], axis=1)
+    denominator = np.concatenate([denominator for _, denominator in sums], axis=0)
     confident = denominator > params.min_weight
     filled = np.moveaxis(numerator, 0, -1) / np.maximum(denominator, 1e-12)[..., None]
     unsure = np.nonzero(~confident)

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Iterable, TypeVar
 
@@ -22,9 +24,12 @@ Item = TypeVar("Item")
 Result = TypeVar("Result")
 
 
+_THREAD_PREFIX = "gmcpt-worker"
+
+
 @functools.lru_cache(maxsize=None)
 def _pool(threads: int) -> ThreadPoolExecutor:
-    return ThreadPoolExecutor(threads, thread_name_prefix="gmcpt-worker")
+    return ThreadPoolExecutor(threads, thread_name_prefix=_THREAD_PREFIX)
 
 
 @contextlib.contextmanager
@@ -40,6 +45,21 @@ def torch_threads(threads: int):
         torch.set_num_threads(previous)
 
 
+def cpu_threads() -> int:
+    """The cores this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def map_threads(function: Callable[[Item], Result], items: Iterable[Item], threads: int) -> list[Result]:
+    """``[function(item) for item in items]`` on up to ``threads`` of the process's threads (in the caller's
+    where one thread or one item, or when called from one of them: a task that waited on tasks of its own pool
+    could wait for ever): for work that releases the GIL, as numpy's loops do."""
+    items = list(items)
+    if threads <= 1 or len(items) <= 1 or threading.current_thread().name.startswith(_THREAD_PREFIX):
+        return [function(item) for item in items]
+    return list(_pool(min(threads, len(items))).map(function, items))
+
+
 def map_single_threaded(function: Callable[[Item], Result], items: Iterable[Item], threads: int) -> list[Result]:
     """``[function(item) for item in items]`` on ``threads`` threads, torch on one thread in each.
 
@@ -48,13 +68,9 @@ def map_single_threaded(function: Callable[[Item], Result], items: Iterable[Item
     """
     import torch
 
-    items = list(items)
+    def task(item):
+        torch.set_num_threads(1)
+        return function(item)
+
     with torch_threads(1):
-        if threads <= 1 or len(items) <= 1:
-            return [function(item) for item in items]
-
-        def task(item):
-            torch.set_num_threads(1)
-            return function(item)
-
-        return list(_pool(min(threads, len(items))).map(task, items))
+        return map_threads(task, items, threads)

@@ -62,6 +62,27 @@ def test_guided_fill_without_keeping_samples_smooths_them_and_keeps_edges():
     assert np.abs(smoothed - truth).max() < 0.2   # no bleeding across the normal edge (a 0.8 step)
 
 
+def test_guided_fill_is_the_same_on_one_thread_and_on_several(monkeypatch):
+    """The fill's bands of rows run on threads: a frame of several bands (one of them short) gives the same
+    image, bit for bit, whatever the thread count."""
+    from gmcpt import fills
+
+    rng = np.random.default_rng(5)
+    monkeypatch.setattr(fills, "BAND_PIXELS", 16 * 40)
+    height, width = 50, 40  # bands of 16 rows: 16, 16, 16 and 2
+    values = rng.random((height, width, 3), np.float32)
+    mask = rng.random((height, width)) < 0.3
+    features = (0.5 + 0.2 * rng.random((height, width, 8))).astype(np.float32)
+    images = []
+    for threads in (1, 3):
+        monkeypatch.setattr(fills, "cpu_threads", lambda threads=threads: threads)
+        images.append(fills.guided_fill(values, mask, features, keep_samples=False))
+    assert images[0].shape == (height, width, 3) and np.array_equal(images[0], images[1])
+    # each band sees the rows of its neighbours: the same fill in one band of all rows
+    monkeypatch.setattr(fills, "BAND_PIXELS", height * width)
+    assert np.allclose(fills.guided_fill(values, mask, features, keep_samples=False), images[0], atol=1e-6)
+
+
 def test_interp_respects_feature_edges():
     """Two regions with different normals and radiance: the fill must not blur across."""
     frame, _ = synthetic_frame(rate=0.3)
