@@ -89,9 +89,15 @@ DENSE_GAIN_PER_DOUBLING = 2.0
 #: dB the sparse way is expected to gain over a dense frame at the same samples where the signals choose it:
 #: the mean over the 4 synthetic evaluation scenes at 3.2, 4.8 and 8 samples a pixel (0.0-2.8; docs/experiments.md).
 SPARSE_GAIN = 1.4
-#: From this budget a dense frame may place part of its samples adaptively: at 4 to 6.4 adaptive placement lost
-#: to even samples on the real scenes, at 8 and 16 it gained up to 1.2 dB where the error is concentrated.
-ADAPTIVE_FROM_BUDGET = 8
+#: From this budget a dense frame of a quiet scene (its probe's :func:`relative_variance` at most
+#: :data:`DENSE_ABOVE`, as the sparse way needs too) may place part of its samples adaptively: there first passes
+#: of 2-4 spp read where the error is, and adaptive placement gained 0.6-1.2 dB on the concentrated ones; on the
+#: noisy real interiors it gained 0.2 dB at most below budget 8 and lost up to 0.4. At 2 (1 spp) the reading did
+#: not tell the scenes that gain from those that lose up to 2 dB (docs/experiments.md).
+ADAPTIVE_FROM_BUDGET = 4
+#: From this budget a dense frame of any scene may (the probe's reading aside): at 8 and 16 the concentrated
+#: real interiors gained up to 0.55 dB.
+ADAPTIVE_NOISY_FROM_BUDGET = 8
 #: The share of the first pass's display error held by its noisiest :data:`TOP_SHARE` of pixels above which
 #: adaptive placement pays: the evaluation scenes that gained read 0.187 and up, those that did not 0.168 and
 #: below (the dining room, 0.23-0.24, gains little but loses nothing); docs/experiments.md.
@@ -203,6 +209,7 @@ def sparse_pays(extra_seconds: float, seconds_per_spp: float, budget: float,
     costs (guides, OIDN) do not grow with its samples, and on a cheap scene the extra 0.06 s buy 16 samples a
     pixel."""
     more = max(extra_seconds, 0.0) / max(seconds_per_spp, 1e-12)
+    # the sparse way runs only where the probe reads the scene quiet, where a dense frame is adaptive from 4
     adaptive = adaptive_gain(concentration) if budget >= ADAPTIVE_FROM_BUDGET else 0.0
     return SPARSE_GAIN > DENSE_GAIN_PER_DOUBLING * math.log2(1 + more / budget) + adaptive
 
@@ -313,10 +320,21 @@ def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:
     return more
 
 
-def adaptive_first_spp(budget: float) -> int:
+def adaptive_first_spp(budget: float, noise: float | None = None) -> int:
     """Samples of every pixel in a dense frame's first pass when the rest may be placed adaptively
-    (:data:`~gmcpt.adaptive.FIRST_SHARE` of the budget), 0 below :data:`ADAPTIVE_FROM_BUDGET`: no first pass."""
-    return max(1, int(FIRST_SHARE * budget)) if budget >= ADAPTIVE_FROM_BUDGET else 0
+    (:data:`~gmcpt.adaptive.FIRST_SHARE` of the budget), 0 where it may not (no first pass): below
+    :data:`ADAPTIVE_FROM_BUDGET`, and below :data:`ADAPTIVE_NOISY_FROM_BUDGET` unless the scene's last probe read
+    its ``noise`` (:func:`relative_variance`; None: never read) at most :data:`DENSE_ABOVE`."""
+    quiet = noise is not None and noise <= DENSE_ABOVE
+    return max(1, int(FIRST_SHARE * budget)) if budget >= (ADAPTIVE_FROM_BUDGET if quiet
+                                                            else ADAPTIVE_NOISY_FROM_BUDGET) else 0
+
+
+def probes_for_placement(budget: float, noise: float | None) -> bool:
+    """True when a frame of ``budget`` probes for :func:`adaptive_first_spp` alone: its scene was never probed
+    (``noise`` None) and the budget is one where only a quiet scene may be adaptive. Once a scene: the reading
+    stays (far from the threshold, the synthetic scenes 0.004-0.053, the real interiors 0.23-0.27)."""
+    return noise is None and ADAPTIVE_FROM_BUDGET <= budget < ADAPTIVE_NOISY_FROM_BUDGET
 
 
 def error_concentration(error: np.ndarray) -> float:

@@ -45,7 +45,7 @@ def large_model_guides(trace, plan: BudgetPlan, costs, guides, frame_seconds: fl
         proxy = trace.info["denoiser_proxy"] = reading.remembered()
         reading.learn(None)
         return (clean_guides(trace, guides) if large_model_pays(proxy, *price) else guides), None, None
-    first = adaptive_first_spp(plan.budget)
+    first = adaptive_first_spp(plan.budget, costs.probe.value)
     concentration = costs.concentration(first).remembered() if first else None
     one_launch = not first or (concentration is not None and not adaptive_pays(concentration))
     if int(plan.budget) < 2 or not one_launch:  # a split launch needs a sample a pixel in each of its first two

@@ -24,7 +24,8 @@ import numpy as np
 from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
 from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, adaptive_first_spp, adaptive_pays,
                      check_budget, choose, edge_share, error_concentration, even_fill, guide_aliasing, guide_spp,
-                     needs_probe, plan_budget, reads_guide_aliasing, relative_variance, sparse_pays)
+                     needs_probe, plan_budget, probes_for_placement, reads_guide_aliasing, relative_variance,
+                     sparse_pays)
 from .costs import completion_seconds, frame_costs
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
@@ -210,9 +211,11 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
         reading = costs.probe.remembered()
         if costs.seconds_per_spp is not None:
             extra_share, pays = _sparse_time(trace, plan, costs, costs.seconds_per_spp)
-        if needs_probe(plan, 0.0, pays, reading):  # the edges still could choose dense (0.06 s at 1920x1080)
+        # once a scene, below budget 8, the placement of a dense frame waits for a probe too
+        for_placement = probes_for_placement(plan.budget, costs.probe.value)
+        if for_placement or needs_probe(plan, 0.0, pays, reading):  # the edges could choose (0.06 s at 1920x1080)
             edges = edge_share(features)
-        if edges is not None and needs_probe(plan, edges, pays, reading):
+        if for_placement or (edges is not None and needs_probe(plan, edges, pays, reading)):
             probe, probe_pace = _probe(trace, plan)
             reading, probed = relative_variance(*trace.sums.estimate(probe), PROBE_SPP), True
             extra_share, pays = _sparse_time(trace, plan, costs, costs.path_seconds(probe_pace))
@@ -317,8 +320,8 @@ def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarr
 def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray, split: bool = False) -> tuple | None:
     """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
     render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
-    that no pixel has more than ``ceil(budget)``. From :data:`~gmcpt.budget.ADAPTIVE_FROM_BUDGET` the bulk is
-    two renders, and where the first finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the
+    that no pixel has more than ``ceil(budget)``. Where :func:`~gmcpt.budget.adaptive_first_spp` allows it (from
+    budget 4 on a scene whose probe read it quiet, from 8 on any) the bulk is two renders, and where the first finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the
     second is adaptive path tracing's placement instead (:func:`_adaptive_rest`). A recent frame's reading of
     the scene after a first pass of as many samples that says even (:meth:`gmcpt.costs.FrameCosts.concentration`)
     keeps the one launch. With ``split``, an even launch of 2 samples a pixel or more is traced in three instead
@@ -328,8 +331,10 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray, split: bool = Fal
     if trace.sums.samples:
         trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
     trace.first_pass_pixels = int(probe.sum())
-    current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget)
-    reading = frame_costs(trace.scene, plan.pixels).concentration(first) if first else None
+    costs = frame_costs(trace.scene, plan.pixels)
+    # the scene's last probe, of this frame or an earlier one: its noise is a property of the scene
+    current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget, costs.probe.value)
+    reading = costs.concentration(first) if first else None
     if reading is not None and reading.remembered() is not None and not adaptive_pays(reading.remembered()):
         trace.info.update(error_concentration=reading.remembered(), dense_placement="even")
         reading.learn(None)

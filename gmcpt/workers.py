@@ -1,4 +1,4 @@
-"""Coarse-grained CPU parallelism: a few Python threads that each run torch on one thread.
+"""Coarse-grained CPU parallelism: a few Python threads, for torch on one thread each or for numpy work.
 
 Completion parallelises by splitting its work into fixed parts (tiles of reference patches,
 bands of the generator's input) and running them on Python threads, each with torch
@@ -6,7 +6,8 @@ single-threaded, instead of letting torch's OpenMP pool split every small operat
 OpenMP barrier stalls badly when another process holds a core (measured on 2 cores: the
 generator 0.13 s on one thread, 0.6-1.8 s on two while another process ran). Results come
 back in part order, so the output does not depend on scheduling, and the thread count moves it
-by float rounding at most.
+by float rounding at most. Numpy releases the GIL in its loops, so the guided fill's bands of rows
+run on the same threads (:func:`map_threads`).
 
 The threads live as long as the process: starting two threads for every call cost about
 10 ms a frame.

@@ -133,13 +133,14 @@ def cornell(mi):
 
 @pytest.mark.parametrize("threshold,way", [(-1.0, "dense"), (math.inf, "sparse")])
 def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way):
-    from gmcpt import budget
+    from gmcpt import budget, sampling
     from gmcpt.budget import SPARSE_SPP, plan_budget
 
     monkeypatch.setattr(budget, "DENSE_ABOVE", threshold)
     monkeypatch.setattr(budget, "EDGES_ABOVE", threshold)
     monkeypatch.setattr(budget, "SPARSE_GAIN", threshold)  # the sparse way's time always pays, or never
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
+    monkeypatch.setattr(sampling, "probes_for_placement", lambda *args: False)  # the placement's own probe: below
     pixels = SIZE[0] * SIZE[1]
     frame = _render(cornell, 4.8)
     plan = plan_budget(4.8, pixels)
@@ -184,9 +185,10 @@ def test_a_dense_frame_at_an_integral_budget_is_mitsubas_render_of_its_seed(mi, 
 
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense without a probe
     scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: no earlier probe's reading
-    frame = _render(scene, 4.0, seed=3)
-    native = np.asarray(mi.render(scene, integrator=scene.integrator().integrator, spp=4, seed=3))[..., :3]
-    assert frame.info["probe"] == "none" and frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1]
+    budget_spp = 3  # below ADAPTIVE_FROM_BUDGET: one launch
+    frame = _render(scene, float(budget_spp), seed=3)
+    native = np.asarray(mi.render(scene, integrator=scene.integrator().integrator, spp=budget_spp, seed=3))[..., :3]
+    assert frame.info["probe"] == "none" and frame.info["path_samples"] == budget_spp * SIZE[0] * SIZE[1]
     np.testing.assert_allclose(frame.radiance, native, rtol=1e-5, atol=1e-6)
 
 
@@ -283,7 +285,7 @@ def test_cli_without_a_rate_spends_the_default_budget(tmp_path):
 
 
 def test_error_concentration_is_the_share_of_the_noisiest_pixels():
-    from gmcpt.budget import TOP_SHARE, adaptive_first_spp, error_concentration
+    from gmcpt.budget import DENSE_ABOVE, TOP_SHARE, adaptive_first_spp, error_concentration
 
     assert error_concentration(np.ones((40, 50))) == pytest.approx(TOP_SHARE)
     spot = np.zeros((40, 50))
@@ -291,7 +293,10 @@ def test_error_concentration_is_the_share_of_the_noisiest_pixels():
     assert error_concentration(spot) == 1.0 and error_concentration(np.zeros((4, 4))) == 0.0
     ramp = np.arange(2000.0).reshape(40, 50)
     assert TOP_SHARE < error_concentration(ramp) < error_concentration(ramp ** 4) < 1
-    assert [adaptive_first_spp(budget) for budget in (4.8, 7.9, 8, 16, 100)] == [0, 0, 5, 10, 62]
+    quiet, noisy = DENSE_ABOVE / 2, DENSE_ABOVE * 2
+    assert [adaptive_first_spp(budget, quiet) for budget in (3.9, 4, 4.8, 8, 16, 100)] == [0, 2, 3, 5, 10, 62]
+    for noise in (noisy, None):  # a noisy scene, or one never probed: from budget 8
+        assert [adaptive_first_spp(budget, noise) for budget in (4, 7.9, 8, 16)] == [0, 0, 5, 10]
 
 
 @pytest.mark.parametrize("threshold,placement", [(0.0, "adaptive"), (math.inf, "even")])
@@ -322,6 +327,39 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
     launches.clear()
     _render(scene, 10.5)
     assert launches == ([6] if placement == "adaptive" else [6, 4])
+
+
+@pytest.mark.parametrize("noise,launches", [(0.01, [3]), (1.0, [5])])
+def test_below_budget_8_only_a_quiet_scene_places_its_rest_where_the_error_is(mi, monkeypatch, noise, launches):
+    from gmcpt import budget, sampling
+    from gmcpt.costs import frame_costs
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", 0.0)  # any concentration pays
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense without a probe: the scene's earlier reading decides
+    scene = load_scene(CORNELL, resolution=SIZE)
+    frame_costs(scene, SIZE[0] * SIZE[1]).probe.learn(noise)
+    traced = []
+    native = sampling.render_native
+    monkeypatch.setattr(sampling, "render_native", lambda *args: traced.append(args[3]) or native(*args))
+    frame = _render(scene, 5.0)
+    assert traced == launches and frame.info["path_samples"] == 5 * SIZE[0] * SIZE[1]
+    assert frame.info.get("dense_placement") == ("adaptive" if noise < budget.DENSE_ABOVE else None)
+
+
+def test_a_scene_never_probed_probes_once_for_the_placement_below_budget_8(mi, monkeypatch):
+    from gmcpt import budget
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense by the edges: no probe for the choice
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)
+    scene = load_scene(CORNELL, resolution=SIZE)
+    frames = [_render(scene, 5.0) for _ in range(2)]
+    assert [frame.info["probe"] for frame in frames] == ["traced", "remembered"]
+    assert frames[0].info["relative_variance"] is not None and frames[0].info["budget_choice"] == "dense"
+    assert frames[0].info["path_samples"] == frames[1].info["path_samples"] == 5 * SIZE[0] * SIZE[1]
+    assert _render(load_scene(CORNELL, resolution=SIZE), 8.0).info["probe"] == "none"  # from 8: no need
 
 
 def test_an_even_reading_serves_only_frames_of_its_first_pass(mi, monkeypatch):

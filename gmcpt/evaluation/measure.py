@@ -228,7 +228,7 @@ def median_seconds(times: dict) -> float:
 #: more time buys (docs/experiments.md).
 WARM_UP_ROUNDS = 1
 
-#: The default's runs in a warm-up round: from budget 8 its readings wait on one another (the placement's, then
+#: The default's runs in a warm-up round: from budget 4 its readings wait on one another (the placement's, then
 #: the denoiser's, :mod:`gmcpt.large_model`), and with one run the second fell in a counted run (the veach lamp
 #: at budget 8 lost 0.15 dB to path tracing + OIDN at the same seeds in one evaluation, level in every other).
 DEFAULT_WARM_UPS = 2
