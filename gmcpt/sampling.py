@@ -321,8 +321,9 @@ def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray, split: bool = Fal
     """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
     render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
     that no pixel has more than ``ceil(budget)``. Where :func:`~gmcpt.budget.adaptive_first_spp` allows it (from
-    budget 4 on a scene whose probe read it quiet, from 8 on any) the bulk is two renders, and where the first finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the
-    second is adaptive path tracing's placement instead (:func:`_adaptive_rest`). A recent frame's reading of
+    budget 4 on a scene whose probe read it quiet, from 8 on any) the bulk is two renders, and where the first
+    finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the second is adaptive path tracing's
+    placement instead (:func:`_adaptive_rest`). A recent frame's reading of
     the scene after a first pass of as many samples that says even (:meth:`gmcpt.costs.FrameCosts.concentration`)
     keeps the one launch. With ``split``, an even launch of 2 samples a pixel or more is traced in three instead
     (:func:`_split_native`); returns (the first quarter's image, the half's), else None."""
