@@ -13,9 +13,9 @@ from __future__ import annotations
 import os
 
 from .errors import BadValue
+from .workers import threads_setting
 
 DEVICE_ENV = "GMCPT_DEVICE"
-THREADS_ENV = "GMCPT_TORCH_THREADS"
 PRECISION_ENV = "GMCPT_GENERATOR_PRECISION"
 PRECISIONS = ("float32", "bfloat16")
 #: a device setting that means: CUDA where torch sees a GPU, else the CPU
@@ -43,10 +43,12 @@ def completion_device(wanted: str | None = None) -> str:
 
 
 def generator_threads() -> int:
-    """The CPU threads the generator runs on: ``$GMCPT_TORCH_THREADS``, else as many as torch is set to use."""
+    """The CPU threads the generator runs on: ``$GMCPT_TORCH_THREADS`` (:func:`gmcpt.workers.threads_setting`), else
+    as many as torch is set to use."""
     import torch
 
-    return int(os.environ.get(THREADS_ENV, torch.get_num_threads()))
+    setting = threads_setting()
+    return torch.get_num_threads() if setting is None else setting
 
 
 def generator_precision(device: str, wanted: str | None = None) -> str:

@@ -21,11 +21,16 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Iterable, TypeVar
 
+from .errors import BadValue
+
 Item = TypeVar("Item")
 Result = TypeVar("Result")
 
 
 _THREAD_PREFIX = "gmcpt-worker"
+#: Caps completion's threads: the generator's torch (:func:`gmcpt.device.generator_threads`) and the numpy work
+#: here (:func:`cpu_threads`), so that one setting caps both.
+THREADS_ENV = "GMCPT_TORCH_THREADS"
 
 
 @functools.lru_cache(maxsize=None)
@@ -46,8 +51,22 @@ def torch_threads(threads: int):
         torch.set_num_threads(previous)
 
 
+def threads_setting() -> int | None:
+    """``$GMCPT_TORCH_THREADS`` as a count of threads, None where unset; else a one-line :class:`BadValue`."""
+    value = os.environ.get(THREADS_ENV)
+    if value is None:
+        return None
+    if not value.strip().isdigit() or int(value) < 1:
+        raise BadValue(f"${THREADS_ENV} must be a whole number of threads, at least 1, not {value!r}")
+    return int(value)
+
+
 def cpu_threads() -> int:
-    """The cores this process may run on."""
+    """The threads completion's numpy work runs on: :func:`threads_setting` where set, else the cores this
+    process may run on."""
+    setting = threads_setting()
+    if setting is not None:
+        return setting
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 

@@ -1,6 +1,8 @@
 import threading
 
-from gmcpt.workers import map_threads
+import pytest
+
+from gmcpt.workers import THREADS_ENV, cpu_threads, map_threads
 
 
 def test_map_threads_keeps_the_order_and_runs_on_the_pool():
@@ -28,3 +30,18 @@ def test_map_threads_called_from_its_own_pool_runs_inline_and_does_not_wait_for_
     worker.join(timeout=20)
     assert not worker.is_alive()
     assert done == [[[(0, 0), (0, 1), (0, 2)], [(1, 0), (1, 1), (1, 2)]]]
+
+
+def test_one_setting_caps_the_fills_threads_and_the_generators(monkeypatch):
+    from gmcpt.device import generator_threads
+    from gmcpt.errors import GmcptError
+
+    monkeypatch.delenv(THREADS_ENV, raising=False)
+    cores = cpu_threads()
+    assert cores >= 1
+    monkeypatch.setenv(THREADS_ENV, str(cores + 3))
+    assert cpu_threads() == generator_threads() == cores + 3
+    for bad in ("0", "two", "-1", ""):
+        monkeypatch.setenv(THREADS_ENV, bad)
+        with pytest.raises(GmcptError, match=THREADS_ENV):
+            cpu_threads()
