@@ -70,7 +70,7 @@ def validate(args) -> None:
     from .budget import check_budget
     from .completion import check_options
     from .files import check_not_inputs, check_output
-    from .gan.weights import weights_path
+    from .gan.names import weights_path
     from .limits import check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
     from .completion.tiles import check_tile
     from .masks import check_pattern, check_rate

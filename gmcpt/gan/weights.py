@@ -21,10 +21,9 @@ import torch
 from ..errors import GmcptError
 from ..files import atomic_output
 from .model import Generator, GeneratorConfig
+from .names import DEFAULT_WEIGHTS, WEIGHTS_DIR, weights_path  # noqa: F401 (this module's API too)
 
 FORMAT = 1
-WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
-DEFAULT_WEIGHTS = "gan-cpu"
 RETRAIN_HINT = "retrain with `python -m gmcpt train --config cpu --export {name}` (see README, 'GAN pre-completion: data, training, weights')"
 
 #: Precision of the stored floating-point tensors: half the file of float32, and the same results to
@@ -33,15 +32,6 @@ RETRAIN_HINT = "retrain with `python -m gmcpt train --config cpu --export {name}
 STORED_DTYPE = torch.float16
 
 _cache: dict[tuple[str, float], tuple[Generator, dict]] = {}
-
-
-def weights_path(name_or_path: str | Path | None = None) -> Path:
-    """A shipped weights name (``gan-cpu``) or a path to a ``.pt`` file."""
-    name_or_path = name_or_path or DEFAULT_WEIGHTS
-    path = Path(name_or_path)
-    if path.suffix == ".pt" or path.parent != Path("."):
-        return path
-    return WEIGHTS_DIR / f"{name_or_path}.pt"
 
 
 def sha256(path: str | Path) -> str:
