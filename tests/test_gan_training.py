@@ -46,7 +46,7 @@ def test_stored_configs_with_retired_options_still_read():
 
 
 def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
-    from gmcpt.gan import cli, weights
+    from gmcpt.gan import cli, names
     from gmcpt.gan.train import Trainer, load_config
 
     data = tmp_path / "data"
@@ -65,7 +65,7 @@ def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
         resumed.run()   # a changed config never silently resumes
     again = Trainer(config, out, lambda m: None)
     assert again.load_checkpoint() and again.step == 2
-    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    monkeypatch.setattr(names, "WEIGHTS_DIR", tmp_path / "shipped")
     record = cli.export(again, "tiny", "python -m gmcpt train ...")
     assert record["dataset"]["version"] == 1 and (tmp_path / "shipped" / "tiny.pt").is_file()
 
@@ -147,7 +147,7 @@ LONG = {"train.steps": 100000, "train.eval_every": 1000, "train.checkpoint_every
 
 
 def test_several_datasets_pool_with_weights_and_export_each(tmp_path, monkeypatch):
-    from gmcpt.gan import cli, weights
+    from gmcpt.gan import cli, names
     from gmcpt.gan.train import Trainer, load_config
 
     first, second = tmp_path / "procedural", tmp_path / "real"
@@ -162,7 +162,7 @@ def test_several_datasets_pool_with_weights_and_export_each(tmp_path, monkeypatc
     np.testing.assert_allclose(weighted.sampler.probabilities, [1 / 8] * 2 + [1 / 4] * 3)
     summary = weighted.run()
     assert summary["train_scenes"] == 5
-    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    monkeypatch.setattr(names, "WEIGHTS_DIR", tmp_path / "shipped")
     record = cli.export(weighted, "mix", "python -m gmcpt train ...")
     assert [d["path"] for d in record["dataset"]] == both and [d["train_scenes"] for d in record["dataset"]] == [2, 3]
     for bad in ([1], [1, -1], [0, 0]):
@@ -171,12 +171,12 @@ def test_several_datasets_pool_with_weights_and_export_each(tmp_path, monkeypatc
 
 
 def test_init_starts_from_the_weights_and_refuses_another_architecture(tmp_path, monkeypatch):
-    from gmcpt.gan import cli, weights
+    from gmcpt.gan import cli, names, weights
     from gmcpt.gan.train import Trainer, load_config
 
     data = tmp_path / "data"
     tiny_dataset(data)
-    monkeypatch.setattr(weights, "WEIGHTS_DIR", tmp_path / "shipped")
+    monkeypatch.setattr(names, "WEIGHTS_DIR", tmp_path / "shipped")
     source = Trainer(load_config("cpu", {**TINY, "train.dataset": str(data)}), tmp_path / "a", lambda m: None)
     source.run()
     cli.export(source, "start", "python -m gmcpt train ...")

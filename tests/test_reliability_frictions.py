@@ -102,7 +102,8 @@ def test_missing_weights_file_suggests_exporting_to_it(mi, tmp_path, capfd, give
 
 
 def test_missing_shipped_name_suggests_its_name():
-    from gmcpt.gan.weights import WEIGHTS_DIR, load_generator
+    from gmcpt.gan.names import WEIGHTS_DIR
+    from gmcpt.gan.weights import load_generator
 
     with pytest.raises(GmcptError, match=f"not found: {WEIGHTS_DIR / 'nope.pt'} .*--export nope`"):
         load_generator("nope")

@@ -21,7 +21,8 @@ import torch
 from ..errors import GmcptError
 from ..files import atomic_output
 from .model import Generator, GeneratorConfig
-from .names import DEFAULT_WEIGHTS, WEIGHTS_DIR, weights_path  # noqa: F401 (this module's API too)
+from . import names
+from .names import DEFAULT_WEIGHTS, weights_path  # noqa: F401 (this module's API too)
 
 FORMAT = 1
 RETRAIN_HINT = "retrain with `python -m gmcpt train --config cpu --export {name}` (see README, 'GAN pre-completion: data, training, weights')"
@@ -94,9 +95,9 @@ def load_generator(name_or_path: str | Path | None = None, check_hash: bool = Tr
     """
     path = weights_path(name_or_path)
     # --export NAME writes into the package's folder: a file given by path is retrained to that path
-    hint = RETRAIN_HINT.format(name=path.stem if path.parent == WEIGHTS_DIR else shlex.quote(str(path)))
+    hint = RETRAIN_HINT.format(name=path.stem if path.parent == names.WEIGHTS_DIR else shlex.quote(str(path)))
     if not path.is_file():
-        shipped = ", ".join(sorted(p.stem for p in WEIGHTS_DIR.glob("*.pt")))
+        shipped = ", ".join(sorted(p.stem for p in names.WEIGHTS_DIR.glob("*.pt")))
         raise GmcptError(f"GAN weights not found: {path} (the shipped ones: {shipped}); {hint}")
     key = (str(path.resolve()), path.stat().st_mtime)
     if key in _cache:
