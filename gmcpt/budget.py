@@ -332,9 +332,9 @@ def adaptive_first_spp(budget: float, noise: float | None = None) -> int:
 
 def probes_for_placement(budget: float, noise: float | None) -> bool:
     """True when a frame of ``budget`` probes for :func:`adaptive_first_spp` alone: its scene was never probed
-    (``noise`` None) and the budget is one where only a quiet scene may be adaptive. Once a scene: the reading
+    (``noise`` None) and a reading would change the frame's first pass. Once a scene: the reading
     stays (far from the threshold, the synthetic scenes 0.004-0.053, the real interiors 0.23-0.27)."""
-    return noise is None and ADAPTIVE_FROM_BUDGET <= budget < ADAPTIVE_NOISY_FROM_BUDGET
+    return noise is None and adaptive_first_spp(budget, 0.0) != adaptive_first_spp(budget, None)
 
 
 def error_concentration(error: np.ndarray) -> float:

@@ -75,7 +75,7 @@ def validate(args) -> None:
     from .completion.tiles import check_tile
     from .masks import check_pattern, check_rate
     from .sampling import check_one_sample_count
-    from .scene import scene_inputs
+    from .scene import check_scene_file, scene_inputs
 
     if not args.out.lower().endswith(".exr"):
         raise GmcptError(f"--out must name an .exr file, got {args.out}")
@@ -108,6 +108,7 @@ def validate(args) -> None:
     check_not_inputs(_outputs(args.out), {"scene file": scene_inputs(args.scene), "weights file": weights,
                                           "weights record": [path.with_suffix(".json") for path in weights],
                                           "reference": [args.reference] if args.reference else []})
+    check_scene_file(args.scene)  # before the weights load torch: a missing scene is said at once
     check_options(args.method, args.weights)
 
 

@@ -173,14 +173,18 @@ def test_pawnnm_end_to_end_records_substage_timings(tmp_path):
     assert {"block_matching_s", "svd_s", "aggregation_s", "pre_completion_s", "completion_s"} <= record["timings"].keys()
 
 
-def test_a_bad_command_line_is_refused_before_torch_loads(tmp_path):
-    """The checks of a command line's own values need no torch (about 2 s to load): bad input is answered at once."""
+@pytest.mark.parametrize("weights", [False, True])
+def test_a_bad_command_line_is_refused_before_torch_loads(tmp_path, weights):
+    """The checks of a command line's own values need no torch (about 2 s to load): bad input is answered at once,
+    also when the command names weights, which load with torch."""
     import subprocess
     import sys
+
+    from gmcpt.gan.names import DEFAULT_WEIGHTS
     code = ("import atexit, sys; atexit.register(lambda: print('torch loaded:', 'torch' in sys.modules)); "
             "from gmcpt.cli import main; sys.exit(main(sys.argv[1:]))")
     result = subprocess.run([sys.executable, "-c", code, "render", str(tmp_path / "missing.xml"), "--out",
-                             str(tmp_path / "x.exr")], capture_output=True, text=True,
-                            cwd=ROOT)
+                             str(tmp_path / "x.exr"), *(["--weights", DEFAULT_WEIGHTS] if weights else [])],
+                            capture_output=True, text=True, cwd=ROOT)
     assert result.returncode == 2 and "scene file not found" in result.stderr
     assert "torch loaded: False" in result.stdout

@@ -122,6 +122,29 @@ def test_coverage_feature_is_the_frames_buffer_or_the_0_1_rule(tmp_path):
     assert generator(radiance, batch[:, :generator.config.feature_channels]).shape == (4, 3, 16, 16)
 
 
+def test_a_batch_holds_each_crop_in_the_networks_layout(tmp_path):
+    """Every crop of a batch is one crop of its scene (mirrored or not), channels first, the same in every buffer;
+    its radiance only where its mask traced."""
+    from gmcpt.dataset import list_examples, load_example
+    from gmcpt.gan.data import PatchSampler
+
+    tiny_dataset(tmp_path, count=1, size=16)
+    example = load_example(list_examples(tmp_path, "train")[0])
+    batch = PatchSampler(list_examples(tmp_path, "train"), crop=16).batch(np.random.default_rng(3), 6, True)
+    albedo, normal = (torch.from_numpy(np.moveaxis(example[name], -1, 0)) for name in ("albedo", "normal"))
+    flips = 0
+    for features, radiance in zip(batch.features, batch.radiance):
+        flipped = not torch.equal(features[1:4], albedo)
+        flips += flipped
+        orient = (lambda image: image.flip(-1)) if flipped else (lambda image: image)
+        assert torch.equal(orient(features[1:4]), albedo) and torch.equal(orient(features[4:7]), normal)
+        assert torch.equal(orient(features[7]), torch.from_numpy(example["depth"]))
+        traced = features[0] > 0
+        assert 0 < traced.float().mean() < 1 and torch.all(radiance[:, ~traced] == 0)
+        assert torch.all(radiance.amax(0)[traced] > 0)
+    assert 0 < flips < len(batch.features)  # both orientations drawn (seed 3)
+
+
 def test_train_cli_reports_a_missing_dataset(tmp_path, capsys):
     from gmcpt.gan.cli import main
 

@@ -38,7 +38,7 @@ class PatchSampler:
     """Random training crops from dataset examples, with fresh masks.
 
     Each crop comes from a scene drawn uniformly, or with ``probabilities`` (one per path) where given.
-    Each scene is kept in memory as one (H, W, 16) array: reference (3) and
+    Each scene is kept in memory as one (16, H, W) array: reference (3) and
     full-frame noisy radiance (3) in the working domain / 255, noise std (1),
     albedo (3), normal (3), depth, visibility and coverage. Masks are uniformly random, the paper's
     (a generator trained on the product's placements too scored no better: docs/experiments.md).
@@ -71,7 +71,8 @@ class PatchSampler:
                      working_std(domain, full.radiance, full.variance, factor, traced)[..., None],
                      example["albedo"], example["normal"], example["depth"][..., None],
                      example["visibility"][..., None], frame_coverage(full)[..., None]]
-            self.scenes.append(np.concatenate(parts, -1).astype(np.float32))
+            # channels first, so that a batch of crops is in the network's layout without a transposed copy
+            self.scenes.append(np.ascontiguousarray(np.moveaxis(np.concatenate(parts, -1, dtype=np.float32), -1, 0)))
 
     def batch(self, rng: np.random.Generator, size: int, use_variance: bool, use_coverage: bool = False
               ) -> TrainingBatch:
@@ -81,19 +82,18 @@ class PatchSampler:
             index = (rng.integers(len(self.scenes)) if self.probabilities is None
                      else rng.choice(len(self.scenes), p=self.probabilities))
             scene = self.scenes[index]
-            y = rng.integers(scene.shape[0] - self.crop + 1)
-            x = rng.integers(scene.shape[1] - self.crop + 1)
-            crop = scene[y:y + self.crop, x:x + self.crop]
+            y = rng.integers(scene.shape[1] - self.crop + 1)
+            x = rng.integers(scene.shape[2] - self.crop + 1)
+            crop = scene[:, y:y + self.crop, x:x + self.crop]
             if rng.random() < 0.5:
-                crop = crop[:, ::-1]
+                crop = crop[..., ::-1]
             crops.append(crop)
         data = np.stack(crops)
         rates = rng.uniform(*self.rate_range, size=(size, 1, 1))
-        mask = rng.random(data.shape[:3]) < rates
-        radiance = data[..., 3:6] * mask[..., None]
-        std = data[..., 6] * mask if use_variance else None
-        features = np.stack([feature_stack(mask[i], data[i, ..., 7:10], data[i, ..., 10:13], data[i, ..., 13],
-                                           data[i, ..., 14], None if std is None else std[i],
-                                           data[i, ..., 15] if use_coverage else None) for i in range(size)])
-        to_tensor = lambda a: torch.from_numpy(np.ascontiguousarray(a.transpose(0, 3, 1, 2))).float()  # noqa: E731
-        return TrainingBatch(to_tensor(radiance), to_tensor(features), to_tensor(data[..., 0:3]))
+        mask = rng.random((size, self.crop, self.crop)) < rates
+        radiance = data[:, 3:6] * mask[:, None]
+        std = data[:, 6] * mask if use_variance else None
+        features = feature_stack(mask, data[:, 7:10], data[:, 10:13], data[:, 13], data[:, 14], std,
+                                 data[:, 15] if use_coverage else None, axis=1)
+        return TrainingBatch(torch.from_numpy(radiance), torch.from_numpy(features),
+                             torch.from_numpy(np.ascontiguousarray(data[:, 0:3])))

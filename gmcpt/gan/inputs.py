@@ -22,12 +22,13 @@ SCALE = 255.0
 
 
 def feature_stack(mask: np.ndarray, albedo: np.ndarray, normal: np.ndarray, depth: np.ndarray,
-                  visibility: np.ndarray, std: np.ndarray | None, coverage: np.ndarray | None = None) -> np.ndarray:
+                  visibility: np.ndarray, std: np.ndarray | None, coverage: np.ndarray | None = None,
+                  axis: int = -1) -> np.ndarray:
     """(H, W, F) float32 features in the generator's channel order (``std`` and ``coverage`` where given),
-    joined in one copy."""
-    parts = [mask[..., None], albedo, normal, depth[..., None], visibility[..., None]]
-    parts += [extra[..., None] for extra in (std, coverage) if extra is not None]
-    return np.concatenate(parts, axis=-1, dtype=np.float32)
+    joined in one copy; ``axis`` is the channels' axis (1 for a training batch's (B, F, c, c))."""
+    parts = [np.expand_dims(mask, axis), albedo, normal, np.expand_dims(depth, axis), np.expand_dims(visibility, axis)]
+    parts += [np.expand_dims(extra, axis) for extra in (std, coverage) if extra is not None]
+    return np.concatenate(parts, axis=axis, dtype=np.float32)
 
 
 def working_std(domain: WorkingDomain, radiance: np.ndarray, variance: np.ndarray, factor: np.ndarray,
