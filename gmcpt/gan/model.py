@@ -33,7 +33,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ..fills import guided_fill
+from ..fills import fill_batch
 from .retired import drop_retired
 
 #: Feature channels: mask, albedo (3), normal (3), depth, visibility.
@@ -91,15 +91,13 @@ class CriticConfig:
         return cls(widths=tuple(data["widths"]))
 
 
-def smoothed_fill(radiance: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
+def smoothed_fill(radiance: torch.Tensor, features: torch.Tensor, threads: int | None = None) -> torch.Tensor:
     """The fill the generator corrects: the feature-guided fill of each (B, 3, H, W) ``radiance`` from its
     (B, F, H, W) ``features``, with the traced pixels smoothed by the same weights (``guided_fill`` with
-    ``keep_samples=False``; runs on the CPU in numpy, no parameters)."""
-    values = radiance.detach().permute(0, 2, 3, 1).cpu().numpy()
-    aux = features.detach().permute(0, 2, 3, 1).cpu().numpy()
-    filled = [guided_fill(values[i], aux[i, ..., 0] > 0, aux[i, ..., 1:FEATURE_CHANNELS], keep_samples=False)
-              for i in range(len(values))]
-    return torch.from_numpy(np.stack(filled)).permute(0, 3, 1, 2).to(radiance)
+    ``keep_samples=False``), on the tensors' device; no parameters, no gradient. ``threads``: torch's on the CPU."""
+    with torch.no_grad():
+        return fill_batch(radiance, features[:, 0] > 0, features[:, 1:FEATURE_CHANNELS], keep_samples=False,
+                          threads=threads)
 
 
 def space_to_depth_conv(conv: nn.Conv2d, x: torch.Tensor) -> torch.Tensor:
