@@ -1,4 +1,5 @@
 """The evaluation suite: crossover analysis on known rows, a tiny end-to-end run, and CLI errors."""
+import dataclasses
 import json
 import os
 import subprocess
@@ -338,3 +339,41 @@ def test_a_setting_that_reads_its_scene_twice_warms_up_twice_and_counts_neither(
     measure._in_rounds([setting], 3, np.zeros((8, 8, 3), np.float32), lambda s, result: None)
     assert calls[:2] == [0, 0] and len(setting.metrics) == measure.timed_runs(3)
     assert all(m["mse"] == 0.0 for m in setting.metrics)
+
+
+def test_at_equal_time_both_baselines_draw_the_defaults_seeds(monkeypatch):
+    """Common random numbers: in each run, path tracing + OIDN and adaptive path tracing + OIDN render and take
+    their guides with the seed of the default's frame, so that a dense frame is the same render as a baseline's
+    and the contenders differ by what they do, not by one seed's luck."""
+    import gmcpt.pipeline
+    from gmcpt.evaluation import measure
+    from gmcpt.evaluation.config import DEFAULT_VARIANT, QUICK
+
+    seeds = {"path": [], "adaptive": [], "guides": [], "default": []}
+    image = np.full((16, 16, 3), 0.5, np.float32)
+
+    def path_oidn(loaded, spp, seed, guides):
+        seeds["path"].append(seed)
+        return image, image, {"render_s": 0.0}
+
+    def adaptive_oidn(loaded, budget, seed, guides):
+        seeds["adaptive"].append(seed)
+        return image, {"path_samples": 16 * int(budget)}, {}
+
+    def render_and_complete(scene, integrator, settings, method, options):
+        seeds["default"].append(settings.seed)
+        frame = type("Frame", (), {"info": {"path_samples": 16 * settings.budget, "budget_choice": "dense"}})
+        return type("Rendered", (), {"image": image, "frame": frame})
+
+    monkeypatch.setattr(measure, "_path_oidn", path_oidn)
+    monkeypatch.setattr(measure, "adaptive_oidn", adaptive_oidn)
+    monkeypatch.setattr(measure, "baseline_guides", lambda loaded, spp, seed: seeds["guides"].append(seed))
+    monkeypatch.setattr(measure, "guide_pass_seconds", lambda loaded, spp, seed: seeds["guides"].append(seed))
+    monkeypatch.setattr(gmcpt.pipeline, "render_and_complete", render_and_complete)
+    config = dataclasses.replace(QUICK, path_spp=(4,), adaptive_budgets=(4,), budget_variants=(DEFAULT_VARIANT,),
+                                 default_budgets=(4,), seed=3)
+    loaded = measure.LoadedScene("s", None, None, image)
+    measure.equal_time(loaded, config, lambda message: None)
+    runs = set(seeds["default"])
+    assert len(runs) == measure.all_rounds(config.repeats) and min(runs) == 3
+    assert set(seeds["path"]) == set(seeds["adaptive"]) == set(seeds["guides"]) == runs

@@ -195,9 +195,10 @@ def results_markdown(run: dict) -> str:
         "Timed warm, in one process: each "
         f"contender's whole pipeline runs once to warm up (kernels, weights), the default's twice (its readings of the "
         f"scene, one of which waits on another), then "
-        f"{timed_runs(c['repeats'])} times, each run with seeds of its own (path "
-        "tracing's the default's: a dense frame at an integral budget is the same render, so the two differ by their "
-        "guides and time, not by one seed's luck), in rounds of every setting once: the "
+        f"{timed_runs(c['repeats'])} times, each run with seeds of its own (both baselines' renders and guides the "
+        "default's: a dense frame at an integral budget is the same render as path tracing's, an adaptive one the "
+        "same samples as adaptive path tracing's, so they differ by their guides and time, not by one seed's "
+        "luck), in rounds of every setting once: the "
         "median run is its time (kernels compiled, weights loaded), the mean over the runs its quality. For each budget, each contender's best setting that fits it: "
         "PSNR dB / SSIM / FLIP. Path tracing cannot spend less than 1 sample per pixel.",
         "",

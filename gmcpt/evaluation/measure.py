@@ -125,12 +125,12 @@ def _settings(rate: float, spp: int, config: EvalConfig, pattern: str | None = N
                           feature_spp=config.feature_spp)
 
 
-def adaptive_oidn(loaded: LoadedScene, budget: float, config: EvalConfig, features: dict):
-    """(image, info, timings) of adaptive path tracing + OIDN at ``budget`` mean samples a pixel
-    (:func:`gmcpt.adaptive.render_adaptive`; ``features``: OIDN's guides, :func:`baseline_guides`)."""
+def adaptive_oidn(loaded: LoadedScene, budget: float, seed: int, features: dict):
+    """(image, info, timings) of adaptive path tracing + OIDN at ``budget`` mean samples a pixel, its samples drawn
+    with ``seed`` (:func:`gmcpt.adaptive.render_adaptive`; ``features``: OIDN's guides, :func:`baseline_guides`)."""
     from ..adaptive import AdaptiveSettings, render_adaptive
 
-    settings = AdaptiveSettings(budget=budget, seed=config.seed + 17)
+    settings = AdaptiveSettings(budget=budget, seed=seed)
     return render_adaptive(loaded.scene, loaded.integrator, settings, features=features,
                            guide_rays=baseline_guide_rays(budget))
 
@@ -319,31 +319,33 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
     :func:`guide_pass_seconds`) and the denoiser. Adaptive path tracing + OIDN: the same with the samples placed
     adaptively. Completion variants: feature pass, placement, masked render and completion, the default at
     ``config.default_budgets`` samples a pixel, the others at ``config.budget_rates`` x ``config.budget_spp``.
-    Each timed warm, in rounds (:func:`_in_rounds`). Path tracing's render draws the seeds the default's frames do
-    (common random numbers: a dense frame at an integral budget is the same render, so the two differ by their
-    guides and their time, not by one seed's luck, which moved a setting's PSNR by 0.2-0.4 dB). ``images``: where given, the last run's image of each setting
-    goes in it, keyed ``(contender, rate * spp)`` (``gmcpt compare`` shows them side by side); the measurements
-    are the same either way.
+    Each timed warm, in rounds (:func:`_in_rounds`). Both baselines' renders and guides draw the seeds the default's
+    frames do (common random numbers: a dense frame at an integral budget is the same render as path tracing's, an
+    adaptive one the same samples as adaptive path tracing's, with the same guides where their rays agree, so the
+    contenders differ by what they do and their time, not by one seed's luck, which moved a setting's PSNR by
+    0.2-0.4 dB). ``images``: where given, the last run's image of each setting goes in it, keyed
+    ``(contender, rate * spp)`` (``gmcpt compare`` shows them side by side); the measurements are the same either
+    way.
     """
     base = {"scene": loaded.name}
     runs = all_rounds(config.repeats)
 
-    def seed(offset: int, run: int) -> int:
-        return config.seed + offset + RUN_SEED_STEP * run
+    def seed(run: int) -> int:
+        return config.seed + RUN_SEED_STEP * run
 
     settings = []
     for spp in config.path_spp:
-        guides = [baseline_guides(loaded, spp, seed(17, run)) for run in range(runs)]
+        guides = [baseline_guides(loaded, spp, seed(run)) for run in range(runs)]
         settings.append(_Setting({**base, "contender": "path+oidn", "rate": 1.0, "spp": spp,
                                   "samples_per_pixel": float(spp)},
-                                 lambda run, spp=spp, guides=guides: _path_oidn(loaded, spp, seed(0, run), guides[run]),
+                                 lambda run, spp=spp, guides=guides: _path_oidn(loaded, spp, seed(run), guides[run]),
                                  noisy=lambda result: result[1]))
     for budget in config.adaptive_budgets:
-        guides = [baseline_guides(loaded, budget, seed(17, run)) for run in range(runs)]
+        guides = [baseline_guides(loaded, budget, seed(run)) for run in range(runs)]
 
         def adaptive(run, budget=budget, guides=guides):
-            image, info, _ = adaptive_oidn(loaded, budget, replace(config, seed=seed(0, run)), guides[run])
-            guide_pass_seconds(loaded, budget, seed(17, run))
+            image, info, _ = adaptive_oidn(loaded, budget, seed(run), guides[run])
+            guide_pass_seconds(loaded, budget, seed(run))
             return image, info
 
         settings.append(_Setting({**base, "contender": "adaptive+oidn", "rate": 1.0, "spp": budget,
@@ -358,7 +360,7 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
 
             variant = VARIANTS[label]
             rendered = render_and_complete(loaded.scene, loaded.integrator,
-                                           _settings(rate, spp, replace(config, seed=seed(0, run)), pattern),
+                                           _settings(rate, spp, replace(config, seed=seed(run)), pattern),
                                            variant.method, variant.options())
             return rendered.image, rendered.frame.info
 
@@ -421,7 +423,7 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
                      "seeds": len(seeds), **_mean_metrics(runs)})
         runs, spent = [], 0
         for seed in seeds:
-            image, info, _ = adaptive_oidn(loaded, rate * config.spp, replace(config, seed=seed), guides)
+            image, info, _ = adaptive_oidn(loaded, rate * config.spp, seed + 17, guides)
             runs.append(all_metrics(image, loaded.reference))
             spent = info["path_samples"] / image.shape[0] / image.shape[1]
         rows.append({"scene": loaded.name, "rate": rate, "variant": "adaptive+oidn", "samples_per_pixel": spent,
