@@ -20,7 +20,7 @@ import numpy as np
 
 from .domain import WorkingDomain
 from .frame import SparseFrame
-from .workers import cpu_threads, torch_threads
+from .workers import cpu_threads, map_threads
 
 
 @dataclass(frozen=True)
@@ -102,6 +102,75 @@ def pulled_at(values: np.ndarray, weights: np.ndarray, rows: np.ndarray, columns
     return alpha * values[rows, columns] + (1.0 - alpha) * coarse
 
 
+def _padded_planes(channels: list[tuple[np.ndarray, object]], pad: int, edge: bool) -> np.ndarray:
+    """(n, H + 2 pad, W + 2 pad) float32 planes of the products ``array * factor`` of (H, W) ``channels``,
+    written in place (no stacked copy to pad after), padded by their edge values (``edge``) or by zeros."""
+    height, width = channels[0][0].shape
+    planes = (np.empty if edge else np.zeros)((len(channels), height + 2 * pad, width + 2 * pad), np.float32)
+    for plane, (array, factor) in zip(planes, channels):
+        np.multiply(array, factor, out=plane[pad:pad + height, pad:pad + width])
+    if edge and pad:
+        inner = slice(pad, pad + height)
+        planes[:, inner, :pad] = planes[:, inner, pad:pad + 1]
+        planes[:, inner, pad + width:] = planes[:, inner, pad + width - 1:pad + width]
+        planes[:, :pad] = planes[:, pad:pad + 1]
+        planes[:, pad + height:] = planes[:, pad + height - 1:pad + height]
+    return planes
+
+
+#: Pixels of the band of rows the fill works on at a time, so that a band's planes stay in the CPU's cache
+#: across the offsets of the window (measured: docs/experiments.md, "Figures moved out of the code").
+BAND_PIXELS = 1 << 15
+
+
+def _half_window(radius: int) -> list[tuple[int, int]]:
+    """The offsets of a disc of ``radius`` pixels after (0, 0) in row-major order: one of each pair ``o``, ``-o``."""
+    return [(dy, dx) for dy in range(0, radius + 1) for dx in range(-radius, radius + 1)
+            if (dy, dx) > (0, 0) and dy * dy + dx * dx <= radius * radius]
+
+
+def _weighted_sums(values: np.ndarray, mask: np.ndarray, planes: np.ndarray, norms: np.ndarray, depth: np.ndarray,
+                   depth_scale: np.ndarray, radius: int, sigma_space: float, rows: slice):
+    """(numerator (C, n, W), denominator (n, W)) of the fill's weighted mean for the ``n`` output rows
+    ``rows``; the inputs are channel-first planes padded by ``radius`` on every side (features, their
+    squared norms and depth by their edge values, values and mask by 0), ``depth_scale`` unpadded.
+
+    The squared feature distance is ``|a|^2 + |b|^2 - 2 a.b``, the dot product one pass over the planes
+    (an ``einsum``), and it is symmetric: one plane of it over the band and its margin serves the offsets
+    ``o`` and ``-o`` (the depth term, relative to the centre's depth, is not, and is computed for each)."""
+    pad = radius
+    height, width = rows.stop - rows.start, depth.shape[1] - 2 * pad
+    here = (slice(rows.start + pad, rows.stop + pad), slice(pad, pad + width))
+    centre_depth, scale = depth[here], depth_scale[rows]
+    numerator = values[(slice(None),) + here] * mask[here]  # the centre's own weight is 1
+    denominator = mask[here].copy()
+    weight = np.empty((height, width), np.float32)
+    value_terms = np.empty(numerator.shape, np.float32)
+    for dy, dx in _half_window(radius):
+        # minus the squared distance of q and q + o, for every q that is a centre or a neighbour in the band
+        top, left, right = rows.start + pad - dy, pad + min(0, -dx), pad + width + max(0, -dx)
+        first, second = (slice(top, rows.stop + pad), slice(left, right)), \
+            (slice(top + dy, rows.stop + pad + dy), slice(left + dx, right + dx))
+        similarity = np.einsum("khw,khw->hw", planes[(slice(None),) + first], planes[(slice(None),) + second])
+        similarity *= np.float32(2.0)
+        similarity -= norms[first]
+        similarity -= norms[second]
+        similarity -= np.float32((dy * dy + dx * dx) / (2 * sigma_space ** 2))
+        # the pair (p, p + o) sits at p in it, the pair (p, p - o) at p - o
+        for sy, sx, row, column in ((dy, dx, dy, pad - left), (-dy, -dx, 0, pad - left - dx)):
+            there = (slice(rows.start + pad + sy, rows.stop + pad + sy), slice(pad + sx, pad + width + sx))
+            np.subtract(depth[there], centre_depth, out=weight)
+            weight *= scale
+            np.square(weight, out=weight)
+            np.subtract(similarity[row:row + height, column:column + width], weight, out=weight)
+            np.exp(weight, out=weight)
+            weight *= mask[there]
+            denominator += weight
+            np.multiply(values[(slice(None),) + there], weight, out=value_terms)
+            numerator += value_terms
+    return numerator, denominator
+
+
 def fill_radius(rate: float, params: GuidedFillParams = GuidedFillParams()) -> int:
     """The guided fill's window radius at sampling ``rate``: ``params.radius``, else about 15 traced pixels in it."""
     return params.radius or max(1, math.ceil(1.5 / math.sqrt(max(rate, 1e-6))))
@@ -110,7 +179,8 @@ def fill_radius(rate: float, params: GuidedFillParams = GuidedFillParams()) -> i
 def with_fallback(filled: np.ndarray, confident: np.ndarray, values: np.ndarray, mask: np.ndarray,
                   keep_samples: bool) -> np.ndarray:
     """``filled`` (H, W, C) with the pyramid fill of ``values`` where a pixel is not ``confident`` (no traced
-    neighbour similar enough); there a traced pixel keeps its sample."""
+    neighbour similar enough); there a traced pixel keeps its sample unless ``keep_samples`` (which puts every
+    traced sample back afterwards anyway)."""
     unsure = np.nonzero(~confident)
     if len(unsure[0]):
         fallback = pulled_at(values * mask[..., None], mask.astype(np.float32), *unsure)
@@ -120,7 +190,7 @@ def with_fallback(filled: np.ndarray, confident: np.ndarray, values: np.ndarray,
 
 def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
                 params: GuidedFillParams = GuidedFillParams(), keep_samples: bool = True) -> np.ndarray:
-    """Fill the pixels outside ``mask`` from those inside it (in torch: :func:`fill_batch`).
+    """Fill the pixels outside ``mask`` from those inside it.
 
     Parameters
     ----------
@@ -136,40 +206,57 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     -------
     (H, W, C) float32 image, equal to ``values`` on the mask if ``keep_samples``.
     """
-    import torch  # loaded when a fill runs, not by every module that reaches this one
+    radius = fill_radius(mask.mean(), params)
+    pad = radius
+    sigma_space = max(radius / 2.0, 0.5)
+    # exp(-distance) with distance = |scaled feature difference|^2; depth differences are relative
+    # to the pixel's own depth, so depth is scaled per pixel rather than once
+    scale = np.float32(math.sqrt(0.5)) * np.array([1 / params.sigma_albedo] * 3 + [1 / params.sigma_normal] * 3
+                                                  + [1 / params.sigma_visibility], np.float32)
+    planes = _padded_planes([(features[..., channel], factor) for channel, factor in zip((0, 1, 2, 3, 4, 5, 7), scale)],
+                            pad, edge=True)
+    depth = features[..., 6].astype(np.float32)
+    depth_scale = np.float32(math.sqrt(0.5) / params.sigma_depth) / np.maximum(depth, np.float32(1e-3))
+    norms = np.einsum("khw,khw->hw", planes, planes)
+    padded_values = _padded_planes([(values[..., channel], mask) for channel in range(values.shape[-1])], pad, False)
+    padded_mask = np.pad(mask.astype(np.float32), pad)
+    padded_depth = np.pad(depth, pad, mode="edge")
+    band = max(1, BAND_PIXELS // mask.shape[1])
+    bands = [slice(first, min(first + band, mask.shape[0])) for first in range(0, mask.shape[0], band)]
+    # numpy's loops release the GIL: bands on threads use every core (each band's sums are its own)
+    sums = map_threads(lambda rows: _weighted_sums(padded_values, padded_mask, planes, norms, padded_depth,
+                                                   depth_scale, radius, sigma_space, rows), bands, cpu_threads())
+    numerator = np.concatenate([numerator for numerator, _ in sums], axis=1)
+    denominator = np.concatenate([denominator for _, denominator in sums], axis=0)
+    filled = np.moveaxis(numerator, 0, -1) / np.maximum(denominator, 1e-12)[..., None]
+    filled = with_fallback(filled, denominator > params.min_weight, values, mask, keep_samples)
+    return np.where(mask[..., None], values, filled).astype(np.float32) if keep_samples else filled
 
-    planes = lambda image: torch.from_numpy(np.ascontiguousarray(np.moveaxis(image, -1, 0), np.float32))[None]  # noqa: E731
-    filled = fill_batch(planes(values), torch.from_numpy(np.asarray(mask, bool))[None], planes(features), params,
-                        keep_samples, threads=cpu_threads())
-    return np.ascontiguousarray(filled[0].permute(1, 2, 0).numpy())
 
-
-def fill_batch(values, mask, features,
-               params: GuidedFillParams = GuidedFillParams(), keep_samples: bool = True,
-               threads: int | None = None):
-    """:func:`guided_fill` of each image of a batch of torch tensors: ``values`` (B, C, H, W), ``mask`` (B, H, W)
-    bool, ``features`` (B, 8, H, W), on their device; float32 (B, C, H, W) there (torch loads on the first call).
-    Each image gets the radius of its own rate; the few pixels without a similar traced neighbour take the
-    pyramid fill, on the CPU. ``threads``: torch's threads on the CPU (None: as set)."""
-    import torch
+def fill_batch(values, mask, features, params: GuidedFillParams = GuidedFillParams(), keep_samples: bool = True):
+    """:func:`guided_fill` of each image of a batch of torch tensors, where they are (a GPU: the generator's
+    training batch): ``values`` (B, C, H, W), ``mask`` (B, H, W) bool, ``features`` (B, 8, H, W); float32
+    (B, C, H, W) on their device, within float rounding of :func:`guided_fill` (:mod:`gmcpt.fill_kernel`). Each image
+    gets the radius of its own rate; the few pixels without a similar traced neighbour take the pyramid fill, on the
+    host. On a CPU :func:`guided_fill` is as fast and runs its bands on the process's threads."""
+    import torch  # loaded by the first batch, not by every module that reaches this one
 
     from .fill_kernel import weighted_mean
 
     filled = torch.empty(values.shape, dtype=torch.float32, device=values.device)
     pixels = mask.shape[1] * mask.shape[2]
     radii = [fill_radius(traced / pixels, params) for traced in mask.flatten(1).sum(1).tolist()]
-    with torch_threads(threads or torch.get_num_threads()):
-        for radius in sorted(set(radii)):
-            members = [index for index, own in enumerate(radii) if own == radius]
-            chosen = torch.tensor(members, device=values.device)
-            mean, weight = weighted_mean(values[chosen], mask[chosen], features[chosen], radius, params)
-            filled[chosen] = mean
-            unsure = (weight <= params.min_weight).flatten(1).any(1).tolist()
-            for place in (place for place, any_unsure in enumerate(unsure) if any_unsure):
-                index = members[place]
-                image = with_fallback(_pixels(mean[place]), _pixels(weight[place]) > params.min_weight,
-                                      _pixels(values[index]), _pixels(mask[index]), keep_samples=False)
-                filled[index] = torch.from_numpy(image).permute(2, 0, 1).to(filled.device)
+    for radius in sorted(set(radii)):
+        members = [index for index, own in enumerate(radii) if own == radius]
+        chosen = torch.tensor(members, device=values.device)
+        mean, weight = weighted_mean(values[chosen], mask[chosen], features[chosen], radius, params)
+        filled[chosen] = mean
+        unsure = (weight <= params.min_weight).flatten(1).any(1).tolist()
+        for place in (place for place, any_unsure in enumerate(unsure) if any_unsure):
+            index = members[place]
+            image = with_fallback(_pixels(mean[place]), _pixels(weight[place]) > params.min_weight,
+                                  _pixels(values[index]), _pixels(mask[index]), keep_samples=False)
+            filled[index] = torch.from_numpy(image).permute(2, 0, 1).to(filled.device)
     if keep_samples:
         filled = torch.where(mask[:, None], values.float(), filled)
     return filled

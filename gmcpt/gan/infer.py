@@ -9,7 +9,7 @@ import torch.nn.functional as F
 
 from ..domain import WorkingDomain, channel_mean
 from ..frame import SparseFrame
-from ..workers import cpu_threads, map_single_threaded, torch_threads
+from ..workers import map_single_threaded, torch_threads
 from .inputs import SCALE, frame_inputs
 from .model import Generator, smoothed_fill
 from .runtime import CpuNetwork
@@ -116,7 +116,7 @@ def network_inputs(generator: Generator, frame: SparseFrame, domain: WorkingDoma
     mode = "reflect" if min(height, width) > multiple else "replicate"
     if any(pad):
         radiance, features = F.pad(radiance, pad, mode=mode), F.pad(features, pad, mode=mode)
-    return radiance, features, smoothed_fill(radiance, features, cpu_threads()), factor
+    return radiance, features, smoothed_fill(radiance, features), factor
 
 
 def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
