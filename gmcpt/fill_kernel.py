@@ -8,14 +8,9 @@ numpy fill is as fast and runs its bands on the process's threads.
 """
 from __future__ import annotations
 
-import math
-
+import numpy as np
 import torch
 import torch.nn.functional as F
-
-#: the feature channels of (albedo 3, normal 3, depth, visibility) that are compared as they are; depth is relative
-_COMPARED = [0, 1, 2, 3, 4, 5, 7]
-_DEPTH = 6
 
 
 def disc(radius: int) -> list[tuple[int, int]]:
@@ -24,24 +19,23 @@ def disc(radius: int) -> list[tuple[int, int]]:
             if (dy, dx) != (0, 0) and dy * dy + dx * dx <= radius * radius]
 
 
-def weighted_mean(values: torch.Tensor, mask: torch.Tensor, features: torch.Tensor, radius: int,
-                  params) -> tuple[torch.Tensor, torch.Tensor]:
+def weighted_mean(values: torch.Tensor, mask: torch.Tensor, compared: torch.Tensor, depth: torch.Tensor, radius: int,
+                  scales: np.ndarray, depth_factor: float, sigma_space: float) -> tuple[torch.Tensor, torch.Tensor]:
     """(mean (B, C, H, W), summed weight (B, H, W)) of the traced pixels (``mask`` (B, H, W), true where traced)
-    of ``values`` (B, C, H, W) in a disc of ``radius`` around each pixel, the pixel's own sample at weight 1;
-    ``features`` (B, 8, H, W) and the bandwidths ``params`` as :func:`gmcpt.fills.guided_fill` takes them."""
+    of ``values`` (B, C, H, W) in a disc of ``radius`` around each pixel, the pixel's own sample at weight 1:
+    ``compared`` (B, K, H, W) features scaled by ``scales`` (K,), ``depth`` (B, H, W) by ``depth_factor`` over
+    the pixel's own depth, space by ``sigma_space`` (:func:`gmcpt.fills.fill_batch` gives the numpy fill's)."""
     height, width = values.shape[2:]
     pad = (radius,) * 4
-    scale = math.sqrt(0.5) * torch.tensor([1 / params.sigma_albedo] * 3 + [1 / params.sigma_normal] * 3
-                                          + [1 / params.sigma_visibility], dtype=torch.float32, device=values.device)
-    planes = F.pad(features[:, _COMPARED].float() * scale[:, None, None], pad, mode="replicate")
+    scale = torch.as_tensor(scales, dtype=torch.float32, device=values.device)
+    planes = F.pad(compared.float() * scale[:, None, None], pad, mode="replicate")
     centre = planes[..., radius:radius + height, radius:radius + width]
-    depth = features[:, _DEPTH].float()
-    depth_scale = (math.sqrt(0.5) / params.sigma_depth) / depth.clamp_min(1e-3)
+    depth = depth.float()
+    depth_scale = float(depth_factor) / depth.clamp_min(1e-3)
     padded_depth = F.pad(depth[:, None], pad, mode="replicate")[:, 0]
     mask = mask.float()
     padded_values = F.pad(values.float() * mask[:, None], pad)
     padded_mask = F.pad(mask, pad)
-    sigma_space = max(radius / 2.0, 0.5)
     numerator = values.float() * mask[:, None]
     denominator = mask.clone()
     for dy, dx in disc(radius):

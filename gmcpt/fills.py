@@ -171,6 +171,27 @@ def _weighted_sums(values: np.ndarray, mask: np.ndarray, planes: np.ndarray, nor
     return numerator, denominator
 
 
+#: the feature channels (albedo 3, normal 3, depth, visibility) the fill compares as they are; depth is relative
+COMPARED_CHANNELS = (0, 1, 2, 3, 4, 5, 7)
+DEPTH_CHANNEL = 6
+
+
+def feature_scales(params: GuidedFillParams) -> np.ndarray:
+    """float32 factors of the :data:`COMPARED_CHANNELS`: exp(-distance) with distance = |scaled difference|^2."""
+    return np.float32(math.sqrt(0.5)) * np.array([1 / params.sigma_albedo] * 3 + [1 / params.sigma_normal] * 3
+                                                 + [1 / params.sigma_visibility], np.float32)
+
+
+def depth_bandwidth(params: GuidedFillParams) -> np.float32:
+    """The depth difference's factor, divided by the pixel's own depth (depth differences are relative)."""
+    return np.float32(math.sqrt(0.5) / params.sigma_depth)
+
+
+def space_sigma(radius: int) -> float:
+    """The spatial Gaussian's standard deviation in pixels for a window of ``radius``."""
+    return max(radius / 2.0, 0.5)
+
+
 def fill_radius(rate: float, params: GuidedFillParams = GuidedFillParams()) -> int:
     """The guided fill's window radius at sampling ``rate``: ``params.radius``, else about 15 traced pixels in it."""
     return params.radius or max(1, math.ceil(1.5 / math.sqrt(max(rate, 1e-6))))
@@ -208,15 +229,11 @@ def guided_fill(values: np.ndarray, mask: np.ndarray, features: np.ndarray,
     """
     radius = fill_radius(mask.mean(), params)
     pad = radius
-    sigma_space = max(radius / 2.0, 0.5)
-    # exp(-distance) with distance = |scaled feature difference|^2; depth differences are relative
-    # to the pixel's own depth, so depth is scaled per pixel rather than once
-    scale = np.float32(math.sqrt(0.5)) * np.array([1 / params.sigma_albedo] * 3 + [1 / params.sigma_normal] * 3
-                                                  + [1 / params.sigma_visibility], np.float32)
-    planes = _padded_planes([(features[..., channel], factor) for channel, factor in zip((0, 1, 2, 3, 4, 5, 7), scale)],
-                            pad, edge=True)
-    depth = features[..., 6].astype(np.float32)
-    depth_scale = np.float32(math.sqrt(0.5) / params.sigma_depth) / np.maximum(depth, np.float32(1e-3))
+    sigma_space = space_sigma(radius)
+    planes = _padded_planes([(features[..., channel], factor)
+                             for channel, factor in zip(COMPARED_CHANNELS, feature_scales(params))], pad, edge=True)
+    depth = features[..., DEPTH_CHANNEL].astype(np.float32)
+    depth_scale = depth_bandwidth(params) / np.maximum(depth, np.float32(1e-3))
     norms = np.einsum("khw,khw->hw", planes, planes)
     padded_values = _padded_planes([(values[..., channel], mask) for channel in range(values.shape[-1])], pad, False)
     padded_mask = np.pad(mask.astype(np.float32), pad)
@@ -249,7 +266,9 @@ def fill_batch(values, mask, features, params: GuidedFillParams = GuidedFillPara
     for radius in sorted(set(radii)):
         members = [index for index, own in enumerate(radii) if own == radius]
         chosen = torch.tensor(members, device=values.device)
-        mean, weight = weighted_mean(values[chosen], mask[chosen], features[chosen], radius, params)
+        mean, weight = weighted_mean(values[chosen], mask[chosen], features[chosen][:, list(COMPARED_CHANNELS)],
+                                     features[chosen][:, DEPTH_CHANNEL], radius, feature_scales(params),
+                                     depth_bandwidth(params), space_sigma(radius))
         filled[chosen] = mean
         unsure = (weight <= params.min_weight).flatten(1).any(1).tolist()
         for place in (place for place, any_unsure in enumerate(unsure) if any_unsure):
