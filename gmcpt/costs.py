@@ -53,6 +53,7 @@ class FrameCosts:
     pixels: int
     seconds_per_spp: float | None = None  # path tracing, one sample for every pixel
     sparse_extra_seconds: float | None = None  # what the sparse way adds to a dense frame's work
+    guide_ray_seconds: float | None = None  # a guide pass (no shadow rays), per ray a pixel, its launch included
     probe: Reading = field(default_factory=Reading)  # relative variance (gmcpt.budget.relative_variance)
     concentrations: dict = field(default_factory=dict)  # first-pass spp -> Reading (budget.error_concentration)
     aliasing: Reading = field(default_factory=Reading)  # of the guides' albedo (budget.guide_aliasing)
@@ -80,6 +81,9 @@ class FrameCosts:
     # the fewest seconds seen: a scene's first frame in a process compiles kernels and loads the generator
     def learn_path(self, seconds_per_spp: float) -> None:
         self.seconds_per_spp = min(seconds_per_spp, self.seconds_per_spp or np.inf)
+
+    def learn_guide_ray(self, seconds_per_ray: float) -> None:
+        self.guide_ray_seconds = min(seconds_per_ray, self.guide_ray_seconds or np.inf)
 
     def learn_extra(self, seconds: float) -> None:
         self.sparse_extra_seconds = min(seconds, self.sparse_extra_seconds or np.inf)

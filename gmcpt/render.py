@@ -22,6 +22,8 @@ with many lights this ray costs several times the rest of the pass).
 A dense frame's bulk is Mitsuba's render of every pixel (:func:`render_native`): the
 scene's integrator at its full speed, through the frozen pixel-list kernel while the
 pass is small and ``mi.render`` above; the pixel-list kernel tops it up.
+:func:`render_native_guided` renders it through the integrator's twin
+(:mod:`gmcpt.guided_path`), whose first hits are the frame's guides.
 """
 from __future__ import annotations
 
@@ -33,8 +35,8 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .domain import ALBEDO_MIN
 from .frame import DEFAULT_FEATURE_SPP
+from .guided_path import FEATURE_PLANES, first_hit_features
 from .held import scene_state
 from .limits import SEED_LIMIT
 
@@ -130,13 +132,7 @@ def _feature_means(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, feature_
     ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
     si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
     hit = si.is_valid()
-    bsdf = si.bsdf(ray)
-    diffuse = hit & mi.has_flag(bsdf.flags(), mi.BSDFFlags.DiffuseReflection)
-    albedo = dr.select(diffuse, dr.clip(bsdf.eval_diffuse_reflectance(si, diffuse), 0.0, 1.0), 0.0)
-    covered = dr.select(dr.max(albedo) >= ALBEDO_MIN, 1.0, 0.0)
-    normal = dr.select(hit, si.sh_frame.n, 0.0)
-    distance = dr.select(hit, si.t, 0.0)
-    values = [*albedo, *normal, distance, dr.select(hit, 1.0, 0.0), covered]
+    values = first_hit_features(si, si.bsdf(ray))
     if visibility:
         _, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, hit)
         values.append(dr.select(hit & ((emitter_weight[0] + emitter_weight[1] + emitter_weight[2]) > 0), 1.0, 0.0))
@@ -246,7 +242,8 @@ def _camera_key(sensor: mi.Sensor) -> tuple:
 def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: mi.UInt32,
                 lane: mi.UInt32, seed: mi.UInt32, spp: int, camera: tuple, sums: list) -> list:
     """Path trace lane ``k * spp + s`` (``lane`` counts them) as sample ``s`` of pixel ``pixels[k]`` and add
-    (R, G, B, squared norm, finite count) of the finite samples to ``sums`` (five zero arrays, one value a pixel).
+    (R, G, B, squared norm, finite count) of the finite samples to ``sums`` (five zero arrays, one value a pixel),
+    and where ``sums`` holds more arrays, the integrator's AOVs of every sample (:class:`~gmcpt.guided_path.GuidedPath`'s guides).
 
     Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
     pixel count; ``camera`` (:func:`_camera_key`) only keys the recording.
@@ -254,13 +251,13 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     sampler = _seeded_sampler(sensor, spp, seed, dr.width(lane))
     lane_pixel = lane // spp
     ray, weight = _primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp)
-    radiance, _, _ = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
+    radiance, _, aovs = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
     radiance = weight * radiance
     finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
     radiance = dr.select(finite, radiance, 0.0)
     # Accumulate per pixel inside the path tracing kernel (as the film does,
     # with as many channels: RGB, squared norm, count of finite samples).
-    values = [radiance[0], radiance[1], radiance[2], dr.squared_norm(radiance), dr.select(finite, 1.0, 0.0)]
+    values = [radiance[0], radiance[1], radiance[2], dr.squared_norm(radiance), dr.select(finite, 1.0, 0.0), *aovs]
     for target, value in zip(sums, values):
         dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
     return sums
@@ -270,6 +267,9 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
 #: integrator's kernel in Python costs about 10 ms a pass (a tenth of that replayed), as much as 2 % of a
 #: cheap 16-spp frame. A recording costs about what one plain trace does.
 _frozen_pixel_sums = FrozenKernel(_pixel_sums)
+#: the same with a :class:`~gmcpt.guided_path.GuidedPath`'s AOVs: recorded apart, so that a scene where it cannot be
+#: recorded still replays the plain kernel
+_frozen_guided_sums = FrozenKernel(_pixel_sums)
 
 
 def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
@@ -280,15 +280,19 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     shapes (n, 3), (n,) and (n,); the sum of squares is summed over the three
     channels (all that the channel-averaged variance needs).
     """
-    # opaque zeros and seed: literals that change between calls would make the frozen function record again
-    sums = _frozen_pixel_sums(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
-                                              dr.arange(mi.UInt32, pixels.size * spp), dr.opaque(mi.UInt32, seed),
-                                              spp, _camera_key(sensor),
-                                              [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
-    red, green, blue, squares, count = (np.asarray(column) for column in sums)
+    red, green, blue, squares, count = _traced_sums(scene, sensor, integrator, pixels, spp, seed)
     return np.stack([red, green, blue], axis=1), squares, count
 
 
+def _traced_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: np.ndarray, spp: int,
+                 seed: int, aovs: int = 0) -> list[np.ndarray]:
+    """:func:`_pixel_sums` through the frozen kernel, as float32 arrays: the five sums, then ``aovs`` AOV sums."""
+    # opaque zeros and seed: literals that change between calls would make the frozen function record again
+    kernel = _frozen_guided_sums if aovs else _frozen_pixel_sums
+    sums = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
+                                  dr.arange(mi.UInt32, pixels.size * spp), dr.opaque(mi.UInt32, seed), spp,
+                                  _camera_key(sensor), [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5 + aovs)]))
+    return [np.asarray(column) for column in sums]
 
 
 def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, counts: np.ndarray,
@@ -327,17 +331,36 @@ def render_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInt
     :meth:`SampleSums.add_native` counts that pixel's samples as dropped). ``mi.render`` itself, or for a box
     filter and at most :data:`FROZEN_FRAME_SAMPLES` samples the same samples through the frozen kernel. The
     sensor's sampler keeps its own sample count (``mi.render`` sets it)."""
+    return _render_full(scene, sensor, integrator, spp, seed, 0)[0]
+
+
+def render_native_guided(scene: mi.Scene, sensor: mi.Sensor, twin: mi.SamplingIntegrator, spp: int,
+                         seed: int) -> tuple[np.ndarray, FeatureMeans]:
+    """:func:`render_native` with ``twin`` (:func:`gmcpt.guided_path.guided_twin` of the scene's integrator: the
+    same image) and the :class:`FeatureMeans` of its first hits, guides of ``spp`` rays a pixel."""
+    image, planes = _render_full(scene, sensor, twin, spp, seed, len(FEATURE_PLANES))
+    return image, FeatureMeans(tuple(planes), spp, None, 0, _sensor_film_size(sensor))
+
+
+def _render_full(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int, seed: int,
+                 aovs: int) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(the image, (N, 3), and the per-pixel means of the integrator's first ``aovs`` AOVs, flat float32 planes)."""
     height, width = _sensor_film_size(sensor)
     if height * width * spp <= FROZEN_FRAME_SAMPLES and sensor.film().rfilter().radius() <= 0.5:
-        total, _, count = trace_pixels(scene, sensor, integrator, np.arange(height * width), spp, seed)
-        mean = total / np.float32(spp) if spp > 1 else total
+        red, green, blue, _, count, *planes = _traced_sums(scene, sensor, integrator, np.arange(height * width), spp,
+                                                           seed, aovs)
+        mean = np.stack([red, green, blue], axis=1)
+        if spp > 1:
+            mean /= np.float32(spp)
+            planes = [plane / np.float32(spp) for plane in planes]
         mean[count < spp] = np.nan  # the kernel leaves non-finite samples out; the film does not
-        return mean
+        return mean, planes
     sampler = sensor.sampler()
     count = sampler.sample_count()
     try:
-        image = mi.render(scene, sensor=sensor, integrator=integrator, spp=spp, seed=seed)
-        return np.asarray(image, dtype=np.float32)[..., :3].reshape(-1, 3)
+        image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, spp=spp, seed=seed),
+                           dtype=np.float32).reshape(height * width, -1)
+        return image[:, :3], [np.ascontiguousarray(image[:, 3 + plane]) for plane in range(aovs)]
     finally:
         sampler.set_sample_count(count)
 

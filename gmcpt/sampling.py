@@ -21,30 +21,25 @@ from typing import Callable
 import mitsuba as mi
 import numpy as np
 
-from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
-from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, adaptive_first_spp, adaptive_pays,
-                     check_budget, choose, edge_share, error_concentration, even_fill, guide_aliasing, guide_spp,
-                     needs_probe, plan_budget, probes_for_placement, reads_guide_aliasing, relative_variance,
-                     sparse_pays)
+from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share,
+                     guide_aliasing, guide_spp, needs_probe, plan_budget, probes_for_placement, reads_guide_aliasing,
+                     relative_variance, sparse_pays)
 from .costs import completion_seconds, frame_costs
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
-from .large_model import large_model_guides, read_denoiser
+from .dense import TOP_UP_SEED_OFFSET, dense_frame, guides_from_render
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
 from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
                     sample_by_density, sample_count, second_pass_mask)
 from .placement import error_density, feature_density, first_pass_count
-from .render import SampleSums, _sensor_film_size, feature_means, pass_seed, render_native
+from .render import FeatureMeans, SampleSums, _sensor_film_size, feature_means, pass_seed, render_native
 from .scene import scene_sensor
 
 SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` draws other samples
-TOP_UP_SEED_OFFSET = 0x70B0F  # and a budget's probe pixels their samples after the choice
-EVEN_SEED_OFFSET = 0xE7E4  # the dense way's blue-noise spread of the samples left over
 PROBE_SEED_OFFSET = 0x9B0BE  # the probe's placement
 FIRST_PASS_SEED_OFFSET = 0xF1257  # the sparse way's first pass beside the probe (same seed: same lanes' samples)
 GUIDE_TOP_UP_SEED_OFFSET = 0x6D1E  # the sparse way's feature rays beside the guides'
 GUIDE_HALF_SEED_OFFSET = 0x6A1F  # the second half of a guide pass that reads the guides' aliasing
-SPLIT_SEED_OFFSETS = (0x5B1, 0x5B2)  # the second quarter and the half of a frame that reads the denoiser
 
 Say = Callable[[str], None]
 
@@ -110,6 +105,8 @@ class _Trace:
     first_pass_pixels: int = 0
     discarded: int = 0  # samples traced and left out of the image (a dense frame's probe)
     info: dict = field(default_factory=dict)
+    twin: mi.SamplingIntegrator | None = None  # the integrator's guided twin, where the render brings the guides
+    native_guides: FeatureMeans | None = None  # the guides of the twin's first hits so far
 
     def __post_init__(self):
         pixels = self.shape[0] * self.shape[1]
@@ -142,6 +139,8 @@ class _Trace:
         means = feature_means(self.scene, self.sensor, spp, (self.settings.seed + seed_offset) % SEED_LIMIT,
                               visibility)
         self.timed("features_s", start)
+        if not visibility:
+            frame_costs(self.scene, self.sums.size).learn_guide_ray((time.perf_counter() - start) / spp)
         return means
 
 
@@ -198,38 +197,42 @@ def _mask_passes(trace: _Trace, mask: np.ndarray | None, spp: int) -> dict:
 
 def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
     """The passes of a budget (:mod:`gmcpt.budget`): guides, a probe where the choice waits for one
-    (:func:`~gmcpt.budget.needs_probe`), then the sparse way or the dense one. Returns the feature buffers."""
-    settings = trace.settings
-    height, width = trace.shape
+    (:func:`~gmcpt.budget.needs_probe`), then the sparse way or the dense one (:mod:`gmcpt.dense`; its guides come
+    from its render where the choice did not read them, :func:`~gmcpt.dense.guides_from_render`). Returns the
+    feature buffers."""
     costs = frame_costs(trace.scene, plan.pixels)
-    guides = _guides(trace, plan.budget)
-    guide_rays = guides.spp
-    features = guides.buffers()
     probe = np.zeros(plan.pixels, bool)
-    reading, edges, extra_share, pays, probed = None, None, None, True, False
+    reading, edges, extra_share, pays, probed, for_placement = None, None, None, True, False, False
     if not plan.dense_only:
         reading = costs.probe.remembered()
         if costs.seconds_per_spp is not None:
             extra_share, pays = _sparse_time(trace, plan, costs, costs.seconds_per_spp)
         # once a scene, below budget 8, the placement of a dense frame waits for a probe too
         for_placement = probes_for_placement(plan.budget, costs.probe.value)
-        if for_placement or needs_probe(plan, 0.0, pays, reading):  # the edges could choose (0.06 s at 1920x1080)
-            edges = edge_share(features)
-        if for_placement or (edges is not None and needs_probe(plan, edges, pays, reading)):
+    wants_edges = for_placement or needs_probe(plan, 0.0, pays, reading)  # the edges could choose (0.06 s at 1920x1080)
+    guides = features = None
+    if not guides_from_render(trace, plan, wants_edges):
+        guides = _guides(trace, plan.budget)
+        features = guides.buffers()
+    if wants_edges:
+        edges = edge_share(features)
+        if for_placement or needs_probe(plan, edges, pays, reading):
             probe, probe_pace = _probe(trace, plan)
             reading, probed = relative_variance(*trace.sums.estimate(probe), PROBE_SPP), True
             extra_share, pays = _sparse_time(trace, plan, costs, costs.path_seconds(probe_pace))
+    if not plan.dense_only:
         costs.probe.learn(reading if probed else None)
     choice = choose(plan, reading or 0.0, edges or 0.0, pays)
     trace.info.update({"budget": plan.budget, "budget_choice": choice, "relative_variance": reading,
                        "probe": "traced" if probed else "remembered" if reading is not None else "none",
-                       "edge_share": edges, "sparse_time_share": extra_share, "guide_spp": guide_rays})
+                       "edge_share": edges, "sparse_time_share": extra_share})
     signals = [f"relative variance {reading:.3f}" if reading is not None else "",
                f"edge share {edges:.2f}" if edges is not None else "",
                f"sparse time +{extra_share:.0%}" if extra_share is not None else ""]
     trace.say(f"budget {plan.budget:g} spp: {choice}" + (f" ({', '.join(filter(None, signals))})"
                                                          if any(signals) else ""))
-    if choice == SPARSE:
+    if choice == SPARSE:  # only after the edges were read: with guides from their pass
+        trace.info["guide_spp"] = guides.spp
         features_before = trace.timings["features_s"]
         features = _sparse_after_probe(trace, plan, guides, probe)
         costs.learn_path(trace.timings["render_s"] / (trace.sums.samples / plan.pixels))
@@ -237,33 +240,37 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
         trace.info["sparse_extra_s"] = trace.timings["features_s"] - features_before + trace.timings["mask_s"]
         return features
     frame_seconds = None if costs.seconds_per_spp is None else _dense_seconds(trace, plan, costs.seconds_per_spp)
-    guides, clean, price = large_model_guides(trace, plan, costs, guides, frame_seconds)
-    images = _dense(trace, plan, probe, split=clean is not None)
-    if images is not None:
-        guides = read_denoiser(trace, plan, costs, (guides, clean), images, price)
-    trace.info["guide_spp"] = guides.spp
-    return guides.buffers() if guides.spp != guide_rays else features
+    rays = guides.spp if guides is not None else _guide_rays(trace, plan.budget)
+    frame_guides = dense_frame(trace, plan, probe, guides, rays, frame_seconds)
+    trace.info["guide_spp"] = frame_guides.spp
+    return features if frame_guides is guides else frame_guides.buffers()
 
 
 def _guides(trace: _Trace, budget: float):
-    """The guide pass of a frame of ``budget`` (:func:`~gmcpt.budget.guide_spp`), as :class:`FeatureMeans`. Where
-    its rays depend on the scene's guide aliasing and no recent frame read it
-    (:attr:`gmcpt.costs.FrameCosts.aliasing`), the pass is two halves of other seeds, whose difference is the
-    reading; ``info`` records it (``guide_aliasing``)."""
-    feature_spp = trace.settings.feature_spp
-    if not reads_guide_aliasing(budget, feature_spp):
-        return trace.features(guide_spp(budget, feature_spp), visibility=False)
+    """The guide pass of a frame of ``budget`` (:func:`_guide_rays`), as :class:`FeatureMeans`. Where its rays depend
+    on the scene's guide aliasing and no recent frame read it (:attr:`gmcpt.costs.FrameCosts.aliasing`), the pass is
+    two halves of other seeds, whose difference is the reading; ``info`` records it (``guide_aliasing``)."""
     reading = frame_costs(trace.scene, trace.sums.size).aliasing
-    if reading.remembered() is None:
-        rays = guide_spp(budget, feature_spp)
+    if reads_guide_aliasing(budget, trace.settings.feature_spp) and reading.remembered() is None:
+        rays = guide_spp(budget, trace.settings.feature_spp)
         first = trace.features(rays // 2, visibility=False)
         second = trace.features(rays - rays // 2, GUIDE_HALF_SEED_OFFSET, visibility=False)
         reading.learn(guide_aliasing(first.planes[:3], second.planes[:3]))
         trace.info["guide_aliasing"] = reading.value
         return first.merged(second)
+    return trace.features(_guide_rays(trace, budget), visibility=False)
+
+
+def _guide_rays(trace: _Trace, budget: float) -> int:
+    """Primary rays a pixel of a frame's guides (:func:`~gmcpt.budget.guide_spp`), after the scene's remembered
+    aliasing where they depend on it (which this frame then counts as served)."""
+    feature_spp = trace.settings.feature_spp
+    if not reads_guide_aliasing(budget, feature_spp):
+        return guide_spp(budget, feature_spp)
+    reading = frame_costs(trace.scene, trace.sums.size).aliasing
     trace.info["guide_aliasing"] = reading.remembered()
     reading.learn(None)
-    return trace.features(guide_spp(budget, feature_spp, trace.info["guide_aliasing"]), visibility=False)
+    return guide_spp(budget, feature_spp, trace.info["guide_aliasing"])
 
 
 def _probe(trace: _Trace, plan: BudgetPlan) -> tuple[np.ndarray, float]:
@@ -315,100 +322,6 @@ def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarr
     trace.first_pass_pixels = int(trace.traced.sum())
     _second_pass(trace, sparse, features, density, plan.sparse_pixels - trace.first_pass_pixels, SPARSE_SPP)
     return features
-
-
-def _dense(trace: _Trace, plan: BudgetPlan, probe: np.ndarray, split: bool = False) -> tuple | None:
-    """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
-    render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
-    that no pixel has more than ``ceil(budget)``. Where :func:`~gmcpt.budget.adaptive_first_spp` allows it (from
-    budget 4 on a scene whose probe read it quiet, from 8 on any) the bulk is two renders, and where the first
-    finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the second is adaptive path tracing's
-    placement instead (:func:`_adaptive_rest`). A recent frame's reading of
-    the scene after a first pass of as many samples that says even (:meth:`gmcpt.costs.FrameCosts.concentration`)
-    keeps the one launch. With ``split``, an even launch of 2 samples a pixel or more is traced in three instead
-    (:func:`_split_native`); returns (the first quarter's image, the half's), else None."""
-    seed = trace.settings.seed
-    left = plan.samples - trace.sums.samples
-    if trace.sums.samples:
-        trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
-    trace.first_pass_pixels = int(probe.sum())
-    costs = frame_costs(trace.scene, plan.pixels)
-    # the scene's last probe, of this frame or an earlier one: its noise is a property of the scene
-    current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget, costs.probe.value)
-    reading = costs.concentration(first) if first else None
-    if reading is not None and reading.remembered() is not None and not adaptive_pays(reading.remembered()):
-        trace.info.update(error_concentration=reading.remembered(), dense_placement="even")
-        reading.learn(None)
-        first = 0
-    if first:
-        _native(trace, first, seed)
-        if _adaptive_rest(trace, left - first * plan.pixels, first, seed):
-            trace.traced[:] = True
-            return None
-        # the second launch draws other samples than the first
-        current[:], left, seed = first, left - first * plan.pixels, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
-    start = time.perf_counter()
-    counts = even_fill(current, left, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT).ravel()
-    trace.timed("mask_s", start)
-    # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
-    # drawn with it too, are left out of the image)
-    trace.traced[:] = True
-    images = None
-    if split and not current.any() and counts.min() >= 2:
-        images = _split_native(trace, int(counts.min()), seed)
-    else:
-        _native(trace, int(counts.min()), seed)
-    trace.trace(np.flatnonzero(counts > counts.min()), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the rest
-    return images
-
-
-def _native(trace: _Trace, spp: int, seed: int) -> np.ndarray | None:
-    """Mitsuba's own render of every pixel at ``spp`` (none at 0) into the frame's sums; its pace is learnt.
-    Returns the image, flat (N, 3)."""
-    if not spp:
-        return None
-    start = time.perf_counter()
-    trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render)")
-    image = render_native(trace.scene, trace.sensor, trace.integrator, spp, seed)
-    trace.sums.add_native(image, spp)
-    trace.timed("render_s", start)
-    frame_costs(trace.scene, trace.sums.size).learn_path((time.perf_counter() - start) / spp)
-    return image
-
-
-def _split_native(trace: _Trace, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Mitsuba's render of every pixel at ``spp`` as a quarter, a quarter and a half (seeds of their own; below 4
-    samples, one, one and the rest): the first quarter's image and the half's, (H, W, 3) float32, non-finite
-    pixels as 0."""
-    quarter, images = max(1, spp // 4), []
-    for count, offset in ((quarter, 0), (quarter, SPLIT_SEED_OFFSETS[0]), (spp - 2 * quarter, SPLIT_SEED_OFFSETS[1])):
-        images.append(_native(trace, count, (seed + offset) % SEED_LIMIT))
-    image = lambda flat: np.nan_to_num(flat, posinf=0.0, neginf=0.0).reshape(*trace.shape, 3)  # noqa: E731
-    return image(images[0]), image((images[0] + images[1]) / 2)
-
-
-def _adaptive_rest(trace: _Trace, samples: int, first_spp: int, seed: int) -> bool:
-    """After a dense frame's first pass (``first_spp`` a pixel), ``samples`` more where the displayed image is noisiest, as
-    :func:`gmcpt.adaptive.render_adaptive` places them, if its error is concentrated enough to pay
-    (:func:`~gmcpt.budget.adaptive_pays`). Returns whether it traced them; ``info`` records the reading."""
-    start = time.perf_counter()
-    mean, _ = trace.sums.estimate()
-    error = display_error(mean.reshape(*trace.shape, 3))
-    concentration = error_concentration(error)
-    frame_costs(trace.scene, trace.sums.size).concentration(first_spp).learn(concentration)
-    adaptive = adaptive_pays(concentration)
-    trace.info.update(error_concentration=concentration, dense_placement="adaptive" if adaptive else "even")
-    if adaptive:
-        cap = max(MAX_EXTRA, 2 * -(-samples // trace.sums.size))  # room for the rest at budgets above 64
-        counts = allocate(error ** EXPONENT, samples, cap)
-    trace.timed("mask_s", start)
-    if adaptive:
-        start = time.perf_counter()
-        trace.say(f"path tracing: {samples} samples where the image is noisiest (adaptive placement)")
-        trace.sums.trace_counts(trace.scene, trace.sensor, trace.integrator, counts,
-                                (seed + EXTRA_SEED_OFFSET) % SEED_LIMIT)
-        trace.timed("render_s", start)
-    return adaptive
 
 
 def _time_passes(trace: _Trace) -> dict:

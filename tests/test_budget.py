@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from budget_helpers import SIZE, render_budget as _render
+from budget_helpers import SIZE, record_launches, render_budget as _render
 from conftest import CORNELL, run_cli
 
 
@@ -301,7 +301,7 @@ def test_error_concentration_is_the_share_of_the_noisiest_pixels():
 
 @pytest.mark.parametrize("threshold,placement", [(0.0, "adaptive"), (math.inf, "even")])
 def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monkeypatch, threshold, placement):
-    from gmcpt import budget, sampling
+    from gmcpt import budget
     from gmcpt.costs import READ_AGAIN_AFTER
     from gmcpt.scene import load_scene
 
@@ -309,9 +309,7 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense
     scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: no earlier frame's reading
-    launches = []
-    native = sampling.render_native
-    monkeypatch.setattr(sampling, "render_native", lambda *args: launches.append(args[3]) or native(*args))
+    launches = record_launches(monkeypatch)
     frame = _render(scene, 10.5)
     pixels = SIZE[0] * SIZE[1]
     assert frame.info["budget_choice"] == "dense" and frame.info["dense_placement"] == placement
@@ -331,7 +329,7 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
 
 @pytest.mark.parametrize("noise,launches", [(0.01, [3]), (1.0, [5])])
 def test_below_budget_8_only_a_quiet_scene_places_its_rest_where_the_error_is(mi, monkeypatch, noise, launches):
-    from gmcpt import budget, sampling
+    from gmcpt import budget
     from gmcpt.costs import frame_costs
     from gmcpt.scene import load_scene
 
@@ -340,9 +338,7 @@ def test_below_budget_8_only_a_quiet_scene_places_its_rest_where_the_error_is(mi
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense without a probe: the scene's earlier reading decides
     scene = load_scene(CORNELL, resolution=SIZE)
     frame_costs(scene, SIZE[0] * SIZE[1]).probe.learn(noise)
-    traced = []
-    native = sampling.render_native
-    monkeypatch.setattr(sampling, "render_native", lambda *args: traced.append(args[3]) or native(*args))
+    traced = record_launches(monkeypatch)
     frame = _render(scene, 5.0)
     assert traced == launches and frame.info["path_samples"] == 5 * SIZE[0] * SIZE[1]
     assert frame.info.get("dense_placement") == ("adaptive" if noise < budget.DENSE_ABOVE else None)
@@ -365,16 +361,14 @@ def test_a_scene_never_probed_probes_once_for_the_placement_below_budget_8(mi, m
 def test_an_even_reading_serves_only_frames_of_its_first_pass(mi, monkeypatch):
     """The error's concentration grows with the first pass's samples: a budget-8 frame's reading does not keep a
     budget-16 frame in one launch."""
-    from gmcpt import budget, sampling
+    from gmcpt import budget
     from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", math.inf)  # every reading says even
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense
     scene = load_scene(CORNELL, resolution=SIZE)
-    launches = []
-    native = sampling.render_native
-    monkeypatch.setattr(sampling, "render_native", lambda *args: launches.append(args[3]) or native(*args))
+    launches = record_launches(monkeypatch)
     for frame_budget in (8, 16, 8, 16):
         _render(scene, frame_budget)
     assert launches == [5, 3, 10, 6, 8, 16]  # each budget reads once, then keeps the one launch
@@ -405,14 +399,14 @@ def test_a_guide_pass_in_two_halves_reads_the_aliasing_that_later_frames_choose_
     frame = _render(scene, 1)
     assert passes == [2, 2] and frame.info["guide_spp"] == 4 and frame.info["guide_aliasing"] > 0
     passes.clear()
-    for _ in range(READ_AGAIN_AFTER - 1):
-        assert _render(scene, 2).info["guide_spp"] == rays
-    assert passes == [rays] * (READ_AGAIN_AFTER - 1)
+    for _ in range(READ_AGAIN_AFTER - 1):  # the render's own two first hits, and a pass of the rays they lack
+        assert _render(scene, 2).info["guide_spp"] == max(rays, 2)
+    assert passes == ([rays - 2] * (READ_AGAIN_AFTER - 1) if rays > 2 else [])
     passes.clear()
     _render(scene, 1)
     assert passes == [2, 2]  # read again
     passes.clear()
-    _render(scene, 6)  # its rays do not depend on the reading
+    _render(scene, 6)  # its rays do not depend on the reading (a pass: the scene was never probed, its edges are read)
     assert passes == [6]
 
 

@@ -79,31 +79,24 @@ def test_a_frame_of_one_sample_a_pixel_reads_no_denoiser(mi, monkeypatch):
     assert "denoiser_proxy" not in _render(scene, 1.0, seed=1).info  # one launch cannot be split in two
 
 
-def test_the_large_models_price_is_read_before_its_guide_rays_are_added():
+def test_the_large_model_is_priced_with_the_guide_rays_it_adds_and_taken_as_the_scene_reads():
     from gmcpt.budget import BudgetPlan
     from gmcpt.costs import FrameCosts
-    from gmcpt.large_model import extra_seconds, large_model_guides
+    from gmcpt.large_model import extra_seconds, large_model_rays
 
-    class Guides:
-        def __init__(self, spp):
-            self.spp = spp
-
-        def merged(self, other):
-            return Guides(self.spp + other.spp)
-
-    class Trace:  # a guide pass of 4 rays took 0.04 s; every ray added takes 0.01 s more
-        timings, info, sums = {"features_s": 0.04}, {}, types.SimpleNamespace(size=64)
-
-        def features(self, spp, seed_offset=0, visibility=True):
-            self.timings["features_s"] += 0.01 * spp
-            return Guides(spp)
-
-    trace, guides = Trace(), Guides(4)
-    expected = extra_seconds(trace, guides)
+    trace = types.SimpleNamespace(info={}, sums=types.SimpleNamespace(size=64))
     plan = BudgetPlan(budget=4.0, pixels=64, samples=256, sparse_pixels=16)
-    kept, clean, price = large_model_guides(trace, plan, FrameCosts(64), guides, frame_seconds=1.0)
-    assert kept is guides and clean.spp == 16 and trace.timings["features_s"] == pytest.approx(0.16)
-    assert price == (pytest.approx(expected), 1.0) and extra_seconds(trace, guides) > 2 * expected
+    # guides of 4 rays at 0.01 s a ray: the 12 rays up to 16 are part of the price
+    assert extra_seconds(64, 4, 0.01) - extra_seconds(64, 16, 0.01) == pytest.approx(0.12)
+    rays, price = large_model_rays(trace, plan, FrameCosts(64), 4, 0.01, frame_seconds=1.0)
+    assert rays == 4 and price == (pytest.approx(extra_seconds(64, 4, 0.01)), 1.0)  # no reading yet: read it
+    costs = FrameCosts(64)
+    costs.denoiser(4).learn(10.0)  # a reading that pays
+    assert large_model_rays(trace, plan, costs, 4, 0.01, 1.0) == (16, None) and trace.info["denoiser_proxy"] == 10.0
+    costs.denoiser(4).learn(0.0)
+    assert large_model_rays(trace, plan, costs, 4, 0.01, 1.0) == (4, None)
+    assert large_model_rays(trace, plan, FrameCosts(64), 4, None, 1.0) == (4, None)  # no pace of a guide ray yet
+    assert large_model_rays(trace, plan, FrameCosts(64), 4, 0.01, None) == (4, None)  # nor of the frame
 
 
 def test_the_denoisers_pace_is_what_this_process_measured_for_each_model(monkeypatch):

@@ -1,0 +1,172 @@
+"""The dense way of a budget's frame (:mod:`gmcpt.budget`): every pixel traced, as evenly as integers allow, and
+OIDN's guides for it.
+
+The bulk is Mitsuba's own render (:func:`gmcpt.render.render_native`); the samples left over go one each to
+blue-noise pixels; from :func:`~gmcpt.budget.adaptive_first_spp` the rest may be placed adaptively. Where the
+choice did not wait for the guides (their edges choose nothing), the guides come from the render's own first hits
+(:class:`gmcpt.guided_path.GuidedPath`, the same image) and a guide pass traces only the rays they lack: a
+separate pass costs what Mitsuba's ``aov`` integrator costs a user, 5-7% of the frame.
+
+The functions take the frame's trace (:class:`gmcpt.sampling._Trace`).
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
+from .budget import BudgetPlan, adaptive_first_spp, adaptive_pays, error_concentration, even_fill, reads_guide_aliasing
+from .costs import frame_costs
+from .denoise import CLEAN_GUIDE_RAYS
+from .guided_path import twin_of
+from .large_model import CLEAN_GUIDE_SEED_OFFSET, large_model_rays, read_denoiser
+from .limits import SEED_LIMIT
+from .render import SampleSums, render_native, render_native_guided
+
+TOP_UP_SEED_OFFSET = 0x70B0F  # the samples after the bulk (and a sparse frame's probe pixels after the choice)
+EVEN_SEED_OFFSET = 0xE7E4  # the dense way's blue-noise spread of the samples left over
+SPLIT_SEED_OFFSETS = (0x5B1, 0x5B2)  # the second quarter and the half of a frame that reads the denoiser
+GUIDE_RAYS_SEED_OFFSET = 0x6D1F  # the guide rays a frame adds to its render's first hits
+
+
+def guides_from_render(trace, plan: BudgetPlan, wants_edges: bool):
+    """Whether a frame takes its guides from its render's first hits: a twin of its integrator exists, no edges are
+    read before the render, no guide pass must read the scene's aliasing, and below 16 rays the pace of a guide ray
+    is known (the large model's price needs it). Sets the frame's twin (:func:`~gmcpt.guided_path.twin_of`)."""
+    costs = frame_costs(trace.scene, plan.pixels)
+    if wants_edges or (reads_guide_aliasing(plan.budget, trace.settings.feature_spp)
+                       and costs.aliasing.remembered() is None):
+        return False
+    if costs.guide_ray_seconds is None and plan.budget < CLEAN_GUIDE_RAYS:
+        return False
+    trace.twin = twin_of(trace.scene, trace.integrator)
+    return trace.twin is not None
+
+
+def dense_frame(trace, plan: BudgetPlan, probe: np.ndarray, guides, planned_rays: int, frame_seconds: float | None):
+    """Trace the dense way (:func:`trace_dense`) and return its guides (:class:`~gmcpt.render.FeatureMeans`):
+    ``guides`` from a guide pass, or None for the render's own first hits topped up to ``planned_rays``; up to 16
+    rays where OIDN's large model pays (:func:`gmcpt.large_model.large_model_rays`)."""
+    costs = frame_costs(trace.scene, plan.pixels)
+    if guides is not None:
+        ray_seconds = trace.timings.get("features_s", 0.0) / guides.spp
+    else:
+        ray_seconds = costs.guide_ray_seconds
+    rays, price = large_model_rays(trace, plan, costs, planned_rays, ray_seconds, frame_seconds)
+    if guides is not None:
+        guides = topped_up(trace, guides, rays, CLEAN_GUIDE_SEED_OFFSET)
+    images = trace_dense(trace, plan, probe, split=price is not None)
+    trace.info["guides"] = "pass" if guides is not None else "render"
+    if guides is None:
+        guides = topped_up(trace, trace.native_guides, rays, GUIDE_RAYS_SEED_OFFSET)
+    if images is not None:
+        clean = topped_up(trace, guides, CLEAN_GUIDE_RAYS, CLEAN_GUIDE_SEED_OFFSET)
+        guides = read_denoiser(trace, plan, costs, (guides, clean), images, price)
+    return guides
+
+
+def topped_up(trace, guides, rays: int, seed_offset: int):
+    """``guides`` with a guide pass of the rays they lack up to ``rays`` (other seeds), or as they are."""
+    if guides.spp >= rays:
+        return guides
+    return guides.merged(trace.features(rays - guides.spp, seed_offset, visibility=False))
+
+
+def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, split: bool = False) -> tuple | None:
+    """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
+    render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
+    that no pixel has more than ``ceil(budget)``. Where :func:`~gmcpt.budget.adaptive_first_spp` allows it (from
+    budget 4 on a scene whose probe read it quiet, from 8 on any) the bulk is two renders, and where the first
+    finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the second is adaptive path tracing's
+    placement instead (:func:`_adaptive_rest`). A recent frame's reading of
+    the scene after a first pass of as many samples that says even (:meth:`gmcpt.costs.FrameCosts.concentration`)
+    keeps the one launch. With ``split``, an even launch of 2 samples a pixel or more is traced in three instead
+    (:func:`_split_native`); returns (the first quarter's image, the half's), else None."""
+    seed = trace.settings.seed
+    left = plan.samples - trace.sums.samples
+    if trace.sums.samples:
+        trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
+    trace.first_pass_pixels = int(probe.sum())
+    costs = frame_costs(trace.scene, plan.pixels)
+    # the scene's last probe, of this frame or an earlier one: its noise is a property of the scene
+    current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget, costs.probe.value)
+    reading = costs.concentration(first) if first else None
+    if reading is not None and reading.remembered() is not None and not adaptive_pays(reading.remembered()):
+        trace.info.update(error_concentration=reading.remembered(), dense_placement="even")
+        reading.learn(None)
+        first = 0
+    if first:
+        native_pass(trace, first, seed)
+        if _adaptive_rest(trace, left - first * plan.pixels, first, seed):
+            trace.traced[:] = True
+            return None
+        # the second launch draws other samples than the first
+        current[:], left, seed = first, left - first * plan.pixels, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
+    start = time.perf_counter()
+    counts = even_fill(current, left, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT).ravel()
+    trace.timed("mask_s", start)
+    # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
+    # drawn with it too, are left out of the image)
+    trace.traced[:] = True
+    images = None
+    if split and not current.any() and counts.min() >= 2:
+        images = _split_native(trace, int(counts.min()), seed)
+    else:
+        native_pass(trace, int(counts.min()), seed)
+    trace.trace(np.flatnonzero(counts > counts.min()), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the rest
+    return images
+
+
+def native_pass(trace, spp: int, seed: int) -> np.ndarray | None:
+    """Mitsuba's own render of every pixel at ``spp`` (none at 0) into the frame's sums, through the frame's twin
+    where it has one (its first hits join ``trace.native_guides``); its pace is learnt. Returns the image, flat
+    (N, 3)."""
+    if not spp:
+        return None
+    start = time.perf_counter()
+    trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render)")
+    if trace.twin is not None:
+        image, guides = render_native_guided(trace.scene, trace.sensor, trace.twin, spp, seed)
+        trace.native_guides = guides if trace.native_guides is None else trace.native_guides.merged(guides)
+    else:
+        image = render_native(trace.scene, trace.sensor, trace.integrator, spp, seed)
+    trace.sums.add_native(image, spp)
+    trace.timed("render_s", start)
+    frame_costs(trace.scene, trace.sums.size).learn_path((time.perf_counter() - start) / spp)
+    return image
+
+
+def _split_native(trace, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Mitsuba's render of every pixel at ``spp`` as a quarter, a quarter and a half (seeds of their own; below 4
+    samples, one, one and the rest): the first quarter's image and the half's, (H, W, 3) float32, non-finite
+    pixels as 0."""
+    quarter, images = max(1, spp // 4), []
+    for count, offset in ((quarter, 0), (quarter, SPLIT_SEED_OFFSETS[0]), (spp - 2 * quarter, SPLIT_SEED_OFFSETS[1])):
+        images.append(native_pass(trace, count, (seed + offset) % SEED_LIMIT))
+    image = lambda flat: np.nan_to_num(flat, posinf=0.0, neginf=0.0).reshape(*trace.shape, 3)  # noqa: E731
+    return image(images[0]), image((images[0] + images[1]) / 2)
+
+
+def _adaptive_rest(trace, samples: int, first_spp: int, seed: int) -> bool:
+    """After a dense frame's first pass (``first_spp`` a pixel), ``samples`` more where the displayed image is noisiest, as
+    :func:`gmcpt.adaptive.render_adaptive` places them, if its error is concentrated enough to pay
+    (:func:`~gmcpt.budget.adaptive_pays`). Returns whether it traced them; ``info`` records the reading."""
+    start = time.perf_counter()
+    mean, _ = trace.sums.estimate()
+    error = display_error(mean.reshape(*trace.shape, 3))
+    concentration = error_concentration(error)
+    frame_costs(trace.scene, trace.sums.size).concentration(first_spp).learn(concentration)
+    adaptive = adaptive_pays(concentration)
+    trace.info.update(error_concentration=concentration, dense_placement="adaptive" if adaptive else "even")
+    if adaptive:
+        cap = max(MAX_EXTRA, 2 * -(-samples // trace.sums.size))  # room for the rest at budgets above 64
+        counts = allocate(error ** EXPONENT, samples, cap)
+    trace.timed("mask_s", start)
+    if adaptive:
+        start = time.perf_counter()
+        trace.say(f"path tracing: {samples} samples where the image is noisiest (adaptive placement)")
+        trace.sums.trace_counts(trace.scene, trace.sensor, trace.integrator, counts,
+                                (seed + EXTRA_SEED_OFFSET) % SEED_LIMIT)
+        trace.timed("render_s", start)
+    return adaptive

@@ -1,0 +1,111 @@
+"""The path tracer that brings OIDN's guides from its own first hits (gmcpt.guided_path) and the dense frames that
+take their guides from it."""
+import numpy as np
+import pytest
+
+from budget_helpers import SIZE, render_budget
+from conftest import CORNELL, STILL_LIFE
+
+
+def _scene_and_twin(path, size=SIZE):
+    from gmcpt.guided_path import guided_twin
+    from gmcpt.scene import load_scene, path_integrator
+
+    scene = load_scene(path, resolution=size)
+    integrator = path_integrator(scene)
+    return scene, integrator, guided_twin(integrator)
+
+
+@pytest.mark.parametrize("frozen", [True, False])
+@pytest.mark.parametrize("path", [CORNELL, STILL_LIFE])
+def test_the_twin_renders_the_integrators_image_to_the_bit(mi, monkeypatch, path, frozen):
+    from gmcpt import render
+
+    if not frozen:  # through mi.render and its film instead of the pixel-list kernel
+        monkeypatch.setattr(render, "FROZEN_FRAME_SAMPLES", 0)
+    scene, integrator, twin = _scene_and_twin(path)
+    sensor = scene.sensors()[0]
+    for spp, seed in ((1, 0), (3, 11)):
+        image = render.render_native(scene, sensor, integrator, spp, seed)
+        same, guides = render.render_native_guided(scene, sensor, twin, spp, seed)
+        if frozen:  # the same samples, summed alike
+            np.testing.assert_array_equal(same, image)
+        else:  # the film develops more channels: the last bit of a pixel may differ
+            np.testing.assert_allclose(same, image, rtol=1e-6, atol=1e-12)
+        assert guides.spp == spp and guides.visibility is None
+    assert not np.array_equal(render.render_native(scene, sensor, integrator, 1, 1), image[:, :3])
+
+
+def test_the_twins_guides_are_the_feature_pass_buffers(mi):
+    from gmcpt import render
+
+    scene, _, twin = _scene_and_twin(STILL_LIFE, (64, 64))
+    sensor = scene.sensors()[0]
+    _, guides = render.render_native_guided(scene, sensor, twin, 64, 3)
+    passed = render.feature_means(scene, sensor, 64, 5, visibility=False)
+    mine, theirs = guides.buffers(), passed.buffers()
+    for name in ("albedo", "normal", "depth", "coverage"):  # other rays, the same quantities: means of 64 agree
+        assert np.abs(mine[name] - theirs[name]).mean() < 0.01, name
+    # one ray a pixel: the first hit's own values (a pixel inside a flat wall reads the wall's albedo exactly)
+    _, one = render.render_native_guided(scene, sensor, twin, 1, 3)
+    albedo = one.buffers()["albedo"]
+    assert np.isin(albedo[30:34, 30:34], albedo).all() and albedo.max() <= 1.0
+
+
+def test_only_a_plain_path_tracer_that_shows_its_emitters_has_a_twin(mi):
+    from gmcpt.guided_path import guided_twin
+
+    twin = guided_twin(mi.load_dict({"type": "path", "max_depth": 7, "rr_depth": 3}))
+    assert (twin.max_depth, twin.rr_depth) == (7, 3)
+    assert guided_twin(mi.load_dict({"type": "path"})).max_depth == 0xFFFFFFFF  # unbounded
+    assert guided_twin(mi.load_dict({"type": "path", "hide_emitters": True})) is None
+    assert guided_twin(mi.load_dict({"type": "direct"})) is None
+
+
+def test_a_dense_frame_takes_its_guides_from_its_render(mi, monkeypatch):
+    """Budget 16 is dense without a choice: its render's 16 first hits are the guides, and no guide pass runs; the
+    image is the one the frame makes with a guide pass."""
+    from gmcpt import budget, dense, render, sampling
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", np.inf)  # even: a first launch of 10 spp, then one of 6
+    passes = []
+    means = render.feature_means
+    monkeypatch.setattr(sampling, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
+    frame = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
+    assert frame.info["guides"] == "render" and frame.info["guide_spp"] == 16 and passes == []
+    monkeypatch.setattr(dense, "twin_of", lambda scene, integrator: None)
+    passed = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
+    assert passed.info["guides"] == "pass" and passes == [16]
+    np.testing.assert_array_equal(frame.radiance, passed.radiance)
+    assert np.abs(frame.albedo - passed.albedo).mean() < 0.02 and not np.array_equal(frame.albedo, passed.albedo)
+
+
+def test_an_adaptive_dense_frame_tops_its_first_launchs_guides_up(mi, monkeypatch):
+    """Where the rest of a dense frame goes where the error is, only its first launch brings guide rays."""
+    from gmcpt import budget, render, sampling
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", 0.0)  # any concentration pays
+    passes = []
+    means = render.feature_means
+    monkeypatch.setattr(sampling, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
+    frame = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
+    assert frame.info["dense_placement"] == "adaptive" and frame.info["guides"] == "render"
+    assert passes == [6] and frame.info["guide_spp"] == 16  # 10 from the first launch
+
+
+def test_guides_from_the_render_are_topped_up_to_the_rays_the_budget_asks(mi, monkeypatch):
+    """Budget 1 wants 4 rays (where the scene's guides alias): the render brings one, a pass the other three."""
+    from gmcpt import budget, render, sampling
+    from gmcpt.scene import load_scene
+
+    monkeypatch.setattr(budget, "GUIDE_ALIASING_BELOW", 0.0)  # every scene aliases: 4 rays
+    passes = []
+    means = render.feature_means
+    monkeypatch.setattr(sampling, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
+    scene = load_scene(CORNELL, resolution=SIZE)
+    first, second = render_budget(scene, 1), render_budget(scene, 1)
+    assert passes == [2, 2, 3]  # the first frame reads the aliasing in two halves; the next tops its render up
+    assert first.info["guides"] == "pass" and second.info["guides"] == "render"
+    assert first.info["guide_spp"] == second.info["guide_spp"] == 4
