@@ -5,7 +5,9 @@ The bulk is Mitsuba's own render (:func:`gmcpt.render.render_native`); the sampl
 blue-noise pixels; from :func:`~gmcpt.budget.adaptive_first_spp` the rest may be placed adaptively. Where the
 choice did not wait for the guides (their edges choose nothing), the guides come from the render's own first hits
 (:class:`gmcpt.guided_path.GuidedPath`, the same image) and a guide pass traces only the rays they lack: a
-separate pass costs what Mitsuba's ``aov`` integrator costs a user, 5-7% of the frame.
+separate pass costs what Mitsuba's ``aov`` integrator costs a user, 4-10% of the render. OIDN gets a little less
+from guides that share the radiance's sub-pixel positions (the Cornell box 0.02-0.18 dB at equal samples, the real
+interiors nothing measurable; docs/experiments.md); the scenes where it shows read their edges below budget 16.
 
 The functions take the frame's trace (:class:`gmcpt.sampling._Trace`).
 """

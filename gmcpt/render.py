@@ -243,7 +243,8 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
                 lane: mi.UInt32, seed: mi.UInt32, spp: int, camera: tuple, sums: list) -> list:
     """Path trace lane ``k * spp + s`` (``lane`` counts them) as sample ``s`` of pixel ``pixels[k]`` and add
     (R, G, B, squared norm, finite count) of the finite samples to ``sums`` (five zero arrays, one value a pixel),
-    and where ``sums`` holds more arrays, the integrator's AOVs of every sample (:class:`~gmcpt.guided_path.GuidedPath`'s guides).
+    and where ``sums`` holds more arrays, the integrator's AOVs of every sample (the guides of
+    :class:`~gmcpt.guided_path.GuidedPath`).
 
     Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
     pixel count; ``camera`` (:func:`_camera_key`) only keys the recording.
@@ -291,7 +292,8 @@ def _traced_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     kernel = _frozen_guided_sums if aovs else _frozen_pixel_sums
     sums = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
                                   dr.arange(mi.UInt32, pixels.size * spp), dr.opaque(mi.UInt32, seed), spp,
-                                  _camera_key(sensor), [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5 + aovs)]))
+                                  _camera_key(sensor),
+                                  [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5 + aovs)]))
     return [np.asarray(column) for column in sums]
 
 

@@ -321,8 +321,8 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
     ``config.default_budgets`` samples a pixel, the others at ``config.budget_rates`` x ``config.budget_spp``.
     Each timed warm, in rounds (:func:`_in_rounds`). Both baselines' renders and guides draw the seeds the default's
     frames do (common random numbers: a dense frame at an integral budget is the same render as path tracing's, an
-    adaptive one the same samples as adaptive path tracing's, with the same guides where their rays agree, so the
-    contenders differ by what they do and their time, not by one seed's luck, which moved a setting's PSNR by
+    adaptive one the same samples as adaptive path tracing's, with guides of as many rays, from a pass or from the
+    render's own first hits (:mod:`gmcpt.dense`), so the contenders differ by what they do and their time, not by one seed's luck, which moved a setting's PSNR by
     0.2-0.4 dB). ``images``: where given, the last run's image of each setting goes in it, keyed
     ``(contender, rate * spp)`` (``gmcpt compare`` shows them side by side); the measurements are the same either
     way.
