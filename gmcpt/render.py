@@ -108,7 +108,8 @@ def _primary_rays(sensor: mi.Sensor, sampler: mi.Sampler, pixel: mi.UInt32, widt
         ray_time += sampler.next_1d() * sensor.shutter_open_time()
     ray, weight = sensor.sample_ray_differential(time=ray_time, sample1=0.0,
                                                  sample2=dr.fma(pos_f, scale, offset), sample3=aperture)
-    ray.scale_differential(dr.rsqrt(float(spp)))
+    # opaque: a literal would make every spp a kernel of its own to compile (about 1 s on 2 cores)
+    ray.scale_differential(dr.opaque(mi.Float, dr.rsqrt(float(spp))))
     return ray, weight
 
 
@@ -250,7 +251,7 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     pixel count; ``camera`` (:func:`_camera_key`) only keys the recording.
     """
     sampler = _seeded_sampler(sensor, spp, seed, dr.width(lane))
-    lane_pixel = lane // spp
+    lane_pixel = lane // dr.opaque(mi.UInt32, spp)  # as in _primary_rays: one compiled kernel for every spp
     ray, weight = _primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp)
     radiance, _, aovs = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
     radiance = weight * radiance
