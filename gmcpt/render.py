@@ -129,7 +129,9 @@ def _feature_means(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, feature_
     width, height = camera[0]
     lanes = height * width * feature_spp
     sampler = _seeded_sampler(sensor, feature_spp, seed, lanes)
-    pixel = dr.arange(mi.UInt32, lanes) // feature_spp
+    # opaque, as in _primary_rays: one compiled kernel for every feature_spp
+    pixel = dr.arange(mi.UInt32, lanes) // dr.opaque(mi.UInt32, feature_spp)
+    share = dr.opaque(mi.Float, 1 / feature_spp)  # a product, as Dr.Jit made of the division by a literal
     ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
     si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
     hit = si.is_valid()
@@ -142,7 +144,7 @@ def _feature_means(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, feature_
     if feature_spp > 1:
         means = [dr.zeros(mi.Float, height * width) for _ in values]
         for target, value in zip(means, values):
-            dr.scatter_reduce(dr.ReduceOp.Add, target, value / feature_spp, pixel, mode=SCATTER_MODE)
+            dr.scatter_reduce(dr.ReduceOp.Add, target, value * share, pixel, mode=SCATTER_MODE)
         values = means
     return values
 

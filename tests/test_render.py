@@ -54,26 +54,28 @@ def test_replayed_trace_equals_a_fresh_trace_for_any_pixel_count_and_seed(mi, co
         np.testing.assert_array_equal(squares, plain_squares)
 
 
-def test_a_new_spp_reuses_the_compiled_path_kernel(mi, cornell, path_tracer):
+def test_a_new_spp_reuses_the_compiled_kernels(mi, cornell, path_tracer):
     """A time budget's passes come in sizes the frame picks as it goes: a kernel compiled for each spp (about
     1 s on 2 cores) overran a 1.5-s budget by 70% in CI. Only the recording is new; the kernel is the same."""
     import drjit as dr
-    from gmcpt.render import trace_pixels
+    from gmcpt.render import feature_means, trace_pixels
 
     sensor, pixels = cornell.sensors()[0], np.arange(0, 48 * 40, 3)
     trace_pixels(cornell, sensor, path_tracer, pixels, 2, 0)
+    feature_means(cornell, sensor, 2)
     dr.kernel_history()  # reading it empties it
     dr.set_flag(dr.JitFlag.KernelHistory, True)
     try:
         for spp in (5, 11):
             total, _, finite = trace_pixels(cornell, sensor, path_tracer, pixels, spp, 0)
             assert np.all(finite == spp) and total.mean() > 0
-        path_kernels = [kernel for kernel in dr.kernel_history()
-                        if kernel["type"] == dr.KernelType.JIT and kernel["operation_count"] > 500]
+            assert feature_means(cornell, sensor, spp).spp == spp
+        kernels = [kernel for kernel in dr.kernel_history()
+                   if kernel["type"] == dr.KernelType.JIT and kernel["operation_count"] > 100]
     finally:
         dr.set_flag(dr.JitFlag.KernelHistory, False)
-    assert len(path_kernels) == 2
-    assert all(kernel["cache_hit"] and not kernel["cache_disk"] for kernel in path_kernels)
+    assert len(kernels) == 4  # the path kernel and the feature kernel, at each spp
+    assert all(kernel["cache_hit"] and not kernel["cache_disk"] for kernel in kernels)
 
 
 def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, path_tracer, monkeypatch):
