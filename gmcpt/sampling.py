@@ -5,9 +5,9 @@
 - **a budget** (:func:`_budget_passes`): guides and a probe, then the sparse way (``two_pass`` at rate
   ``budget / SPARSE_SPP``) or the dense one (Mitsuba's own render of every pixel), chosen per frame
   (:mod:`gmcpt.budget`).
-- **a time budget** (:func:`_time_passes`): guides, then Mitsuba's own render of every pixel in passes sized
-  by the time the passes before took, until the seconds left would not pay for another sample a pixel and
-  the completion after them (in the spirit of Cycles' time limit).
+- **a time budget** (:func:`_time_passes`): Mitsuba's own render of every pixel in passes sized by the time the
+  passes before took, until the seconds left would not pay for another sample a pixel and the completion after
+  them (in the spirit of Cycles' time limit); the guides from the passes' first hits.
 
 Every strategy traces into one :class:`~gmcpt.render.SampleSums`; :func:`render_sparse_frame` turns it and the
 feature buffers into a :class:`~gmcpt.frame.SparseFrame`.
@@ -27,12 +27,14 @@ from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_bud
 from .costs import completion_seconds, frame_costs
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
-from .dense import TOP_UP_SEED_OFFSET, dense_frame, guides_from_render
+from .dense import (GUIDE_RAYS_SEED_OFFSET, TOP_UP_SEED_OFFSET, dense_frame, guides_from_render, native_pass,
+                    topped_up)
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
 from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
                     sample_by_density, sample_count, second_pass_mask)
 from .placement import error_density, feature_density, first_pass_count
-from .render import FeatureMeans, SampleSums, _sensor_film_size, feature_means, pass_seed, render_native
+from .guided_path import twin_of
+from .render import FeatureMeans, SampleSums, _sensor_film_size, feature_means, pass_seed
 from .scene import scene_sensor
 
 SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` draws other samples
@@ -325,27 +327,31 @@ def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarr
 
 
 def _time_passes(trace: _Trace) -> dict:
-    """A time budget: guides, then every pixel at one sample, then passes of as many samples as the seconds left
-    (less what the completion is expected to take) pay for at the pace of the passes so far, in powers of two
-    (:func:`_pass_size`). Returns the feature buffers; ``info`` records the samples a pixel spent (``budget``)."""
+    """A time budget: every pixel at one sample, then passes of as many samples as the seconds left (less what the
+    completion is expected to take) pay for at the pace of the passes so far, in powers of two
+    (:func:`_pass_size`). The guides come from the passes' own first hits where the integrator has a twin
+    (:func:`gmcpt.guided_path.twin_of`): as many rays as samples, where a guide pass first would have given a
+    frame of hundreds of samples four. Returns the feature buffers; ``info`` records the samples a pixel spent
+    (``budget``)."""
     settings, seconds = trace.settings, trace.settings.time
-    guides = _guides(trace, 1)
-    spp, pace, index = 1, None, 0
+    trace.twin = twin_of(trace.scene, trace.integrator)
+    guides = _guides(trace, 1) if trace.twin is None else None
+    spp, index = 1, 0
     while True:
         start = time.perf_counter()
-        trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render, {seconds:g} s in all)")
-        trace.sums.add_native(render_native(trace.scene, trace.sensor, trace.integrator, spp,
-                                            pass_seed(settings.seed, index, 2)), spp)
-        trace.timed("render_s", start)
+        native_pass(trace, spp, pass_seed(settings.seed, index, 2))
         pace = (time.perf_counter() - start) / spp  # seconds per sample a pixel, the launch's own cost included
         left = seconds - (time.perf_counter() - trace.started) - trace.completion_seconds
         spp, index = _pass_size(int(left // pace)), index + 1
         if spp < 1:
             break
     spent = int(trace.sums.samples // trace.sums.size)
+    if guides is None:  # a frame of fewer samples than guide rays adds the rays it lacks
+        guides = topped_up(trace, trace.native_guides, _guide_rays(trace, spent), GUIDE_RAYS_SEED_OFFSET)
     trace.traced[:] = True
     trace.info.update({"time_budget": seconds, "budget": float(spent), "budget_choice": DENSE,
-                       "guide_spp": guides.spp, "time_short": index == 1 and left < 0})
+                       "guide_spp": guides.spp, "guides": "pass" if trace.twin is None else "render",
+                       "time_short": index == 1 and left < 0})
     return guides.buffers()
 
 

@@ -39,19 +39,34 @@ def test_more_seconds_buy_more_samples_every_pixel_alike(cornell):
 
 def test_a_time_budgets_passes_are_powers_of_two_that_add_up_to_its_samples(cornell, monkeypatch):
     """Each pass size is a kernel compiled on its first launch: powers of two keep a scene to a few of them."""
+    from budget_helpers import record_launches
     from gmcpt import sampling
 
-    sizes, native = [], sampling.render_native
-    monkeypatch.setattr(sampling, "render_native", lambda *args: sizes.append(args[3]) or native(*args))
+    sizes = record_launches(monkeypatch)
     rendered = _render(cornell, 0.5)
     assert len(sizes) > 1 and all(size & (size - 1) == 0 for size in sizes)
     assert sum(sizes) == rendered.frame.info["budget"]
     assert [sampling._pass_size(n) for n in (0, 1, 3, 39, 64)] == [0, 1, 2, 32, 64]
 
 
+def test_a_time_budgets_guides_come_from_its_samples_first_hits(mi, cornell):
+    """As many guide rays as path samples where the integrator has a twin, and no guide pass; a guide pass where
+    it has none (``direct``)."""
+    from gmcpt.pipeline import render_and_complete
+    from gmcpt.sampling import RenderSettings
+
+    info = _render(cornell, 0.3).frame.info
+    assert info["guides"] == "render" and info["guide_spp"] == info["budget"] >= 4
+    direct = mi.load_dict({"type": "direct"})
+    for _ in range(2):  # the first compiles its kernels
+        info = render_and_complete(cornell, direct, RenderSettings(time=0.3), "interp").frame.info
+    assert info["guides"] == "pass" and info["guide_spp"] < info["budget"]
+
+
 def test_a_time_below_one_frame_says_so_and_renders_one_sample(cornell):
     rendered = _render(cornell, 1e-4)
     assert rendered.frame.info["time_short"] and rendered.frame.info["budget"] == 1
+    assert rendered.frame.info["guides"] == "render" and rendered.frame.info["guide_spp"] >= 1
 
 
 @pytest.mark.parametrize("value", ["0", "-1", "nan", "abc", "1e9"])
