@@ -10,10 +10,12 @@ and a per-pixel guess of the sparse way's extra work (:data:`SPARSE_EXTRA_SECOND
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .denoise import CLEAN_GUIDE_RAYS, denoise_oidn
 from .held import scene_state
 
 #: The sparse way's extra seconds a pixel before the process has seen a sparse frame: the rest of the feature
@@ -118,6 +120,19 @@ def record_denoise(seconds: float, pixels: int, large: bool = False) -> None:
     _denoise_runs[key] += 1
     if _denoise_runs[key] > 1:
         _denoise_pace[key] = min(seconds / max(pixels, 1), _denoise_pace[key] or np.inf)
+
+
+def measure_denoiser(size: int = 64) -> None:
+    """Time OIDN's two models on a ``size`` x ``size`` image where this process has not (each run twice: the first
+    loads the model). A time budget's first frame in a process keeps the completion's seconds back from these, not
+    from :data:`DENOISE_SECONDS_PER_PIXEL`, a guess that was a quarter of OIDN's pace on a slower machine (a 10-s
+    budget spent 11 s); a small image's pace is the higher, so the estimate errs short."""
+    image = np.full((size, size, 3), 0.5, np.float32)
+    for large in (False, True):
+        while _denoise_pace["large" if large else "usual"] is None:
+            start = time.perf_counter()
+            denoise_oidn(image, image, image, CLEAN_GUIDE_RAYS if large else 0)
+            record_denoise(time.perf_counter() - start, size * size, large)
 
 
 def frame_costs(scene, pixels: int) -> FrameCosts:

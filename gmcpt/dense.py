@@ -120,19 +120,19 @@ def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, split: bool = False)
     return images
 
 
-def native_pass(trace, spp: int, seed: int) -> np.ndarray | None:
+def native_pass(trace, spp: int, seed: int, any_size: bool = False) -> np.ndarray | None:
     """Mitsuba's own render of every pixel at ``spp`` (none at 0) into the frame's sums, through the frame's twin
-    where it has one (its first hits join ``trace.native_guides``); its pace is learnt. Returns the image, flat
-    (N, 3)."""
+    where it has one (its first hits join ``trace.native_guides``); its pace is learnt. ``any_size``: through the
+    frozen kernel at any spp (:func:`~gmcpt.render.render_native`). Returns the image, flat (N, 3)."""
     if not spp:
         return None
     start = time.perf_counter()
     trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render)")
     if trace.twin is not None:
-        image, guides = render_native_guided(trace.scene, trace.sensor, trace.twin, spp, seed)
+        image, guides = render_native_guided(trace.scene, trace.sensor, trace.twin, spp, seed, any_size)
         trace.native_guides = guides if trace.native_guides is None else trace.native_guides.merged(guides)
     else:
-        image = render_native(trace.scene, trace.sensor, trace.integrator, spp, seed)
+        image = render_native(trace.scene, trace.sensor, trace.integrator, spp, seed, any_size)
     trace.sums.add_native(image, spp)
     trace.timed("render_s", start)
     frame_costs(trace.scene, trace.sums.size).learn_path((time.perf_counter() - start) / spp)

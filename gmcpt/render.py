@@ -330,28 +330,39 @@ FROZEN_FRAME_SAMPLES = 1 << 19
 
 
 def render_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int,
-                  seed: int) -> np.ndarray:
+                  seed: int, any_size: bool = False) -> np.ndarray:
     """Mitsuba's render of every pixel at ``spp`` samples with the scene's integrator, (N, 3) float32 flat: each
     pixel the mean of its own samples, non-finite where one of them was (as ``mi.render``'s film gives it, so that
     :meth:`SampleSums.add_native` counts that pixel's samples as dropped). ``mi.render`` itself, or for a box
-    filter and at most :data:`FROZEN_FRAME_SAMPLES` samples the same samples through the frozen kernel. The
+    filter and at most :data:`FROZEN_FRAME_SAMPLES` samples (``any_size``: any number) the same samples through the
+    frozen kernel, whose one compiled kernel serves every spp where ``mi.render`` compiles one for each. The
     sensor's sampler keeps its own sample count (``mi.render`` sets it)."""
-    return _render_full(scene, sensor, integrator, spp, seed, 0)[0]
+    return _render_full(scene, sensor, integrator, spp, seed, 0, any_size)[0]
 
 
 def render_native_guided(scene: mi.Scene, sensor: mi.Sensor, twin: mi.SamplingIntegrator, spp: int,
-                         seed: int) -> tuple[np.ndarray, FeatureMeans]:
+                         seed: int, any_size: bool = False) -> tuple[np.ndarray, FeatureMeans]:
     """:func:`render_native` with ``twin`` (:func:`gmcpt.guided_path.guided_twin` of the scene's integrator: the
     same image) and the :class:`FeatureMeans` of its first hits, guides of ``spp`` rays a pixel."""
-    image, planes = _render_full(scene, sensor, twin, spp, seed, len(FEATURE_PLANES))
+    image, planes = _render_full(scene, sensor, twin, spp, seed, len(FEATURE_PLANES), any_size)
     return image, FeatureMeans(tuple(planes), spp, None, 0, _sensor_film_size(sensor))
 
 
+def warm_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, guided: bool) -> None:
+    """Compile (or find compiled) the frozen kernel that :func:`render_native` (with ``guided``,
+    :func:`render_native_guided`) runs at ``any_size``, by tracing one sample of a few pixels: the kernel serves
+    every pixel count and spp, so that a whole frame's pass then takes its own time, not its compilation's."""
+    height, width = _sensor_film_size(sensor)
+    _traced_sums(scene, sensor, integrator, np.arange(min(64, height * width)), 1, 0,
+                 len(FEATURE_PLANES) if guided else 0)
+
+
 def _render_full(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int, seed: int,
-                 aovs: int) -> tuple[np.ndarray, list[np.ndarray]]:
+                 aovs: int, any_size: bool) -> tuple[np.ndarray, list[np.ndarray]]:
     """(the image, (N, 3), and the per-pixel means of the integrator's first ``aovs`` AOVs, flat float32 planes)."""
     height, width = _sensor_film_size(sensor)
-    if height * width * spp <= FROZEN_FRAME_SAMPLES and sensor.film().rfilter().radius() <= 0.5:
+    frozen = any_size or height * width * spp <= FROZEN_FRAME_SAMPLES
+    if frozen and sensor.film().rfilter().radius() <= 0.5:
         red, green, blue, _, count, *planes = _traced_sums(scene, sensor, integrator, np.arange(height * width), spp,
                                                            seed, aovs)
         mean = np.stack([red, green, blue], axis=1)

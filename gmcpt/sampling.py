@@ -24,9 +24,10 @@ import numpy as np
 from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share,
                      guide_aliasing, guide_spp, needs_probe, plan_budget, probes_for_placement, reads_guide_aliasing,
                      relative_variance, sparse_pays)
-from .costs import completion_seconds, frame_costs
+from .costs import completion_seconds, frame_costs, measure_denoiser
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
+from .denoise import takes_clean_guides
 from .dense import (GUIDE_RAYS_SEED_OFFSET, TOP_UP_SEED_OFFSET, dense_frame, guides_from_render, native_pass,
                     topped_up)
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
@@ -34,7 +35,8 @@ from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_patte
                     sample_by_density, sample_count, second_pass_mask)
 from .placement import error_density, feature_density, first_pass_count
 from .guided_path import twin_of
-from .render import FeatureMeans, SampleSums, _sensor_film_size, feature_means, pass_seed
+from .render import (MAX_LANES, FeatureMeans, SampleSums, _sensor_film_size, feature_means, pass_seed,
+                     warm_native)
 from .scene import scene_sensor
 
 SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` draws other samples
@@ -329,20 +331,24 @@ def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarr
 def _time_passes(trace: _Trace) -> dict:
     """A time budget: every pixel at one sample, then passes of as many samples as the seconds left (less what the
     completion is expected to take) pay for at the pace of the passes so far, in powers of two
-    (:func:`_pass_size`). The guides come from the passes' own first hits where the integrator has a twin
-    (:func:`gmcpt.guided_path.twin_of`): as many rays as samples, where a guide pass first would have given a
-    frame of hundreds of samples four. Returns the feature buffers; ``info`` records the samples a pixel spent
-    (``budget``)."""
+    (:func:`_next_pass`). All through the frozen kernel, one compiled kernel for every pass size: the first pass's
+    pace is its own, its compilation done before it on a few pixels (``mi.render`` compiles a kernel for each spp,
+    inside the frame); OIDN's pace is measured first where the process has not run it. The
+    guides come from the passes' own first hits where the integrator has a twin (:func:`gmcpt.guided_path.twin_of`):
+    as many rays as samples, where a guide pass first would have given a frame of hundreds of samples four.
+    Returns the feature buffers; ``info`` records the samples a pixel spent (``budget``)."""
     settings, seconds = trace.settings, trace.settings.time
     trace.twin = twin_of(trace.scene, trace.integrator)
     guides = _guides(trace, 1) if trace.twin is None else None
+    measure_denoiser()
+    warm_native(trace.scene, trace.sensor, trace.twin or trace.integrator, guided=trace.twin is not None)
     spp, index = 1, 0
     while True:
         start = time.perf_counter()
-        native_pass(trace, spp, pass_seed(settings.seed, index, 2))
+        native_pass(trace, spp, pass_seed(settings.seed, index, 2), any_size=True)
         pace = (time.perf_counter() - start) / spp  # seconds per sample a pixel, the launch's own cost included
-        left = seconds - (time.perf_counter() - trace.started) - trace.completion_seconds
-        spp, index = _pass_size(int(left // pace)), index + 1
+        spp, left = _next_pass(trace, seconds, pace)
+        index += 1
         if spp < 1:
             break
     spent = int(trace.sums.samples // trace.sums.size)
@@ -355,11 +361,24 @@ def _time_passes(trace: _Trace) -> dict:
     return guides.buffers()
 
 
+def _next_pass(trace: _Trace, seconds: float, pace: float) -> tuple[int, float]:
+    """(the samples a pixel of a time budget's next pass, 0 for none; the seconds left before it): what the seconds
+    left pay for at ``pace``, less the completion's time, OIDN's large model's where the frame's guides would then
+    have :data:`~gmcpt.denoise.CLEAN_GUIDE_RAYS` rays (its own samples' first hits), at most
+    :data:`~gmcpt.render.MAX_LANES` lanes."""
+    pixels = trace.sums.size
+    samples, most = trace.sums.samples // pixels, max(1, MAX_LANES // pixels)
+    for large in (False, True):
+        left = seconds - (time.perf_counter() - trace.started) - completion_seconds(pixels, large)
+        spp = _pass_size(min(int(left // pace), most))
+        if large or trace.twin is None or not takes_clean_guides(samples + spp):
+            return spp, left
+
+
 def _pass_size(affordable: int) -> int:
     """The samples a pixel of a time budget's next pass: the largest power of two within ``affordable`` (0 for
-    none). Each pass size is a kernel of its own, compiled on its first launch on a machine (about 2 s at 256x256 on
-    2 cores, then cached on disk): passes of whatever the seconds afford overran a budget of 2 s by up to 2x for
-    every new size, where powers of two keep a scene to a few kernels; the next passes take the rest."""
+    none). Each pass size is a recording of the frozen kernel of its own (a trace of the integrator in Python,
+    0.03 s on the Cornell box): powers of two keep a scene to a few; the next passes take the rest."""
     return 1 << (affordable.bit_length() - 1) if affordable >= 1 else 0
 
 

@@ -102,3 +102,21 @@ def test_a_frame_with_every_pixel_traced_is_denoised_without_a_fill(monkeypatch,
     result = complete(frame, method)
     np.testing.assert_array_equal(seen["image"], frame.radiance)
     assert "pre_completion_s" not in result.timings and "denoise_s" in result.timings
+
+
+def test_oidn_loads_without_torch_and_torch_still_loads_after_it():
+    """pyoidn imports torch where it can (5-6 s, for tensor inputs gmcpt never passes): a dense frame's process
+    need not pay it, and the generator's torch must still import afterwards."""
+    import subprocess
+    import sys
+
+    script = ("import sys, numpy as np\n"
+              "from gmcpt.denoise import denoise_oidn\n"
+              "image = np.random.default_rng(0).random((24, 24, 3), dtype=np.float32)\n"
+              "first = denoise_oidn(image, image, image)\n"
+              "print('torch' in sys.modules)\n"
+              "import torch\n"
+              "print(torch.ones(2).sum().item(), np.array_equal(first, denoise_oidn(image, image, image)))\n")
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["False", "2.0", "True"]

@@ -63,6 +63,18 @@ def test_a_time_budgets_guides_come_from_its_samples_first_hits(mi, cornell):
     assert info["guides"] == "pass" and info["guide_spp"] < info["budget"]
 
 
+def test_a_time_budget_traces_every_pass_size_through_one_compiled_kernel(mi, cornell, monkeypatch):
+    """``mi.render`` compiles a kernel for each spp, inside the frame: a time budget never calls it, at any size."""
+    from gmcpt import render
+
+    calls, plain = [], mi.render
+    monkeypatch.setattr(render, "FROZEN_FRAME_SAMPLES", 0)
+    monkeypatch.setattr(mi, "render", lambda *args, **kwargs: calls.append(kwargs["spp"]) or plain(*args, **kwargs))
+    assert _render(cornell, 0.3).frame.info["budget"] > 1 and calls == []
+    render.render_native(cornell, cornell.sensors()[0], cornell.integrator().integrator, 2, 0)
+    assert calls == [2]
+
+
 def test_a_time_below_one_frame_says_so_and_renders_one_sample(cornell):
     rendered = _render(cornell, 1e-4)
     assert rendered.frame.info["time_short"] and rendered.frame.info["budget"] == 1
@@ -95,3 +107,20 @@ def test_cli_records_the_time_and_the_samples_it_spent(tmp_path):
     record = json.loads(out.with_suffix(".json").read_text())
     assert record["parameters"]["time"] == 2 and record["parameters"]["budget"] is None
     assert record["spent_budget"] >= 1 and record["time_spent"] > 0 and record["budget_choice"] == "dense"
+
+
+def test_oidns_pace_is_measured_where_the_process_has_not_run_it(monkeypatch):
+    """A time budget keeps the completion's seconds back: from OIDN's own pace on this machine, each model's first
+    (loading) run left out, not from a guess."""
+    from gmcpt import costs
+
+    monkeypatch.setattr(costs, "_denoise_pace", {"usual": None, "large": None})
+    monkeypatch.setattr(costs, "_denoise_runs", {"usual": 0, "large": 0})
+    runs = []
+    monkeypatch.setattr(costs, "denoise_oidn", lambda image, *guides: runs.append(guides[-1]) or image)
+    costs.measure_denoiser(16)
+    assert runs == [0, 0, 16, 16]  # each model twice: the first run loads it
+    usual, large = costs.completion_seconds(100), costs.completion_seconds(100, large=True)
+    assert 0 < usual and 0 < large and costs._denoise_pace["usual"] * 100 == usual
+    costs.measure_denoiser(16)
+    assert len(runs) == 4  # measured once a process
