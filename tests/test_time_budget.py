@@ -107,6 +107,8 @@ def test_cli_records_the_time_and_the_samples_it_spent(tmp_path):
     record = json.loads(out.with_suffix(".json").read_text())
     assert record["parameters"]["time"] == 2 and record["parameters"]["budget"] is None
     assert record["spent_budget"] >= 1 and record["time_spent"] > 0 and record["budget_choice"] == "dense"
+    # no generator ran, so the process never loaded torch (5-6 s here: pyoidn and the weights' record did)
+    assert "weights" not in record["parameters"] and record["parameters"]["device"] == "cpu"
 
 
 def test_oidns_pace_is_measured_where_the_process_has_not_run_it(monkeypatch):
