@@ -33,7 +33,6 @@ def denoise_oidn(image: np.ndarray, albedo: np.ndarray, normal: np.ndarray, guid
                       dtype=np.float32)
 
 
-
 _IMPORTING = threading.Lock()
 
 

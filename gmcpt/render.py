@@ -351,18 +351,25 @@ def render_native_guided(scene: mi.Scene, sensor: mi.Sensor, twin: mi.SamplingIn
 def warm_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, guided: bool) -> None:
     """Compile (or find compiled) the frozen kernel that :func:`render_native` (with ``guided``,
     :func:`render_native_guided`) runs at ``any_size``, by tracing one sample of a few pixels: the kernel serves
-    every pixel count and spp, so that a whole frame's pass then takes its own time, not its compilation's."""
+    every pixel count and spp, so that a whole frame's pass then takes its own time, not its compilation's. Nothing
+    where the film's filter is wider than a pixel (``mi.render`` renders it)."""
+    if not _box_filter(sensor):
+        return
     height, width = _sensor_film_size(sensor)
     _traced_sums(scene, sensor, integrator, np.arange(min(64, height * width)), 1, 0,
                  len(FEATURE_PLANES) if guided else 0)
+
+
+def _box_filter(sensor: mi.Sensor) -> bool:
+    """Whether each sample lands in its own pixel alone, as the frozen kernel's sums take it."""
+    return sensor.film().rfilter().radius() <= 0.5
 
 
 def _render_full(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int, seed: int,
                  aovs: int, any_size: bool) -> tuple[np.ndarray, list[np.ndarray]]:
     """(the image, (N, 3), and the per-pixel means of the integrator's first ``aovs`` AOVs, flat float32 planes)."""
     height, width = _sensor_film_size(sensor)
-    frozen = any_size or height * width * spp <= FROZEN_FRAME_SAMPLES
-    if frozen and sensor.film().rfilter().radius() <= 0.5:
+    if (any_size or height * width * spp <= FROZEN_FRAME_SAMPLES) and _box_filter(sensor):
         red, green, blue, _, count, *planes = _traced_sums(scene, sensor, integrator, np.arange(height * width), spp,
                                                            seed, aovs)
         mean = np.stack([red, green, blue], axis=1)

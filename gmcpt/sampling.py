@@ -333,10 +333,10 @@ def _time_passes(trace: _Trace) -> dict:
     completion is expected to take) pay for at the pace of the passes so far, in powers of two
     (:func:`_next_pass`). All through the frozen kernel, one compiled kernel for every pass size: the first pass's
     pace is its own, its compilation done before it on a few pixels (``mi.render`` compiles a kernel for each spp,
-    inside the frame); OIDN's pace is measured first where the process has not run it. The
-    guides come from the passes' own first hits where the integrator has a twin (:func:`gmcpt.guided_path.twin_of`):
-    as many rays as samples, where a guide pass first would have given a frame of hundreds of samples four.
-    Returns the feature buffers; ``info`` records the samples a pixel spent (``budget``)."""
+    inside the frame); OIDN's pace is measured first where the process has not run it. The guides come from the
+    passes' own first hits where the integrator has a twin (:func:`gmcpt.guided_path.twin_of`): as many rays as
+    samples, where a guide pass first would have given a frame of hundreds of samples four. Returns the feature
+    buffers; ``info`` records the samples a pixel spent (``budget``)."""
     settings, seconds = trace.settings, trace.settings.time
     trace.twin = twin_of(trace.scene, trace.integrator)
     guides = _guides(trace, 1) if trace.twin is None else None
