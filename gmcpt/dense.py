@@ -35,13 +35,19 @@ GUIDE_RAYS_SEED_OFFSET = 0x6D1F  # the guide rays a frame adds to its render's f
 def guides_from_render(trace, plan: BudgetPlan, wants_edges: bool):
     """Whether a frame takes its guides from its render's first hits: a twin of its integrator exists, no edges are
     read before the render, no guide pass must read the scene's aliasing, and below 16 rays the pace of a guide ray
-    is known (the large model's price needs it). Sets the frame's twin (:func:`~gmcpt.guided_path.twin_of`)."""
+    is known (the large model's price needs it). Sets the frame's twin (:func:`takes_twin`)."""
     costs = frame_costs(trace.scene, plan.pixels)
     if wants_edges or (reads_guide_aliasing(plan.budget, trace.settings.feature_spp)
                        and costs.aliasing.remembered() is None):
         return False
     if costs.guide_ray_seconds is None and plan.budget < CLEAN_GUIDE_RAYS:
         return False
+    return takes_twin(trace)
+
+
+def takes_twin(trace) -> bool:
+    """Set the frame's twin (:func:`~gmcpt.guided_path.twin_of`), through which its native passes bring their first
+    hits as guides; whether its integrator has one."""
     trace.twin = twin_of(trace.scene, trace.integrator)
     return trace.twin is not None
 
@@ -120,14 +126,15 @@ def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, split: bool = False)
     return images
 
 
-def native_pass(trace, spp: int, seed: int, any_size: bool = False) -> np.ndarray | None:
+def native_pass(trace, spp: int, seed: int, any_size: bool = False, note: str = "") -> np.ndarray | None:
     """Mitsuba's own render of every pixel at ``spp`` (none at 0) into the frame's sums, through the frame's twin
     where it has one (its first hits join ``trace.native_guides``); its pace is learnt. ``any_size``: through the
-    frozen kernel at any spp (:func:`~gmcpt.render.render_native`). Returns the image, flat (N, 3)."""
+    frozen kernel at any spp (:func:`~gmcpt.render.render_native`); ``note`` ends the progress line. Returns the
+    image, flat (N, 3)."""
     if not spp:
         return None
     start = time.perf_counter()
-    trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render)")
+    trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render{note})")
     if trace.twin is not None:
         image, guides = render_native_guided(trace.scene, trace.sensor, trace.twin, spp, seed, any_size)
         trace.native_guides = guides if trace.native_guides is None else trace.native_guides.merged(guides)

@@ -208,9 +208,9 @@ def run(args, say=lambda message: None, extra: dict | None = None,
                        "budget": settings.budget or None, "time": settings.time or None,
                        "mask": settings.pattern, "seed": settings.seed, "spp": frame.spp,
                        "feature_spp": settings.feature_spp, "method": integrator.completion,
-                       # the weights where the generator ran (on torch): loading them for the record alone took
-                       # 5-6 s of a dense frame's process, importing torch
-                       "tile": integrator.tile, **(_weights_record(integrator) if "torch" in sys.modules else {}),
+                       # the weights where the generator ran: loading them for the record alone took 5-6 s of a
+                       # dense frame's process, importing torch
+                       "tile": integrator.tile, **(_weights_record(integrator) if "load_weights_s" in timings else {}),
                        # completion imports torch only for the methods that run on it
                        "device": completion_device() if "torch" in sys.modules else "cpu",
                        "resolution": [width, height], "scene_parameters": parameters,

@@ -29,12 +29,11 @@ from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
 from .denoise import takes_clean_guides
 from .dense import (GUIDE_RAYS_SEED_OFFSET, TOP_UP_SEED_OFFSET, dense_frame, guides_from_render, native_pass,
-                    topped_up)
+                    takes_twin, topped_up)
 from .limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
 from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
                     sample_by_density, sample_count, second_pass_mask)
 from .placement import error_density, feature_density, first_pass_count
-from .guided_path import twin_of
 from .render import (MAX_LANES, FeatureMeans, SampleSums, _sensor_film_size, feature_means, pass_seed,
                      warm_native)
 from .scene import scene_sensor
@@ -334,18 +333,17 @@ def _time_passes(trace: _Trace) -> dict:
     (:func:`_next_pass`). All through the frozen kernel, one compiled kernel for every pass size: the first pass's
     pace is its own, its compilation done before it on a few pixels (``mi.render`` compiles a kernel for each spp,
     inside the frame); OIDN's pace is measured first where the process has not run it. The guides come from the
-    passes' own first hits where the integrator has a twin (:func:`gmcpt.guided_path.twin_of`): as many rays as
+    passes' own first hits where the integrator has a twin (:func:`~gmcpt.dense.takes_twin`): as many rays as
     samples, where a guide pass first would have given a frame of hundreds of samples four. Returns the feature
     buffers; ``info`` records the samples a pixel spent (``budget``)."""
     settings, seconds = trace.settings, trace.settings.time
-    trace.twin = twin_of(trace.scene, trace.integrator)
-    guides = _guides(trace, 1) if trace.twin is None else None
+    guides = None if takes_twin(trace) else _guides(trace, 1)
     measure_denoiser()
     warm_native(trace.scene, trace.sensor, trace.twin or trace.integrator, guided=trace.twin is not None)
     spp, index = 1, 0
     while True:
         start = time.perf_counter()
-        native_pass(trace, spp, pass_seed(settings.seed, index, 2), any_size=True)
+        native_pass(trace, spp, pass_seed(settings.seed, index, 2), any_size=True, note=f", {seconds:g} s in all")
         pace = (time.perf_counter() - start) / spp  # seconds per sample a pixel, the launch's own cost included
         spp, left = _next_pass(trace, seconds, pace)
         index += 1

@@ -175,16 +175,16 @@ def test_pawnnm_end_to_end_records_substage_timings(tmp_path):
 
 @pytest.mark.parametrize("weights", [False, True])
 def test_a_bad_command_line_is_refused_before_torch_loads(tmp_path, weights):
-    """The checks of a command line's own values need no torch (about 2 s to load): bad input is answered at once,
-    also when the command names weights, which load with torch."""
+    """The checks of a command line's own values need no torch (about 2 s to load) nor scipy's filters (1.3 s):
+    bad input is answered at once, also when the command names weights, which load with torch."""
     import subprocess
     import sys
 
     from gmcpt.gan.names import DEFAULT_WEIGHTS
-    code = ("import atexit, sys; atexit.register(lambda: print('torch loaded:', 'torch' in sys.modules)); "
-            "from gmcpt.cli import main; sys.exit(main(sys.argv[1:]))")
+    code = ("import atexit, sys; atexit.register(lambda: print('loaded:', 'torch' in sys.modules, "
+            "'scipy.ndimage' in sys.modules)); from gmcpt.cli import main; sys.exit(main(sys.argv[1:]))")
     result = subprocess.run([sys.executable, "-c", code, "render", str(tmp_path / "missing.xml"), "--out",
                              str(tmp_path / "x.exr"), *(["--weights", DEFAULT_WEIGHTS] if weights else [])],
                             capture_output=True, text=True, cwd=ROOT)
     assert result.returncode == 2 and "scene file not found" in result.stderr
-    assert "torch loaded: False" in result.stdout
+    assert "loaded: False False" in result.stdout

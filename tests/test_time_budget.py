@@ -38,7 +38,7 @@ def test_more_seconds_buy_more_samples_every_pixel_alike(cornell):
 
 
 def test_a_time_budgets_passes_are_powers_of_two_that_add_up_to_its_samples(cornell, monkeypatch):
-    """Each pass size is a kernel compiled on its first launch: powers of two keep a scene to a few of them."""
+    """Each pass size is a recording of the frozen kernel: powers of two keep a scene to a few of them."""
     from budget_helpers import record_launches
     from gmcpt import sampling
 

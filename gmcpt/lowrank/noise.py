@@ -15,9 +15,16 @@ often far too small, down to 0 when every sample found no light.
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import uniform_filter
 
 from ..domain import channel_mean
+
+
+def _box_mean(image: np.ndarray, size, mode: str) -> np.ndarray:
+    """scipy's box mean, imported on first use: ``scipy.ndimage`` costs every process 1.3 s at start, a command's
+    refusal of bad input included."""
+    from scipy.ndimage import uniform_filter
+
+    return uniform_filter(image, size=size, mode=mode)
 
 
 def local_variance(values: np.ndarray, mask: np.ndarray, radius: int = 3) -> np.ndarray:
@@ -41,7 +48,7 @@ def local_variance(values: np.ndarray, mask: np.ndarray, radius: int = 3) -> np.
         raise ValueError(f"radius must be >= 1, got {radius}")
     size = 2 * radius + 1
     weight = np.asarray(mask, np.float64)
-    box = lambda image: uniform_filter(image, size=(size, size, 1), mode="reflect") * size * size  # noqa: E731
+    box = lambda image: _box_mean(image, size=(size, size, 1), mode="reflect") * size * size  # noqa: E731
     count = box(weight[..., None])[..., 0]
     masked = values * weight[..., None]
     total, squares = box(masked), box(masked ** 2)
@@ -101,8 +108,8 @@ def _masked_mean(values: np.ndarray, mask: np.ndarray, radius: int) -> np.ndarra
     """(H, W, C) mean of ``values`` over the pixels of ``mask`` in each window (0 where it has none)."""
     size = 2 * radius + 1
     weight = np.asarray(mask, np.float64)
-    count = uniform_filter(weight, size=size, mode="reflect")
-    total = uniform_filter(values * weight[..., None], size=(size, size, 1), mode="reflect")
+    count = _box_mean(weight, size=size, mode="reflect")
+    total = _box_mean(values * weight[..., None], size=(size, size, 1), mode="reflect")
     return np.where(count[..., None] > 1e-9, total / np.maximum(count, 1e-12)[..., None], 0.0)
 
 
@@ -141,8 +148,8 @@ def blend_samples(estimate: np.ndarray, observed: np.ndarray, mask: np.ndarray, 
     weight = np.asarray(mask, np.float32)
     difference = observed - estimate
     residual = np.where(mask, channel_mean(difference * difference) - variance, 0.0)
-    tau2 = uniform_filter(residual.astype(np.float32), size, mode="reflect") \
-        / np.maximum(uniform_filter(weight, size, mode="reflect"), 1e-6)
+    tau2 = _box_mean(residual.astype(np.float32), size, mode="reflect") \
+        / np.maximum(_box_mean(weight, size, mode="reflect"), 1e-6)
     tau2 = np.maximum(tau2, floor)
     delta = np.where(mask, tau2 / (tau2 + variance), 0.0)[..., None]
     return (estimate + delta * (np.where(mask[..., None], observed, estimate) - estimate)).astype(np.float32)
