@@ -118,6 +118,7 @@ def test_a_task_run_again_keeps_the_frame_its_first_run_wrote(one_process, tmp_p
     assert {p.name: p.stat().st_mtime_ns for p in out.iterdir()} == before
 
 
+@pytest.mark.slow  # 46 s, most of it Ray starting twice: the cluster path runs in make test-slow
 def test_ray_batch_is_bit_identical_and_survives_a_killed_worker(one_process, tmp_path):
     """Two scenes, two frames each, as Ray tasks; the first task kills its own process, Ray runs it again."""
     pytest.importorskip("ray")

@@ -107,6 +107,7 @@ def test_compare_config_is_the_evaluations_restricted_to_the_budgets():
     assert path_ladder([3]) == (1, 2, 3, 4)  # a budget's own count, for equal samples
 
 
+@pytest.mark.slow  # 37 s: make test runs compare end to end twice below, and checks the README holds EXAMPLE
 def test_compare_on_a_scene_that_is_not_shipped(tmp_path):
     """The README's example, verbatim but for the scene: a reference, then the comparison, with the outputs."""
     (tmp_path / "box.xml").write_text(BOX)

@@ -173,7 +173,7 @@ def test_older_files_are_upgraded_to_the_features_of_a_fresh_build(mi, tmp_path,
     assert json.loads((old / "manifest.json").read_text())["version"] == 3
 
 
-@pytest.mark.slow  # 30 s, most of it Ray starting: test_batch keeps a Ray run in `make test`
+@pytest.mark.slow  # 30 s, most of it Ray starting: the cluster path runs in make test-slow
 def test_dataset_on_ray_writes_the_bits_of_a_one_process_build(tmp_path):
     """``--ray local`` renders each scene as a task: the arrays are those of the build in one process,
     which never imports Ray."""

@@ -100,6 +100,7 @@ def changed(suite, tmp_path, **box):
     return copy
 
 
+@pytest.mark.slow  # 45 s: make test runs the README's regress example and the reports of test_pytest_helper_*
 def test_update_then_check_passes_and_a_recoloured_wall_fails_alone(tmp_path):
     folder = write_suite(tmp_path / "fresh")
     update = run_regress(folder, "--update", "--golden-spp", "256")
