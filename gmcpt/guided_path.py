@@ -30,9 +30,6 @@ import mitsuba as mi
 from .domain import ALBEDO_MIN
 from .held import scene_state
 
-#: What the features read of the first hit (UVs for textured albedo, the shading frame), set apart from the path's
-#: own full interaction there: read inside the loop, they cost a masked BSDF call at every bounce.
-FIRST_HIT_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFrame
 #: The AOVs, in the order of :class:`gmcpt.render.FeatureMeans`'s planes.
 FEATURE_PLANES = ("albedo.R", "albedo.G", "albedo.B", "normal.X", "normal.Y", "normal.Z", "distance", "hit",
                   "coverage")
@@ -71,52 +68,60 @@ class GuidedPath(mi.SamplingIntegrator):
 
     @dr.syntax
     def sample(self, scene, sampler, ray, medium=None, active=True):
-        context = mi.BSDFContext()
         ray = mi.Ray3f(ray)
-        depth = mi.UInt32(0)
-        result, throughput, eta = mi.Spectrum(0.0), mi.Spectrum(1.0), mi.Float(1.0)
-        prev_si = dr.zeros(mi.Interaction3f)
-        prev_pdf, prev_delta = mi.Float(1.0), mi.Bool(True)
-        valid = mi.Bool(scene.environment() is not None)
+        # what path carries from bounce to bounce: radiance, throughput, eta, depth, whether the path counts, and
+        # the previous interaction, its BSDF sample's pdf and whether that was a delta lobe
+        path = (mi.Spectrum(0.0), mi.Spectrum(1.0), mi.Float(1.0), mi.UInt32(0),
+                mi.Bool(scene.environment() is not None), dr.zeros(mi.Interaction3f), mi.Float(1.0), mi.Bool(True))
         active = mi.Bool(active)
         hit = scene.ray_intersect_preliminary(ray, True, False, 0, 0, active)
-        first = hit.compute_surface_interaction(ray, FIRST_HIT_FLAGS, active)
-        features = first_hit_features(first, first.bsdf(ray))
+        # the first bounce before the loop, so that its full interaction gives the features too: read inside the
+        # loop they cost a masked BSDF call at every bounce, and a second interaction of their own 4-8% of the paths
+        si = hit.compute_surface_interaction(ray, mi.RayFlags.All, active)
+        bsdf = si.bsdf(ray)
+        features = first_hit_features(si, bsdf)
+        path, ray, hit, active = self._bounce(scene, sampler, path, si, bsdf)
         while dr.hint(active, max_iterations=-1, label="guided_path"):
             si = hit.compute_surface_interaction(ray, mi.RayFlags.All)
-            # emission reached by the previous bounce's BSDF sample, weighed against emitter sampling
-            emitted = mi.DirectionSample3f(scene, si, prev_si)
-            emitter_pdf = scene.pdf_emitter_direction(prev_si, emitted, ~prev_delta)
-            result = dr.fma(throughput, emitted.emitter.eval(si, prev_pdf > 0) * _mis_weight(prev_pdf, emitter_pdf),
-                            result)
-            active_next = (depth + 1 < self.max_depth) & si.is_valid()
-            bsdf = si.bsdf(ray)
-            # emitter sampling, then one BSDF evaluation and sample for both strategies
-            active_emitter = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
-            sampled, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, active_emitter)
-            active_emitter &= sampled.pdf != 0
-            wo = si.to_local(sampled.d)
-            sample_1, sample_2 = sampler.next_1d(), sampler.next_2d()
-            bsdf_value, bsdf_pdf, bsdf_sample, bsdf_weight = bsdf.eval_pdf_sample(context, si, wo, sample_1, sample_2)
-            emitter_mis = dr.select(sampled.delta, 1.0, _mis_weight(sampled.pdf, bsdf_pdf))
-            result[active_emitter] = dr.fma(throughput, bsdf_value * emitter_weight * emitter_mis, result)
-            ray = si.spawn_ray(si.to_world(bsdf_sample.wo))
-            throughput *= bsdf_weight
-            eta *= bsdf_sample.eta
-            valid |= si.is_valid() & ~mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Null)
-            prev_si = mi.Interaction3f(si)
-            prev_pdf = bsdf_sample.pdf
-            prev_delta = mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Delta)
-            depth[si.is_valid()] += 1
-            # Russian roulette, its sample drawn at every depth as path draws it
-            largest = dr.max(throughput)
-            survival = dr.minimum(largest * dr.square(eta), 0.95)
-            roulette = depth >= self.rr_depth
-            survives = sampler.next_1d() < survival
-            throughput[roulette] *= dr.rcp(survival)
-            active = active_next & (~roulette | survives) & (largest != 0)
-            hit = scene.ray_intersect_preliminary(ray, False, False, 0, 0, active)
+            path, ray, hit, active = self._bounce(scene, sampler, path, si, si.bsdf(ray))
+        result, valid = path[0], path[4]
         return dr.select(valid, result, 0.0), valid, features
+
+    def _bounce(self, scene, sampler, path: tuple, si, bsdf) -> tuple:
+        """One bounce of ``path`` at ``si`` (``bsdf``: its BSDF): the emission reached, emitter sampling, the BSDF
+        sample, Russian roulette. Returns (``path`` after it, the next ray, its preliminary hit, whether the path
+        goes on)."""
+        result, throughput, eta, depth, valid, prev_si, prev_pdf, prev_delta = path
+        # emission reached by the previous bounce's BSDF sample, weighed against emitter sampling
+        emitted = mi.DirectionSample3f(scene, si, prev_si)
+        emitter_pdf = scene.pdf_emitter_direction(prev_si, emitted, ~prev_delta)
+        result = dr.fma(throughput, emitted.emitter.eval(si, prev_pdf > 0) * _mis_weight(prev_pdf, emitter_pdf), result)
+        active_next = (depth + 1 < self.max_depth) & si.is_valid()
+        # emitter sampling, then one BSDF evaluation and sample for both strategies
+        active_emitter = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
+        sampled, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, active_emitter)
+        active_emitter &= sampled.pdf != 0
+        wo = si.to_local(sampled.d)
+        sample_1, sample_2 = sampler.next_1d(), sampler.next_2d()
+        bsdf_value, bsdf_pdf, bsdf_sample, bsdf_weight = bsdf.eval_pdf_sample(mi.BSDFContext(), si, wo, sample_1,
+                                                                              sample_2)
+        emitter_mis = dr.select(sampled.delta, 1.0, _mis_weight(sampled.pdf, bsdf_pdf))
+        result = dr.select(active_emitter, dr.fma(throughput, bsdf_value * emitter_weight * emitter_mis, result), result)
+        ray = si.spawn_ray(si.to_world(bsdf_sample.wo))
+        throughput = throughput * bsdf_weight
+        eta = eta * bsdf_sample.eta
+        valid = valid | (si.is_valid() & ~mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Null))
+        depth = dr.select(si.is_valid(), depth + 1, depth)
+        # Russian roulette, its sample drawn at every depth as path draws it
+        largest = dr.max(throughput)
+        survival = dr.minimum(largest * dr.square(eta), 0.95)
+        roulette = depth >= self.rr_depth
+        survives = sampler.next_1d() < survival
+        throughput = dr.select(roulette, throughput * dr.rcp(survival), throughput)
+        active = active_next & (~roulette | survives) & (largest != 0)
+        path = (result, throughput, eta, depth, valid, mi.Interaction3f(si), bsdf_sample.pdf,
+                mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Delta))
+        return path, ray, scene.ray_intersect_preliminary(ray, False, False, 0, 0, active), active
 
 
 def guided_twin(integrator: mi.SamplingIntegrator) -> GuidedPath | None:
