@@ -107,7 +107,8 @@ def test_compare_config_is_the_evaluations_restricted_to_the_budgets():
     assert path_ladder([3]) == (1, 2, 3, 4)  # a budget's own count, for equal samples
 
 
-@pytest.mark.slow  # 37 s: make test runs compare end to end twice below, and checks the README holds EXAMPLE
+@pytest.mark.slow  # 37 s: make test runs compare end to end twice below (a reference, then its cache), and checks
+# the README holds EXAMPLE
 def test_compare_on_a_scene_that_is_not_shipped(tmp_path):
     """The README's example, verbatim but for the scene: a reference, then the comparison, with the outputs."""
     (tmp_path / "box.xml").write_text(BOX)
@@ -141,6 +142,7 @@ def test_compare_on_a_scene_that_is_not_shipped(tmp_path):
     assert better.split("|")[-2].strip().startswith(cell)
 
 
+@pytest.mark.slow  # 33 s: test_the_verdict_is_one_function_of_the_rows checks the same function on rows it writes
 def test_the_verdict_agrees_with_the_evaluation_on_a_shipped_scene(tmp_path):
     """On the Cornell box: compare runs the evaluation's settings but for the budgets, and the evaluation's
     documents (the speed-up table, the table at a glance) give its rows the verdict compare printed."""

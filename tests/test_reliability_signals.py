@@ -87,7 +87,10 @@ def test_signal_during_a_busy_run(busy_cores, tmp_path, command, seconds, name):
     _signal_after(command, name, seconds, tmp_path)
 
 
-@pytest.mark.parametrize("command, name", [("render", "SIGINT"), ("batch", "SIGINT"), ("reference", "SIGTERM")])
+# the batch's case in make test-slow (17 s): its busy-run case above stays, and the render's here ends the same way
+@pytest.mark.parametrize("command, name", [("render", "SIGINT"),
+                                           pytest.param("batch", "SIGINT", marks=pytest.mark.slow),
+                                           ("reference", "SIGTERM")])
 def test_signal_once_the_outputs_are_complete_exits_0(busy_cores, tmp_path, command, name):
     """Sent the moment the last output appears (the command then still reports and winds down): exit 0."""
     process = _start(command, tmp_path)
