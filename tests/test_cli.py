@@ -61,11 +61,7 @@ def test_reference_metrics(rendered, tmp_path):
     assert result.returncode == 0, result.stderr
     metrics = json.loads(target.with_suffix(".json").read_text())["metrics"]
     assert metrics["mse"] == 0 and metrics["relmse"] == 0 and metrics["flip"] == 0 and metrics["ssim"] == pytest.approx(1)
-    worse = tmp_path / "other.exr"
-    assert run_cli(CORNELL, *SMALL, "--rate", "0.2", "--seed", "4", "--reference", out, "--out", worse,
-                   "-q").returncode == 0
-    metrics = json.loads(worse.with_suffix(".json").read_text())["metrics"]
-    assert metrics["mse"] > 0 and 5 < metrics["psnr"] < 60 and metrics["ssim"] < 1
+    # against another image's reference: test_command.py::test_a_reference_serves_render (11 s less here)
 
 
 def test_scene_with_plain_path_integrator_is_wrapped(tmp_path):

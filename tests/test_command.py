@@ -160,7 +160,8 @@ def test_a_reference_serves_render(reference, tmp_path):
     out, _ = reference
     result = gmcpt(CORNELL, "--res", "24", "16", "--spp", "2", "--reference", out, "--out", tmp_path / "r.exr", "-q")
     assert result.returncode == 0, result.stderr
-    assert 5 < json.loads((tmp_path / "r.json").read_text())["metrics"]["psnr"] < 60
+    metrics = json.loads((tmp_path / "r.json").read_text())["metrics"]
+    assert 5 < metrics["psnr"] < 60 and metrics["mse"] > 0 and metrics["ssim"] < 1
 
 
 @pytest.mark.parametrize("args, message", [(["--spp", "0"], "--spp must be >= 1"),
