@@ -76,7 +76,7 @@ class GuidedPath(mi.SamplingIntegrator):
         active = mi.Bool(active)
         hit = scene.ray_intersect_preliminary(ray, True, False, 0, 0, active)
         # the first bounce before the loop, so that its full interaction gives the features too: read inside the
-        # loop they cost a masked BSDF call at every bounce, and a second interaction of their own 4-8% of the paths
+        # loop they cost a masked BSDF call at every bounce, and a second interaction of their own 2-5% of the paths
         si = hit.compute_surface_interaction(ray, mi.RayFlags.All, active)
         bsdf = si.bsdf(ray)
         features = first_hit_features(si, bsdf)
