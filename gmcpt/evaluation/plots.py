@@ -37,7 +37,7 @@ def _save(figure, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     with atomic_output(path) as temporary:
-        figure.savefig(temporary, format="png", dpi=110, bbox_inches="tight")
+        figure.savefig(temporary, format="png", dpi=110)  # the constrained layout already fits the labels
     plt.close(figure)
 
 
