@@ -68,3 +68,37 @@ def test_the_real_scenes_are_marked_real():
 
     assert BREAKFAST_OPEN.real and all(scene.real for scene in IMPORTED) and len(IMPORTED) >= 4
     assert not CORNELL_SCENE.real and not procedural_scenes(1)[0].real
+
+
+def test_a_stopped_reference_resumes_after_its_last_pass_to_the_same_image(mi, tmp_path):
+    """A reference render stopped in its third pass keeps two passes' sum; the next render starts at the third and
+    ends with the image of a render run through, and the checkpoint is gone once the reference is written. A
+    damaged checkpoint is rendered over from the first pass."""
+    import numpy as np
+
+    from gmcpt.evaluation.reference import render_reference
+
+    class Stopped(Exception):
+        pass
+
+    def stop_in_pass_3(message):
+        if "pass 3/" in message:
+            raise Stopped
+
+    def render(folder, progress=None):
+        return render_reference(CORNELL, (16, 12), 8, seed=5, pass_spp=2, progress=progress, folder=folder)
+
+    whole = render(tmp_path / "whole")
+    with pytest.raises(Stopped):
+        render(tmp_path / "stopped", stop_in_pass_3)
+    checkpoint, = (tmp_path / "stopped").glob("*.partial.npz")
+    messages = []
+    assert np.array_equal(render(tmp_path / "stopped", messages.append), whole)
+    assert sum("kept from an interrupted render" in m for m in messages) == 2 and len(messages) == 4
+    assert not checkpoint.exists() and len(list((tmp_path / "stopped").glob("*.exr"))) == 1
+    damaged = tmp_path / "damaged"
+    damaged.mkdir()
+    (damaged / checkpoint.name).write_bytes(b"not a numpy file")
+    messages.clear()
+    assert np.array_equal(render(damaged, messages.append), whole)
+    assert not any("kept" in m for m in messages)

@@ -4,7 +4,9 @@ A reference is the scene's own integrator (the nested one, for scenes that name
 ``masked_path``) run full frame at many spp, in passes of ``pass_spp`` with
 independent seeds, averaged. The cache key covers the scene file's bytes, the
 resolution, spp, seed and scene parameters, so an edited scene is re-rendered.
-Cache folder: ``$GMCPT_CACHE`` or ``~/.cache/gmcpt/references``.
+Cache folder: ``$GMCPT_CACHE`` or ``~/.cache/gmcpt/references``. A render that stops
+(Ctrl-C, a lost session) resumes after its last finished pass: the passes' sum is kept
+beside the cache entry (``KEY.partial.npz``) until the reference is written.
 """
 from __future__ import annotations
 
@@ -12,6 +14,7 @@ import contextlib
 
 import hashlib
 import json
+import zipfile
 from pathlib import Path
 from typing import Callable
 
@@ -87,19 +90,23 @@ def cached_reference(key: str, load: Callable[[], object], spp: int, seed: int, 
         return read_rgb_exr(path)
     if _cached_only["on"]:
         raise LookupError(f"no cached reference {path}")
-    reference = render_full(load(), spp, seed, pass_spp, progress, label or key)
     path.parent.mkdir(parents=True, exist_ok=True)
+    checkpoint = path.with_name(key + ".partial.npz")
+    reference = render_full(load(), spp, seed, pass_spp, progress, label or key, checkpoint)
     with atomic_output(path) as temporary:
         write_exr(temporary, {c: reference[..., i] for i, c in enumerate("RGB")},
                   {"spp": max(1, spp // pass_spp) * min(pass_spp, spp), "scene": label or key})
+    checkpoint.unlink(missing_ok=True)
     return reference
 
 
 def render_full(scene, spp: int, seed: int, pass_spp: int = 256, progress: Callable[[str], None] | None = None,
-                label: str = "") -> np.ndarray:
+                label: str = "", checkpoint: Path | None = None) -> np.ndarray:
     """(H, W, 3) float32: the scene's own integrator (unwrapped from ``masked_path``), full frame.
 
     ``spp`` samples in passes of ``pass_spp`` with seeds ``seed, seed + 1, ...``, averaged in float64.
+    ``checkpoint``: a file that holds the sum of the finished passes after each one, and from which a render of the
+    same settings resumes (the same image to the bit as one run through); the caller removes it.
     """
     import drjit as dr
     import mitsuba as mi
@@ -108,12 +115,33 @@ def render_full(scene, spp: int, seed: int, pass_spp: int = 256, progress: Calla
 
     integrator = path_integrator(scene)
     passes = max(1, spp // pass_spp)
-    total = None
+    done, total = _resumed(checkpoint, passes)
     for index in range(passes):
         if progress:
-            progress(f"reference {label}: pass {index + 1}/{passes}")
+            progress(f"reference {label}: pass {index + 1}/{passes}"
+                     + (" (kept from an interrupted render)" if index < done else ""))
+        if index < done:
+            continue
         image = mi.render(scene, integrator=integrator, spp=min(pass_spp, spp), seed=seed + index)
         dr.eval(image)
         array = np.asarray(image, dtype=np.float64)[..., :3]
         total = array if total is None else total + array
+        if checkpoint is not None and index + 1 < passes:
+            with atomic_output(checkpoint) as temporary, open(temporary, "wb") as file:
+                np.savez(file, total=total, passes=index + 1)
     return (total / passes).astype(np.float32)
+
+
+def _resumed(checkpoint: Path | None, passes: int) -> tuple[int, np.ndarray | None]:
+    """(passes finished, their float64 sum) from ``checkpoint``; (0, None) where there is none to trust (a damaged
+    file renders again from the first pass)."""
+    if checkpoint is None or not checkpoint.is_file():
+        return 0, None
+    try:
+        with np.load(checkpoint) as saved:
+            done, total = int(saved["passes"]), saved["total"]
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return 0, None
+    if not 0 < done < passes or total.dtype != np.float64 or total.ndim != 3:
+        return 0, None
+    return done, total
