@@ -5,8 +5,8 @@ the seconds the sparse way adds to a dense frame (the rest of the feature pass, 
 and what the last probe read of the scene's noise, the last dense frame of its error's concentration and the last
 guide pass of its aliasing, so that the next frames can skip the probe, a dense frame's second launch where its
 samples stay even, and guide rays that buy nothing.
-Before a scene's first frame it knows only the probe's pace (an upper bound: a small launch pays its set-up)
-and a per-pixel guess of the sparse way's extra work (:data:`SPARSE_EXTRA_SECONDS_PER_PIXEL`).
+Before a scene's first frame it knows no pace, and that frame goes dense (:mod:`gmcpt.sampling`); until a
+sparse frame has run, the sparse way's extra work is a per-pixel guess (:data:`SPARSE_EXTRA_SECONDS_PER_PIXEL`).
 """
 from __future__ import annotations
 
@@ -71,10 +71,6 @@ class FrameCosts:
         """The reading of what OIDN's large model buys a dense frame of ``budget`` samples a pixel: one a budget, as
         it moves with the samples (the still life 1.20 at 4, 1.00 at 8)."""
         return self.denoisers.setdefault(budget, Reading())
-
-    def path_seconds(self, probe_seconds_per_sample: float) -> float:
-        """Seconds of one sample a pixel: measured, else the probe's pace times the pixels."""
-        return self.seconds_per_spp if self.seconds_per_spp is not None else probe_seconds_per_sample * self.pixels
 
     def extra_seconds(self) -> float:
         return (self.sparse_extra_seconds if self.sparse_extra_seconds is not None

@@ -208,7 +208,10 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
     reading, edges, extra_share, pays, probed, for_placement = None, None, None, True, False, False
     if not plan.dense_only:
         reading = costs.probe.remembered()
-        if costs.seconds_per_spp is not None:
+        # a scene's first frame in a process goes dense: no pace of it is known, and the probe's reads 6-10 times
+        # too slow (its launch compiles, and is small), so that one-frame processes went sparse at 2-3x the time
+        pays = costs.seconds_per_spp is not None
+        if pays:
             extra_share, pays = _sparse_time(trace, plan, costs, costs.seconds_per_spp)
         # once a scene, below budget 8, the placement of a dense frame waits for a probe too
         for_placement = probes_for_placement(plan.budget, costs.probe.value)
@@ -220,9 +223,8 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
     if wants_edges:
         edges = edge_share(features)
         if for_placement or needs_probe(plan, edges, pays, reading):
-            probe, probe_pace = _probe(trace, plan)
+            probe = _probe(trace, plan)
             reading, probed = relative_variance(*trace.sums.estimate(probe), PROBE_SPP), True
-            extra_share, pays = _sparse_time(trace, plan, costs, costs.path_seconds(probe_pace))
     if not plan.dense_only:
         costs.probe.learn(reading if probed else None)
     choice = choose(plan, reading or 0.0, edges or 0.0, pays)
@@ -276,18 +278,17 @@ def _guide_rays(trace: _Trace, budget: float) -> int:
     return guide_spp(budget, feature_spp, trace.info["guide_aliasing"])
 
 
-def _probe(trace: _Trace, plan: BudgetPlan) -> tuple[np.ndarray, float]:
+def _probe(trace: _Trace, plan: BudgetPlan) -> np.ndarray:
     """Trace the probe: :attr:`~gmcpt.budget.BudgetPlan.probe_pixels` blue-noise pixels at ``PROBE_SPP``. Returns
-    its flat bool mask and its pace (seconds a sample)."""
+    its flat bool mask."""
     seed = trace.settings.seed
     start = time.perf_counter()
     probe = sample_by_density(np.ones(trace.shape, np.float32), plan.probe_pixels,
                               mask_rng((seed + PROBE_SEED_OFFSET) % SEED_LIMIT)).ravel()
     trace.timed("mask_s", start)
     trace.say(f"path tracing: {int(probe.sum())} px x {PROBE_SPP} spp (probe)")
-    start = time.perf_counter()
     trace.trace(np.flatnonzero(probe), PROBE_SPP, seed)
-    return probe, (time.perf_counter() - start) / (int(probe.sum()) * PROBE_SPP)
+    return probe
 
 
 def _sparse_time(trace: _Trace, plan: BudgetPlan, costs, path_seconds: float) -> tuple[float, bool]:

@@ -135,6 +135,7 @@ def cornell(mi):
 def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way):
     from gmcpt import budget, sampling
     from gmcpt.budget import SPARSE_SPP, plan_budget
+    from gmcpt.costs import frame_costs
 
     monkeypatch.setattr(budget, "DENSE_ABOVE", threshold)
     monkeypatch.setattr(budget, "EDGES_ABOVE", threshold)
@@ -142,6 +143,7 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
     monkeypatch.setattr(sampling, "probes_for_placement", lambda *args: False)  # the placement's own probe: below
     pixels = SIZE[0] * SIZE[1]
+    frame_costs(cornell, pixels).learn_path(1e-3)  # a pace known: a scene's first frame goes dense (below)
     frame = _render(cornell, 4.8)
     plan = plan_budget(4.8, pixels)
     assert frame.info["budget_choice"] == way
@@ -159,6 +161,22 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     again = _render(cornell, 4.8)
     np.testing.assert_array_equal(frame.radiance, again.radiance)  # same seed, same frame
     assert not np.array_equal(frame.radiance, _render(cornell, 4.8, seed=1).radiance)
+
+
+def test_a_scenes_first_frame_goes_dense_unprobed_and_the_next_may_go_sparse(mi, monkeypatch):
+    """Before a process knows a scene's pace it cannot price the sparse way: the first frame is dense, with no probe,
+    where every signal would choose sparse; its render teaches the pace, and the next frame goes sparse."""
+    from gmcpt import budget, sampling
+    from gmcpt.scene import load_scene
+
+    for name in ("DENSE_ABOVE", "EDGES_ABOVE", "SPARSE_GAIN"):
+        monkeypatch.setattr(budget, name, math.inf)  # every signal chooses sparse
+    monkeypatch.setattr(sampling, "probes_for_placement", lambda *args: False)
+    scene = load_scene(CORNELL, resolution=SIZE)
+    first, second = _render(scene, 4.8), _render(scene, 4.8)
+    assert (first.info["budget_choice"], first.info["probe"], first.info["sparse_time_share"]) == ("dense", "none", None)
+    assert first.mask.all() and first.info["path_samples"] == round(4.8 * SIZE[0] * SIZE[1])
+    assert second.info["budget_choice"] == "sparse" and second.info["sparse_time_share"] > 0
 
 
 def test_a_probe_that_reads_dense_serves_the_next_frames(mi, monkeypatch):
