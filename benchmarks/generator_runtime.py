@@ -65,11 +65,11 @@ def main() -> int:
     from gmcpt.domain import WorkingDomain
     from gmcpt.gan.infer import exposed, generate, network_inputs, prepare, target_exposure
     from gmcpt.gan.runtime import cpu_network
-    from gmcpt.gan.weights import load_generator, weights_path
+    from gmcpt.gan.weights import load_generator
 
     generator = prepare(load_generator()[0], "cpu")
     threads, precision = generator_threads(), generator_precision("cpu")
-    network = cpu_network(generator, weights_path(), precision, threads)
+    network = cpu_network(None, precision, threads)
     if network is None:
         return 1
     print(f"{threads} threads, {precision}, load average {os.getloadavg()[0]:.2f}")

@@ -116,12 +116,12 @@ def _weights_record(integrator) -> dict:
     """The GAN weights a method used (name and sha256) and the generator's arithmetic, or nothing for the
     methods without a network."""
     from .completion import get_method
-    from .gan.weights import DEFAULT_WEIGHTS, load_generator
+    from .gan.names import DEFAULT_WEIGHTS, checked_weights
 
     if not get_method(integrator.completion).takes("weights"):
         return {}
     name = integrator.weights or DEFAULT_WEIGHTS
-    return {"weights": name, "weights_sha256": load_generator(name)[1].get("sha256"),
+    return {"weights": name, "weights_sha256": checked_weights(name)[1].get("sha256"),
             "generator_precision": generator_precision(completion_device())}
 
 

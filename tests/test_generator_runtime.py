@@ -1,13 +1,15 @@
 """The generator's network on OpenVINO: the same output as PyTorch, converted once, rebuilt when damaged,
-and PyTorch when the runtime is missing."""
+run without torch once converted, and PyTorch when the runtime is missing."""
 import importlib.util
+import os
+import subprocess
 import sys
 
 import numpy as np
 import pytest
 
-from conftest import synthetic_frame
-from gmcpt.gan import runtime
+from conftest import ROOT, synthetic_frame
+from gmcpt.gan import export, runtime
 from gmcpt.gan.infer import precomplete
 from gmcpt.gan.weights import load_generator, weights_path
 
@@ -31,7 +33,7 @@ def converted(tmp_path_factory):
     cache = tmp_path_factory.mktemp("cache")
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("GMCPT_CACHE", str(cache))
-        runtime.export(load_generator()[0], runtime.model_path(weights_path()))
+        export.export(load_generator()[0], runtime.model_path(weights_path()))
     return cache
 
 
@@ -43,8 +45,8 @@ def cache(converted, fresh, monkeypatch):
 
 def counting_exports(monkeypatch) -> list:
     calls = []
-    real = runtime.export
-    monkeypatch.setattr(runtime, "export", lambda *args: (calls.append(args), real(*args)))
+    real = export.export
+    monkeypatch.setattr(export, "export", lambda *args: (calls.append(args), real(*args)))
     return calls
 
 
@@ -52,7 +54,7 @@ def counting_exports(monkeypatch) -> list:
 def test_openvino_matches_pytorch_and_repeats_itself(cache):
     generator, _ = load_generator()
     frame, _ = synthetic_frame(64, 72)
-    network = runtime.compile_network(generator, weights_path(), "float32", 2)
+    network = runtime.compile_network(weights_path(), "float32", 2)
     exact, factor = precomplete(generator, frame, threads=2)
     first, same_factor = precomplete(generator, frame, threads=2, network=network)
     second, _ = precomplete(generator, frame, threads=2, network=network)
@@ -63,12 +65,12 @@ def test_openvino_matches_pytorch_and_repeats_itself(cache):
 @needs_openvino
 def test_a_converted_network_is_read_back_not_converted_again(cache, monkeypatch):
     calls = counting_exports(monkeypatch)
-    assert runtime.compile_network(load_generator()[0], weights_path(), "float32", 1) is not None
+    assert runtime.compile_network(weights_path(), "float32", 1) is not None
     assert calls == []
 
 
 @needs_openvino
-@pytest.mark.parametrize("damage", [".xml", ".bin"])
+@pytest.mark.parametrize("damage", [".xml", ".bin", ".json"])
 def test_a_damaged_cached_network_is_converted_again(cache, monkeypatch, damage):
     path = runtime.model_path(weights_path())
     path.with_suffix(damage).write_bytes(b"not a network")
@@ -77,7 +79,7 @@ def test_a_damaged_cached_network_is_converted_again(cache, monkeypatch, damage)
     calls = counting_exports(monkeypatch)
     generator, _ = load_generator()
     frame, _ = synthetic_frame(32, 32)
-    network = runtime.compile_network(generator, weights_path(), "float32", 1)
+    network = runtime.compile_network(weights_path(), "float32", 1)
     assert len(calls) == 1 and path.stat().st_size > 1000 and not older.exists()
     output, _ = precomplete(generator, frame, network=network)
     assert np.isfinite(output).all()
@@ -88,7 +90,7 @@ def test_without_openvino_the_generator_runs_in_pytorch_after_one_line(fresh, mo
 
     monkeypatch.setitem(sys.modules, "openvino", None)  # import openvino: ImportError
     frame, _ = synthetic_frame(32, 32)
-    assert runtime.cpu_network(load_generator()[0], weights_path(), "float32", 1) is None
+    assert runtime.cpu_network(weights_path(), "float32", 1) is None
     working, _, _ = generator_fill(frame)
     assert np.isfinite(working).all()
     err = capsys.readouterr().err
@@ -99,7 +101,22 @@ def test_the_runtime_setting(fresh, monkeypatch):
     from gmcpt.errors import BadValue
 
     monkeypatch.setenv(runtime.RUNTIME_ENV, "torch")
-    assert runtime.cpu_network(load_generator()[0], weights_path(), "float32", 1) is None
+    assert runtime.cpu_network(weights_path(), "float32", 1) is None
     monkeypatch.setenv(runtime.RUNTIME_ENV, "onnx")
     with pytest.raises(BadValue, match="generator runtime 'onnx'"):
         runtime.wanted_runtime()
+
+
+@needs_openvino
+def test_a_converted_network_completes_a_frame_without_torch(cache):
+    """A process whose network is on disk runs the generator, OpenVINO alone: torch is never imported (6-7 s)."""
+    script = (f"import sys; sys.path.insert(0, {str(ROOT / 'tests')!r})\n"
+              "from conftest import synthetic_frame\n"
+              "from gmcpt.completion import complete\n"
+              "result = complete(synthetic_frame(40, 48)[0], 'gan')\n"
+              "assert result.image.std() > 0 and 'load_weights_s' in result.timings\n"
+              "print('torch' in sys.modules)")
+    env = {**os.environ, "GMCPT_CACHE": str(cache)}
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["False"]

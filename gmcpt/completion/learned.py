@@ -11,9 +11,9 @@ Both take ``weights=`` (a shipped name such as ``gan-cpu`` or a ``.pt`` path;
 default :data:`gmcpt.gan.weights.DEFAULT_WEIGHTS`).
 
 On a CPU the generator's network runs on OpenVINO (:mod:`gmcpt.gan.runtime`, converted once per weights
-file and kept on disk), else in PyTorch band by band (:func:`gmcpt.gan.infer.generate`), on as many
-threads as torch is set to use (``$GMCPT_TORCH_THREADS`` overrides), in bfloat16 on a CPU that has it
-(:func:`gmcpt.device.generator_precision`).
+file and kept on disk; no torch then) on the threads OpenVINO chooses, else in PyTorch band by band
+(:func:`gmcpt.gan.infer.generate`) on as many threads as torch is set to use; ``$GMCPT_TORCH_THREADS``
+overrides both. It runs in bfloat16 on a CPU that has it (:func:`gmcpt.device.generator_precision`).
 """
 from __future__ import annotations
 
@@ -27,6 +27,7 @@ from ..domain import WorkingDomain
 from ..frame import SparseFrame
 from ..lowrank.params import DEFAULT as LOW_RANK_DEFAULT
 from ..lowrank.noise import blend_samples, working_variance
+from ..workers import threads_setting
 from . import Completion, register_method
 
 #: The low-rank stage after the GAN pre-completion: one iteration with a lighter threshold, because a good
@@ -44,19 +45,25 @@ def generator_fill(frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
     (:func:`~gmcpt.gan.infer.target_exposure`); the exposure is folded into the returned factor, so
     ``domain.inverse(working, factor)`` is radiance at the frame's own exposure.
     """
-    from ..gan.infer import precomplete, prepare, target_exposure
-    from ..gan.runtime import cpu_network
-    from ..gan.weights import load_generator, weights_path
+    from ..gan.inputs import target_exposure
+    from ..gan.runtime import cpu_network, precomplete_on_cpu
 
     start = time.perf_counter()
-    generator, _ = load_generator(weights)
     device = completion_device()
-    prepare(generator, device)  # in place: the cached generator stays on that device, in its layout there
-    threads = generator_threads()
     precision = generator_precision(device)
-    network = cpu_network(generator, weights_path(weights), precision, threads) if device == "cpu" else None
-    loaded = time.perf_counter()
-    working, factor = precomplete(generator, frame, domain, target_exposure(frame), threads, precision, network)
+    network = cpu_network(weights, precision, threads_setting()) if device == "cpu" else None
+    if network is not None:  # no torch in the process for this
+        loaded = time.perf_counter()
+        working, factor = precomplete_on_cpu(network, frame, domain, target_exposure(frame))
+    else:
+        from ..gan.infer import precomplete, prepare
+        from ..gan.weights import load_generator
+
+        generator, _ = load_generator(weights)
+        prepare(generator, device)  # in place: the cached generator stays on that device, in its layout there
+        loaded = time.perf_counter()
+        working, factor = precomplete(generator, frame, domain, target_exposure(frame), generator_threads(),
+                                      precision)
     return working, factor, {"load_weights_s": loaded - start, "pre_completion_s": time.perf_counter() - loaded}
 
 

@@ -1,24 +1,15 @@
 """Run a generator on a whole sparse frame, and the exposure it runs at."""
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import torch
-import torch.nn.functional as F
 
-from ..domain import WorkingDomain, channel_mean
+from ..domain import WorkingDomain
 from ..frame import SparseFrame
 from ..workers import map_single_threaded, torch_threads
-from .inputs import SCALE, frame_inputs
-from .model import Generator, smoothed_fill
-from .runtime import CpuNetwork
-
-#: Brightness the product brings a frame to before the generator sees it (the 95th percentile of the traced
-#: pixels' mean radiance, the statistic the dataset builder sets when it picks a scene's exposure): brighter
-#: frames put more of the image on the working domain's logarithmic part, where noise is closer to uniform
-#: (chosen on the validation split: docs/experiments.md, "Figures moved out of the code").
-EXPOSURE_TARGET = 2.5
+from .inputs import EXPOSURE_TARGET, as_tensor, exposed, network_arrays, target_exposure, working_image  # noqa: F401
+from .model import Generator
+from .runtime import CpuNetwork, precomplete_on_cpu
 
 #: PyTorch runs the generator on horizontal bands of about ``BAND_ROWS`` rows, each seeing ``BAND_HALO`` more
 #: rows of context on either side, dealt to threads that each run torch on one thread
@@ -28,23 +19,6 @@ EXPOSURE_TARGET = 2.5
 #: (band sizes and halos measured: docs/experiments.md, "Figures moved out of the code").
 BAND_ROWS = 512
 BAND_HALO = 64
-
-
-def target_exposure(frame: SparseFrame, target: float = EXPOSURE_TARGET) -> float:
-    """The factor that brings the 95th percentile of the traced pixels' mean radiance to ``target``.
-
-    1 for a frame with no traced pixels; clipped to [1e-2, 1e3] like the dataset's exposures.
-    """
-    if not frame.mask.any():
-        return 1.0
-    level = float(np.percentile(channel_mean(frame.radiance[frame.mask]), 95))
-    return float(np.clip(target / max(level, 1e-6), 1e-2, 1e3))
-
-
-def exposed(frame: SparseFrame, exposure: float) -> SparseFrame:
-    """The frame with its radiance scaled by ``exposure`` (and its variance by ``exposure ** 2``)."""
-    return dataclasses.replace(frame, radiance=(frame.radiance * exposure).astype(np.float32),
-                               variance=(frame.variance * exposure ** 2).astype(np.float32))
 
 
 def memory_format(device: str | torch.device) -> torch.memory_format:
@@ -105,18 +79,12 @@ def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tenso
 
 def network_inputs(generator: Generator, frame: SparseFrame, domain: WorkingDomain
                    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, np.ndarray]:
-    """(radiance, features, fill, each (1, C, H', W'), factor (H, W, 3)) of ``frame`` for ``generator``: padded
-    (reflect) to a multiple of its :attr:`~gmcpt.gan.model.Generator.multiple`, the fill made once for the whole
-    frame."""
-    radiance, features, factor = frame_inputs(frame, domain, generator.config.use_variance,
-                                               generator.config.use_coverage)
-    height, width = frame.shape
-    multiple = generator.multiple
-    pad = (0, -width % multiple, 0, -height % multiple)
-    mode = "reflect" if min(height, width) > multiple else "replicate"
-    if any(pad):
-        radiance, features = F.pad(radiance, pad, mode=mode), F.pad(features, pad, mode=mode)
-    return radiance, features, smoothed_fill(radiance, features), factor
+    """(radiance, features, fill, each (1, C, H', W'), factor (H, W, 3)) of ``frame`` for ``generator``
+    (:func:`~gmcpt.gan.inputs.network_arrays`: padded to a multiple of its
+    :attr:`~gmcpt.gan.model.Generator.multiple`, the fill made once for the whole frame)."""
+    config = generator.config
+    *arrays, factor = network_arrays(frame, domain, config.use_variance, config.use_coverage, generator.multiple)
+    return (*(as_tensor(array) for array in arrays), factor)
 
 
 def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain = WorkingDomain(),
@@ -124,24 +92,19 @@ def precomplete(generator: Generator, frame: SparseFrame, domain: WorkingDomain 
                 network: CpuNetwork | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(completed image in the working domain (H, W, 3), 0..255-like; demodulation factor (H, W, 3)).
 
-    The generator sees the frame scaled by ``exposure`` (see :func:`target_exposure`); the
+    The generator sees the frame scaled by ``exposure`` (see :func:`~gmcpt.gan.inputs.target_exposure`); the
     exposure is folded into the returned factor, so ``domain.inverse(working, factor)`` is
     radiance at the frame's own exposure, and ``domain.forward(frame.radiance, factor)`` is
     the frame in the working domain the generator ran in. The inputs are :func:`network_inputs`'s,
     cropped back after. The network runs on ``network`` (the generator compiled for a CPU runtime,
-    :func:`gmcpt.gan.runtime.cpu_network`) where given, else in PyTorch in bands (:func:`generate`) on the
-    generator's device, in ``precision``.
+    :func:`gmcpt.gan.runtime.cpu_network`; :func:`~gmcpt.gan.runtime.precomplete_on_cpu`) where given, else in
+    PyTorch in bands (:func:`generate`) on the generator's device, in ``precision``.
     """
+    if network is not None:
+        return precomplete_on_cpu(network, frame, domain, exposure)
     if exposure != 1.0:
         frame = exposed(frame, exposure)
     radiance, features, fill, factor = network_inputs(generator, frame, domain)
-    if network is not None:  # (1, H, W, C): views of the channels-last tensors
-        pixels = [tensor.permute(0, 2, 3, 1).numpy() for tensor in (radiance, features, fill)]
-        output = pixels[2] + network(*pixels)
-    else:
-        device = next(generator.parameters()).device
-        output = generate(generator, radiance.to(device), features.to(device), threads, precision, fill.to(device))
-        output = output.permute(0, 2, 3, 1).cpu().numpy()
-    height, width = frame.shape
-    working = output[0, :height, :width] * SCALE
-    return np.maximum(working, 0.0).astype(np.float32), factor / np.float32(exposure)
+    device = next(generator.parameters()).device
+    output = generate(generator, radiance.to(device), features.to(device), threads, precision, fill.to(device))
+    return working_image(output.permute(0, 2, 3, 1).cpu().numpy(), frame.shape, factor, exposure)

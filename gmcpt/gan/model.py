@@ -28,16 +28,13 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
-import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ..fills import fill_batch, guided_fill
+from ..fills import fill_batch
+from .inputs import FEATURE_CHANNELS, smoothed_fill_arrays
 from .retired import drop_retired
-
-#: Feature channels: mask, albedo (3), normal (3), depth, visibility.
-FEATURE_CHANNELS = 9
 
 
 @dataclass(frozen=True)
@@ -95,13 +92,11 @@ def smoothed_fill(radiance: torch.Tensor, features: torch.Tensor) -> torch.Tenso
     """The fill the generator corrects: the feature-guided fill of each (B, 3, H, W) ``radiance`` from its
     (B, F, H, W) ``features``, with the traced pixels smoothed by the same weights (``guided_fill`` with
     ``keep_samples=False``; no parameters, no gradient). On a GPU in torch there (``fill_batch``), else in numpy."""
-    mask, guides = features[:, 0] > 0, features[:, 1:FEATURE_CHANNELS]
     if radiance.device.type != "cpu":
         with torch.no_grad():
-            return fill_batch(radiance, mask, guides, keep_samples=False)
-    values, aux = radiance.detach().permute(0, 2, 3, 1).numpy(), guides.detach().permute(0, 2, 3, 1).numpy()
-    filled = [guided_fill(values[i], mask[i].numpy(), aux[i], keep_samples=False) for i in range(len(values))]
-    return torch.from_numpy(np.stack(filled)).permute(0, 3, 1, 2).to(radiance)
+            return fill_batch(radiance, features[:, 0] > 0, features[:, 1:FEATURE_CHANNELS], keep_samples=False)
+    values, aux = (tensor.detach().permute(0, 2, 3, 1).numpy() for tensor in (radiance, features))
+    return torch.from_numpy(smoothed_fill_arrays(values, aux)).permute(0, 3, 1, 2).to(radiance)
 
 
 def space_to_depth_conv(conv: nn.Conv2d, x: torch.Tensor) -> torch.Tensor:

@@ -10,9 +10,7 @@ precision (:data:`STORED_DTYPE`) and cast back to float32 on loading. The shippe
 """
 from __future__ import annotations
 
-import hashlib
 import json
-import shlex
 import warnings
 from pathlib import Path
 
@@ -21,11 +19,9 @@ import torch
 from ..errors import GmcptError
 from ..files import atomic_output
 from .model import Generator, GeneratorConfig
-from . import names
-from .names import DEFAULT_WEIGHTS, weights_path  # noqa: F401 (this module's API too)
+from .names import DEFAULT_WEIGHTS, checked_weights, retrain_hint, sha256, weights_path  # noqa: F401 (API too)
 
 FORMAT = 1
-RETRAIN_HINT = "retrain with `python -m gmcpt train --config cpu --export {name}` (see README, 'GAN pre-completion: data, training, weights')"
 
 #: Precision of the stored floating-point tensors: half the file of float32, and the same results to
 #: 0.01 dB (the gan-cpu weights of 2026-11-23 rounded to float16: mean PSNR of ``gan`` and ``gan_pawnnm``
@@ -33,14 +29,6 @@ RETRAIN_HINT = "retrain with `python -m gmcpt train --config cpu --export {name}
 STORED_DTYPE = torch.float16
 
 _cache: dict[tuple[str, float], tuple[Generator, dict]] = {}
-
-
-def sha256(path: str | Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for chunk in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
 
 
 def save_weights(path: str | Path, generator: Generator, metadata: dict) -> dict:
@@ -68,22 +56,6 @@ def _stored(tensor: torch.Tensor) -> torch.Tensor:
     return tensor.clone()
 
 
-def _metadata(path: Path, hint: str) -> dict:
-    """The record beside a weights file (``NAME.json``), {} if there is none; one line if it is unreadable."""
-    meta_path = path.with_suffix(".json")
-    if not meta_path.is_file():
-        return {}
-    try:
-        metadata = json.loads(meta_path.read_text())
-        problem = None if isinstance(metadata, dict) else "is not a JSON object"
-    except (OSError, UnicodeDecodeError, ValueError) as error:
-        problem = f"is not readable JSON ({getattr(error, 'strerror', None) or ' '.join(str(error).split())})"
-    if problem:
-        raise GmcptError(f"the record of GAN weights {meta_path} {problem}; restore it, or remove it to load "
-                         f"{path.name} without its sha256 check; {hint}")
-    return metadata
-
-
 def load_generator(name_or_path: str | Path | None = None, check_hash: bool = True) -> tuple[Generator, dict]:
     """The generator (eval mode) and its metadata; cached per file and modification time.
 
@@ -93,19 +65,11 @@ def load_generator(name_or_path: str | Path | None = None, check_hash: bool = Tr
         One line, saying how to retrain, when the file is missing, corrupt or
         does not match its recorded hash.
     """
-    path = weights_path(name_or_path)
-    # --export NAME writes into the package's folder: a file given by path is retrained to that path
-    hint = RETRAIN_HINT.format(name=path.stem if path.parent == names.WEIGHTS_DIR else shlex.quote(str(path)))
-    if not path.is_file():
-        shipped = ", ".join(sorted(p.stem for p in names.WEIGHTS_DIR.glob("*.pt")))
-        raise GmcptError(f"GAN weights not found: {path} (the shipped ones: {shipped}); {hint}")
+    path, metadata, _ = checked_weights(name_or_path, check_hash)
     key = (str(path.resolve()), path.stat().st_mtime)
     if key in _cache:
         return _cache[key]
-    metadata = _metadata(path, hint)
-    if check_hash and metadata.get("sha256") and metadata["sha256"] != sha256(path):
-        raise GmcptError(f"GAN weights {path} do not match the sha256 in {path.with_suffix('.json').name} "
-                         f"(corrupt or replaced); {hint}")
+    hint = retrain_hint(path)
     try:
         with warnings.catch_warnings():  # torch's warnings about a file it then refuses: the error says it all
             warnings.simplefilter("ignore")
