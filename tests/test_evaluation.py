@@ -228,21 +228,10 @@ def test_results_open_at_a_glance_and_the_readme_limits_are_generated():
     assert "STALE" not in rewritten and f"## Limits\n\n{limits}\n\n## Layout\n" in rewritten
 
 
-def test_eval_from_a_record_rewrites_the_documents(tmp_path):
-    readme = tmp_path / "README.md"
-    readme.write_text("# T\n")
-    result = _eval("--from", str(RESULTS), "--out", str(tmp_path), "--readme", str(readme), "-q")
-    assert result.returncode == 0, result.stderr
-    assert (tmp_path / "results.md").read_text().startswith("# Results\n\n## At a glance")
-    assert (tmp_path / "psnr_vs_time_groups.png").read_bytes()[:4] == b"\x89PNG"
+def test_eval_from_a_record_rewrites_the_documents_and_a_sequence_record_beside_gets_its_section(tmp_path):
+    """``gmcpt eval --from``: results.md, its plots and the README's sections from the recorded run, and from a
+    sequence record beside the results its own section (one run of the command: its plots take 15 s)."""
     from gmcpt.evaluation.glance import readme_limits
-
-    text = readme.read_text()
-    assert "## Results" in text and "## Limits" in text and readme_limits(json.loads(RESULTS.read_text())) in text
-    assert not (tmp_path / "results.json").exists()  # a rewrite measures nothing and records nothing new
-
-
-def test_a_sequence_record_beside_the_results_gets_its_section_and_plot(tmp_path):
     from gmcpt.evaluation.plots import sequence_plot
 
     rows = [{"scene": "living-room", "contender": contender, "spp": spp, "psnr": psnr, "seconds": seconds,
@@ -259,9 +248,16 @@ def test_a_sequence_record_beside_the_results_gets_its_section_and_plot(tmp_path
                                              "screen_flicker_ratio": 0.81}]}
     (tmp_path / "sequences.json").write_text(json.dumps(sequences))
     sequence_plot(rows, tmp_path / "sequences.png")
-    result = _eval("--from", str(RESULTS), "--out", str(tmp_path), "--no-readme", "-q")
+    readme = tmp_path / "README.md"
+    readme.write_text("# T\n")
+    result = _eval("--from", str(RESULTS), "--out", str(tmp_path), "--readme", str(readme), "-q")
     assert result.returncode == 0, result.stderr
     markdown = (tmp_path / "results.md").read_text()
+    assert markdown.startswith("# Results\n\n## At a glance")
+    assert (tmp_path / "psnr_vs_time_groups.png").read_bytes()[:4] == b"\x89PNG"
+    text = readme.read_text()
+    assert "## Results" in text and "## Limits" in text and readme_limits(json.loads(RESULTS.read_text())) in text
+    assert not (tmp_path / "results.json").exists()  # a rewrite measures nothing and records nothing new
     assert "## Sequences" in markdown
     assert "| living-room | sequence | 1 | 23.90 | 0.0800 | 0.210 | 6.10 (8.20) |" in markdown
     assert "| living-room | path+oidn | 1 | 22.10 | - | 0.200 | 9.50 |" in markdown

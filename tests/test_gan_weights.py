@@ -76,6 +76,28 @@ def test_missing_or_corrupt_weights_give_one_line_with_the_fix(tmp_path):
         assert "\n" not in str(error.value) and "retrain" in str(error.value)
 
 
+def test_weights_with_their_record_are_checked_without_torch(tmp_path):
+    """A weights file is checked against the sha256 of its record, torch left unimported (6-7 s); one without a
+    record is loaded, and a damaged one is refused either way."""
+    import subprocess
+    import sys
+
+    from gmcpt.gan.weights import save_weights
+
+    bare = tmp_path / "bare.pt"
+    save_weights(bare, Generator(SMALL), {})
+    bare.with_suffix(".json").unlink()
+    bare.write_bytes(bare.read_bytes()[:500])
+    script = ("import sys\nfrom gmcpt.completion import check_weights\nfrom gmcpt.errors import GmcptError\n"
+              "check_weights('gan', 'gan-cpu')\nprint('torch' in sys.modules)\n"
+              f"try:\n    check_weights('gan', {str(bare)!r})\nexcept GmcptError as error:\n    print(error)\n"
+              "print('torch' in sys.modules)")
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == "False" and "are corrupt or incompatible" in lines[1] and lines[2] == "True"
+
+
 def test_gan_method_with_given_weights(tmp_path):
     from gmcpt.completion import complete
     from gmcpt.gan.weights import save_weights

@@ -25,15 +25,19 @@ def check_options(method: str | None, weights: str | None) -> None:
 
 
 def check_weights(method: str | None, weights: str) -> None:
-    """Raise (one line) unless ``method`` takes generator weights and ``weights`` loads.
+    """Raise (one line) unless ``method`` takes generator weights and ``weights`` is a file that matches the
+    sha256 of its record, or, without one, loads.
 
     ``method`` None checks the file alone (the method is not known yet).
     """
     if method is not None and not get_method(method).takes("weights"):
         raise GmcptError(f"weights apply to the GAN methods only, not to completion {method!r}")
-    from ..gan.weights import load_generator
+    from ..gan.names import checked_weights
 
-    load_generator(weights)
+    if not checked_weights(weights)[1].get("sha256"):  # no record to check the bytes against: torch loads them
+        from ..gan.weights import load_generator
+
+        load_generator(weights)
 
 
 def check_size(method: str, height: int, width: int) -> None:
