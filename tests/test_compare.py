@@ -43,8 +43,17 @@ BOX = """<scene version="3.0.0">
 
 
 def _environment(tmp_path):
+    """A cache of the test's own for the references; the generator's conversions stay the user's (each is 10-17 s
+    of a process that would import torch for it, and not what these tests check)."""
+    from gmcpt.gan import runtime
+
+    generators, cache = runtime.cache_dir(), tmp_path / "cache"
+    if not (cache / "generators").exists():
+        generators.mkdir(parents=True, exist_ok=True)
+        cache.mkdir(exist_ok=True)
+        (cache / "generators").symlink_to(generators, target_is_directory=True)
     return {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
-            "PYTHONPATH": str(ROOT), "PYTHONWARNINGS": "ignore", "GMCPT_CACHE": str(tmp_path / "cache")}
+            "PYTHONPATH": str(ROOT), "PYTHONWARNINGS": "ignore", "GMCPT_CACHE": str(cache)}
 
 
 def _compare(tmp_path, *args):

@@ -76,7 +76,11 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
     from gmcpt.evaluation.config import EvalConfig
     from gmcpt.evaluation.document import readme_section, results_markdown
 
+    from gmcpt.gan import runtime
+
+    generators = runtime.cache_dir()  # the generator's conversion stays the user's: a conversion is 10 s, not tested here
     monkeypatch.setenv("GMCPT_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(runtime, "cache_dir", lambda: generators)
     monkeypatch.setattr(measure, "FULL_REFERENCES", tmp_path / "full")
     config = EvalConfig(name="test", procedural=1, resolution=32, reference_spp=32, rates=(0.3, 0.5),
                         variants=("interp", "nnm", "pawnnm"), patch_sizes=(5, 7), path_spp=(1, 2),
