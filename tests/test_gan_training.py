@@ -96,20 +96,20 @@ def test_coverage_feature_is_the_frames_buffer_or_the_0_1_rule(tmp_path):
     from gmcpt.dataset import list_examples
     from gmcpt.domain import WorkingDomain
     from gmcpt.gan.data import PatchSampler
-    from gmcpt.gan.inputs import frame_inputs
+    from gmcpt.gan.inputs import frame_arrays
     from tests.conftest import synthetic_frame
 
     frame, _ = synthetic_frame(16, 16)
     coverage = np.linspace(0, 1, 256, dtype=np.float32).reshape(16, 16)
     with_buffer = dataclasses.replace(frame, coverage=coverage)
     config = GeneratorConfig(use_coverage=True)
-    _, plain, _ = frame_inputs(with_buffer, WorkingDomain(), use_variance=True)
-    _, features, _ = frame_inputs(with_buffer, WorkingDomain(), use_variance=True, use_coverage=True)
-    assert features.shape[1] == config.feature_channels == plain.shape[1] + 1
-    assert torch.equal(features[:, :-1], plain)
-    assert np.array_equal(features[0, -1].numpy(), coverage)
-    _, rule, _ = frame_inputs(dataclasses.replace(frame, coverage=None), WorkingDomain(), True, True)
-    assert np.array_equal(rule[0, -1].numpy(), (frame.albedo.max(-1) >= 0.02).astype(np.float32))
+    _, plain, _ = frame_arrays(with_buffer, WorkingDomain(), use_variance=True)
+    _, features, _ = frame_arrays(with_buffer, WorkingDomain(), use_variance=True, use_coverage=True)
+    assert features.shape[-1] == config.feature_channels == plain.shape[-1] + 1
+    assert np.array_equal(features[..., :-1], plain)
+    assert np.array_equal(features[..., -1], coverage)
+    _, rule, _ = frame_arrays(dataclasses.replace(frame, coverage=None), WorkingDomain(), True, True)
+    assert np.array_equal(rule[..., -1], (frame.albedo.max(-1) >= 0.02).astype(np.float32))
 
     tiny_dataset(tmp_path)
     sampler = PatchSampler(list_examples(tmp_path, "train"), crop=16)

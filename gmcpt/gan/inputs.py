@@ -10,7 +10,7 @@ The generator sees (all in the working domain of :mod:`gmcpt.domain`, divided by
 Inference imports this module, never :mod:`gmcpt.gan.data` (the training loader), so that
 completing a frame needs no dataset or renderer code (``tests/test_layers.py`` checks it). It needs no torch
 either: a CPU runtime (:mod:`gmcpt.gan.runtime`) takes the numpy arrays of :func:`network_arrays`; PyTorch
-sees them as channels-last tensors without a copy (:func:`frame_inputs`, :func:`gmcpt.gan.infer.network_inputs`).
+sees them as channels-last tensors without a copy (:func:`as_tensor`, :func:`gmcpt.gan.infer.network_inputs`).
 """
 from __future__ import annotations
 
@@ -75,13 +75,6 @@ def frame_arrays(frame: SparseFrame, domain: WorkingDomain, use_variance: bool, 
     coverage = frame_coverage(frame) if use_coverage else None
     features = feature_stack(frame.mask, frame.albedo, frame.normal, frame.depth, frame.visibility, std, coverage)
     return np.asarray(working, np.float32), features, factor
-
-
-def frame_inputs(frame: SparseFrame, domain: WorkingDomain, use_variance: bool, use_coverage: bool = False):
-    """(radiance (1, 3, H, W), features (1, F, H, W), factor (H, W, 3)) of a sparse frame: :func:`frame_arrays` as
-    torch tensors."""
-    radiance, features, factor = frame_arrays(frame, domain, use_variance, use_coverage)
-    return as_tensor(radiance[None]), as_tensor(features[None]), factor
 
 
 def as_tensor(array: np.ndarray):
