@@ -377,3 +377,52 @@ def test_at_equal_time_both_baselines_draw_the_defaults_seeds(monkeypatch):
     runs = set(seeds["default"])
     assert len(runs) == measure.all_rounds(config.repeats) and min(runs) == 3
     assert set(seeds["path"]) == set(seeds["adaptive"]) == set(seeds["guides"]) == runs
+
+
+def test_an_interrupted_evaluation_resumes_after_its_last_finished_scene(tmp_path, monkeypatch):
+    """The checkpoint keeps each finished scene; a run with the same key measures only the rest, one with another
+    key (other code or configuration) starts over, and uncommitted code never checkpoints."""
+    from types import SimpleNamespace
+
+    from gmcpt.evaluation import checkpoint, measure, plots
+    from gmcpt.evaluation.cli import evaluate
+    from gmcpt.evaluation.config import CONFIGS
+
+    measured = []
+
+    def load(scene, config, say):
+        if scene.name == "b" and len(measured) == 1 and interrupt:
+            raise KeyboardInterrupt
+        measured.append(scene.name)
+        return SimpleNamespace(images={}), {"scene": scene.name}
+
+    rows = lambda loaded, config, say: [{"scene": measured[-1]}]  # noqa: E731
+    for name in ("quality", "placement", "equal_time", "stage_timings"):
+        monkeypatch.setattr(measure, name, rows if name != "stage_timings" else lambda s, c, say: [])
+    monkeypatch.setattr(measure, "load", load)
+    monkeypatch.setattr(measure, "full_resolution", lambda scene, config, say: [{"full": scene.name}])
+    monkeypatch.setattr(plots, "image_grid", lambda *args: None)
+    monkeypatch.setattr(plots, "write_plots", lambda record, out: None)
+    scenes = [SimpleNamespace(name=name, real=False, credit=None) for name in ("a", "b")]
+    config = CONFIGS["quick"]
+    key = checkpoint.resume_key(config, scenes, "c0ffee")
+    interrupt = True
+    with pytest.raises(KeyboardInterrupt):
+        evaluate(config, scenes, tmp_path, lambda message: None, quiet=True, resume=key)
+    assert measured == ["a"] and (tmp_path / checkpoint.PARTIAL).is_file()
+    interrupt = False
+    said = []
+    record = evaluate(config, scenes, tmp_path, said.append, quiet=True, resume=key)
+    assert measured == ["a", "b"] and any("resuming" in line and "a measured" in line for line in said)
+    assert [r["scene"] for r in record["quality"]] == ["a", "b"] and record["runs"] == 2
+    assert record["full_resolution"] == [] and record["done"] == ["a", "b"]  # the quick config's sponza is absent
+    other = checkpoint.resume_key(config, scenes, "decaf")
+    evaluate(config, scenes, tmp_path, lambda message: None, quiet=True, resume=other)
+    assert measured == ["a", "b", "a", "b"]
+    assert checkpoint.resume_key(config, scenes, None) is None
+
+
+def test_a_checkpoint_needs_committed_code(tmp_path):
+    from gmcpt.evaluation.checkpoint import code_version
+
+    assert code_version(tmp_path) is None  # no git here

@@ -7,7 +7,8 @@
 
 References (4096 spp, and a second independent one per scene for its noise
 level) are rendered on the first run and cached (``gmcpt.evaluation.reference``);
-rendering them takes tens of minutes, printed as it goes.
+rendering them takes tens of minutes, printed as it goes. A stopped run resumes after its last finished scene
+(:mod:`gmcpt.evaluation.checkpoint`).
 """
 from __future__ import annotations
 
@@ -26,15 +27,19 @@ from pathlib import Path
 from ..command import Parser
 from ..errors import GmcptError
 from ..exr import atomic_output, check_writable
+from . import checkpoint
 from .config import CONFIGS, SECOND_REFERENCE_SEED
 from .scenes import evaluation_scenes
 
 ROOT = Path(__file__).resolve().parents[2]
+#: the full-resolution check's name among a checkpoint's finished parts
+FULL_RESOLUTION = "full resolution"
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser("eval", "Measure the completion methods against references; rewrite docs/results.md, its "
-                    "plots and the README's results.\nReferences are rendered once (tens of minutes), then cached.")
+                    "plots and the README's results.\nReferences are rendered once (tens of minutes), then cached; a stopped "
+                    "run resumes after its last finished scene.")
     parser.add_argument("--quick", action="store_true", help="the quick configuration (default: full)")
     parser.add_argument("--out", default=str(ROOT / "docs"), help="folder of results.md, results.json, plots")
     parser.add_argument("--scenes", nargs="+", help="named scenes of gmcpt.evaluation.scenes (default: the quality scenes)")
@@ -109,22 +114,40 @@ def _recorded(path: str) -> dict:
     return record
 
 
-def evaluate(config, scenes, out: Path, say, quiet: bool = False) -> dict:
+def evaluate(config, scenes, out: Path, say, quiet: bool = False, resume: dict | None = None) -> dict:
     """Measure everything, write the plots, return the run's record (rows, settings, versions).
 
-    Progress: a bar over the scenes on a terminal (``say``'s lines above it), else ``say``'s lines.
+    Progress: a bar over the scenes on a terminal (``say``'s lines above it), else ``say``'s lines. With a
+    ``resume`` key (:func:`checkpoint.resume_key`) each finished scene is checkpointed in ``out``, and a run with
+    the same key starts after the last one checkpointed.
     """
     from ..progress import Progress
-    from . import measure, plots
+    from . import checkpoint, measure, plots
 
     start = time.perf_counter()
-    record = {"config": asdict(config), "second_reference_seed": SECOND_REFERENCE_SEED, "references": [],
-              "quality": [], "placement": [], "equal_time": [], "full_resolution": [], "stage_timings": [],
-              "grids": {}, "real_scenes": [scene.name for scene in scenes if scene.real],
-              "credits": {scene.name: scene.credit for scene in scenes if scene.credit}}
+    record = checkpoint.load(out, resume)
+    if record is not None:
+        say(f"resuming from {out / checkpoint.PARTIAL}: {', '.join(record['done']) or 'no scene'} measured")
+    else:
+        record = {"config": asdict(config), "second_reference_seed": SECOND_REFERENCE_SEED, "references": [],
+                  "quality": [], "placement": [], "equal_time": [], "full_resolution": [], "stage_timings": [],
+                  "grids": {}, "real_scenes": [scene.name for scene in scenes if scene.real],
+                  "credits": {scene.name: scene.credit for scene in scenes if scene.credit}, "done": [],
+                  "seconds": 0.0}
+    record["runs"] = record.get("runs", 0) + 1
+    earlier = record["seconds"]
+
+    def finished(name: str) -> None:
+        record["done"].append(name)
+        record["seconds"] = earlier + time.perf_counter() - start
+        checkpoint.save(out, resume, record)
+
     with Progress(len(scenes), "eval", unit="scene", say=say, quiet=quiet) as bar:
         say = bar.write
         for index, eval_scene in enumerate(scenes, 1):
+            if eval_scene.name in record["done"]:
+                bar.update(note=eval_scene.name)
+                continue
             tagged = lambda rows: [dict(row, real=eval_scene.real) for row in rows]  # noqa: E731
             say(f"[{index}/{len(scenes)}] {eval_scene.name}: references")
             loaded, noise = measure.load(eval_scene, config, say)
@@ -138,18 +161,20 @@ def evaluate(config, scenes, out: Path, say, quiet: bool = False) -> dict:
             grid = f"grid-{eval_scene.name}.png"
             plots.image_grid(loaded.images, out / grid, f"{eval_scene.name}, rate {config.grid_rate:g} x {config.spp} spp")
             record["grids"][eval_scene.name] = grid
+            finished(eval_scene.name)
             bar.update(note=eval_scene.name)
         full_scene = next((s for s in scenes if s.name == config.full_scene), None)
         if full_scene is None:
             say(f"skipping the full-resolution check: {config.full_scene} is not among the scenes")
-        else:
+        elif FULL_RESOLUTION not in record["done"]:
             say(f"full resolution: {full_scene.name} at {'x'.join(map(str, config.full_size))}")
             record["full_resolution"] = measure.full_resolution(full_scene, config, say)
+            finished(FULL_RESOLUTION)
         timing_scene = next((s for s in scenes if s.name == config.timing_scene), scenes[0])
         say(f"stage timings on {timing_scene.name} at {', '.join(map(str, config.timing_resolutions))} px")
         record["stage_timings"] = measure.stage_timings(timing_scene, config, say)
     plots.write_plots(record, out)
-    record["seconds"] = time.perf_counter() - start
+    record["seconds"] = earlier + time.perf_counter() - start
     return record
 
 
@@ -195,7 +220,8 @@ def main(argv: list[str] | None = None) -> int:
         import mitsuba as mi
         mi.set_log_level(mi.LogLevel.Error)
         commit = _commit()  # before the run rewrites docs/
-        record = evaluate(config, scenes, out, say, quiet=args.quiet)
+        resume = checkpoint.resume_key(config, scenes, checkpoint.code_version(ROOT))
+        record = evaluate(config, scenes, out, say, quiet=args.quiet, resume=resume)
         record.update(command="python -m gmcpt eval" + (" --quick" if args.quick else ""),
                       date=datetime.date.today().isoformat(), commit=commit, versions=_versions(),
                       machine=machine_line())
@@ -204,6 +230,7 @@ def main(argv: list[str] | None = None) -> int:
                                           f" --procedural {args.procedural}" if args.procedural is not None else ""])
         _write_text(out / "results.json", json.dumps(record, indent=1, default=float) + "\n")
         write_documents(record, out, args.readme)
+        checkpoint.discard(out)
         say(f"wrote {out / 'results.md'}, results.json and plots" + (f"; updated {args.readme}" if args.readme else ""))
         return 0
     except GmcptError as error:
