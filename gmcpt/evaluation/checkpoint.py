@@ -2,7 +2,7 @@
 
 The quick evaluation takes close to three hours on two cores; the record of every finished scene is written to
 ``results.partial.json`` in the output folder and read back by the next run with the same configuration, scenes
-and code (a clean git commit). A run on uncommitted code never resumes: its measurements could not be traced to
+and code (committed, its folders' git trees). A run on uncommitted code never resumes: its measurements could not be traced to
 one version.
 """
 from __future__ import annotations
@@ -20,17 +20,18 @@ CODE = ("gmcpt", "mitsuba_plugins", "scenes")
 
 
 def code_version(root: Path) -> str | None:
-    """The commit of ``root``'s checkout, None where it has uncommitted changes to the code or no git."""
+    """The committed trees of ``root``'s code folders (a commit of documents alone keeps them), None where the
+    code has uncommitted changes or there is no git."""
     try:
-        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True,
-                              timeout=10)
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", *(f"HEAD:{folder}" for folder in CODE)],
+                              capture_output=True, text=True, timeout=10)
         changed = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no", "--",
                                   *CODE], capture_output=True, text=True, timeout=10)
     except (OSError, subprocess.SubprocessError):
         return None
     if head.returncode or changed.returncode or changed.stdout.strip():
         return None
-    return head.stdout.strip() or None
+    return " ".join(head.stdout.split()) or None
 
 
 def resume_key(config, scenes, version: str | None) -> dict | None:
