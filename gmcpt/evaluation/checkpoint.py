@@ -2,8 +2,8 @@
 
 The quick evaluation takes close to three hours on two cores; the record of every finished scene is written to
 ``results.partial.json`` in the output folder and read back by the next run with the same configuration, scenes
-and code (committed, its folders' git trees). A run on uncommitted code never resumes: its measurements could not be traced to
-one version.
+and code (committed, its folders' git trees). A run on uncommitted code never resumes: its measurements could not
+be traced to one version.
 """
 from __future__ import annotations
 

@@ -38,11 +38,12 @@ FULL_RESOLUTION = "full resolution"
 
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser("eval", "Measure the completion methods against references; rewrite docs/results.md, its "
-                    "plots and the README's results.\nReferences are rendered once (tens of minutes), then cached; a stopped "
-                    "run resumes after its last finished scene.")
+                    "plots and the README's results.\nReferences are rendered once (tens of minutes), then cached; "
+                    "a stopped run resumes after its last finished scene.")
     parser.add_argument("--quick", action="store_true", help="the quick configuration (default: full)")
     parser.add_argument("--out", default=str(ROOT / "docs"), help="folder of results.md, results.json, plots")
-    parser.add_argument("--scenes", nargs="+", help="named scenes of gmcpt.evaluation.scenes (default: the quality scenes)")
+    parser.add_argument("--scenes", nargs="+",
+                        help="named scenes of gmcpt.evaluation.scenes (default: the quality scenes)")
     parser.add_argument("--procedural", type=int, help="held-out procedural scenes (default: the configuration's)")
     parser.add_argument("--readme", default=str(ROOT / "README.md"), help="README whose results section to rewrite")
     parser.add_argument("--no-readme", dest="readme", action="store_const", const=None,
@@ -122,7 +123,7 @@ def evaluate(config, scenes, out: Path, say, quiet: bool = False, resume: dict |
     the same key starts after the last one checkpointed.
     """
     from ..progress import Progress
-    from . import checkpoint, measure, plots
+    from . import measure, plots
 
     start = time.perf_counter()
     record = checkpoint.load(out, resume)
@@ -133,8 +134,8 @@ def evaluate(config, scenes, out: Path, say, quiet: bool = False, resume: dict |
                   "quality": [], "placement": [], "equal_time": [], "full_resolution": [], "stage_timings": [],
                   "grids": {}, "real_scenes": [scene.name for scene in scenes if scene.real],
                   "credits": {scene.name: scene.credit for scene in scenes if scene.credit}, "done": [],
-                  "seconds": 0.0}
-    record["runs"] = record.get("runs", 0) + 1
+                  "seconds": 0.0, "runs": 0}
+    record["runs"] += 1
     earlier = record["seconds"]
 
     def finished(name: str) -> None:
@@ -159,7 +160,8 @@ def evaluate(config, scenes, out: Path, say, quiet: bool = False, resume: dict |
             say(f"[{index}/{len(scenes)}] {eval_scene.name}: equal-time settings (warm)")
             record["equal_time"] += tagged(measure.equal_time(loaded, config, say))
             grid = f"grid-{eval_scene.name}.png"
-            plots.image_grid(loaded.images, out / grid, f"{eval_scene.name}, rate {config.grid_rate:g} x {config.spp} spp")
+            title = f"{eval_scene.name}, rate {config.grid_rate:g} x {config.spp} spp"
+            plots.image_grid(loaded.images, out / grid, title)
             record["grids"][eval_scene.name] = grid
             finished(eval_scene.name)
             bar.update(note=eval_scene.name)
