@@ -49,6 +49,19 @@ def test_a_time_budgets_passes_are_powers_of_two_that_add_up_to_its_samples(corn
     assert [sampling._pass_size(n) for n in (0, 1, 3, 39, 64)] == [0, 1, 2, 32, 64]
 
 
+@pytest.mark.parametrize("samples_left, expected", [(0.4, 0), (0.6, 1), (1.4, 1), (1.6, 2), (3.6, 4)])
+def test_a_time_budgets_next_pass_is_the_nearest_whole_sample(monkeypatch, samples_left, expected):
+    """Rounded, not floored: a short budget ends within half a sample of its seconds instead of up to one short."""
+    from types import SimpleNamespace
+
+    from gmcpt import sampling
+
+    monkeypatch.setattr(sampling, "completion_seconds", lambda pixels, large=False: 0.0)
+    monkeypatch.setattr(sampling.time, "perf_counter", lambda: 10.0)
+    trace = SimpleNamespace(sums=SimpleNamespace(size=100, samples=100), started=10.0, twin=None)
+    assert sampling._next_pass(trace, samples_left * 0.05, 0.05) == (expected, pytest.approx(samples_left * 0.05))
+
+
 def test_a_time_budgets_guides_come_from_its_samples_first_hits(mi, cornell):
     """As many guide rays as path samples where the integrator has a twin, and no guide pass; a guide pass where
     it has none (``direct``)."""
