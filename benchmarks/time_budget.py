@@ -27,14 +27,13 @@ def main() -> int:
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.pipeline import render_and_complete
     from gmcpt.sampling import RenderSettings
-    from gmcpt.scene import load_scene
+    from gmcpt.scene import load_scene, path_integrator
 
     print(f"{'scene':22s} {'S':>6s} {'wall s':>8s} {'wall / S':>9s} {'spp':>6s}")
     ratios = []
     for eval_scene in evaluation_scenes(args.scenes, procedural=0, say=print):
         scene = load_scene(str(eval_scene.path), resolution=(args.res, args.res))
-        integrator = scene.integrator()
-        integrator = getattr(integrator, "integrator", integrator)  # masked_path's inner integrator
+        integrator = path_integrator(scene)
         render_and_complete(scene, integrator, RenderSettings(time=args.seconds[0]), "gan_oidn")
         for seconds in args.seconds:
             start = time.perf_counter()
