@@ -32,10 +32,12 @@ from .denoise import denoise_oidn
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP
 from .limits import SEED_LIMIT, check_seed
-from .render import SampleSums, _sensor_film_size, feature_means, render_native
+from .guided_path import first_hit_features
+from .render import (FEATURE_SEED_OFFSET, SCATTER_MODE, FeatureMeans, FrozenKernel, SampleSums, _camera_key,
+                     _primary_rays, _seeded_sampler, _sensor_film_size, render_native)
 from .scene import path_integrator, scene_sensor
-from .temporal import (PastFrame, Projection, agreement, cubic_sample, fit_projection, history_weights, matches,
-                       surfaces)
+from .temporal import (LIGHTING_FLOOR, PastFrame, Projection, agreement, cubic_sample, fit_projection, history_weights,
+                       matches, signature, Signature, surfaces, unchanged)
 
 #: Frames of history kept by default, and the weight of a frame's samples per frame of age (0.9 over 0.8: +0.1-0.2
 #: dB on a pan; 16 frames another +0.1 for twice the reprojection time; docs/experiments.md).
@@ -84,40 +86,118 @@ class SequenceSettings:
         return (self.seed + index * FRAME_SEED_STEP) % SEED_LIMIT
 
 
-def centre_rays(sensor: mi.Sensor) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(film coordinates (N, 2), origins (N, 3), directions (N, 3)) of one ray through each pixel's centre."""
-    height, width = _sensor_film_size(sensor)
+@dataclass(frozen=True)
+class Survey:
+    """A frame's pass over its pixels before any path is traced (:func:`survey`): where each pixel's centre ray
+    hit (N, 3; NaN on a miss) and the shading normal there (N, 3), the guides' feature means over the pixel's
+    guide rays (:class:`~gmcpt.render.FeatureMeans`), each pixel's lighting signature (N,: the luminance of the
+    direct light through fixed light samples with the surface's BSDF toward the camera, plus what the surface
+    emits, averaged over the guide rays), and the camera's :class:`~gmcpt.temporal.Projection`."""
+
+    positions: np.ndarray
+    normals: np.ndarray
+    features: FeatureMeans
+    lighting: np.ndarray
+    projection: Projection
+
+
+def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_rays: int, camera: tuple) -> list:
+    """The flat planes of :class:`Survey`: the feature planes and the lighting signature averaged over
+    ``guide_rays`` jittered rays a pixel, then the centre ray's hit (x, y, z, normal x, y, z, hit).
+
+    The signature's light samples are a fixed 2x2 grid over the lights' sampling domain, one a guide ray in turn:
+    the same every frame, so a static surface under static lights keeps its signature, and a changed one is light
+    that changed (a shadow that moved, a light switched or moved, a highlight that slid). Averaged over the pixel's
+    rays, not read at its centre: an emitter's or a shadow's edge covering part of a pixel moves away unseen by a
+    centre ray."""
+    width, height = camera[0]
+    lanes = height * width * guide_rays
+    sampler = _seeded_sampler(sensor, guide_rays, seed, lanes)
+    lane = dr.arange(mi.UInt32, lanes)
+    pixel = lane // dr.opaque(mi.UInt32, guide_rays)
+    ray, _ = _primary_rays(sensor, sampler, pixel, width, guide_rays)
+    si = scene.ray_intersect(ray)
+    hit = si.is_valid()
+    bsdf = si.bsdf(ray)
+    values = first_hit_features(si, bsdf)
+    corner = (lane - pixel * dr.opaque(mi.UInt32, guide_rays)) & 3
+    light_sample = mi.Point2f(mi.Float(corner & 1) * 0.5 + 0.25, mi.Float(corner >> 1) * 0.5 + 0.25)
+    towards, weight = scene.sample_emitter_direction(si, light_sample, True, hit)
+    light = bsdf.eval(mi.BSDFContext(), si, si.to_local(towards.d), hit & (towards.pdf > 0)) * weight
+    light += dr.select(hit, si.emitter(scene).eval(si, hit), 0.0)
+    values.append(dr.select(hit, (light.x + light.y + light.z) / 3, 0.0))
+    share = dr.opaque(mi.Float, 1 / guide_rays)
+    means = [dr.zeros(mi.Float, height * width) for _ in values]
+    for target, value in zip(means, values):
+        dr.scatter_reduce(dr.ReduceOp.Add, target, value * share, pixel, mode=SCATTER_MODE)
+
     index = dr.arange(mi.UInt32, height * width)
     film = mi.Point2f(mi.Float(index % width) + 0.5, mi.Float(index // width) + 0.5)
+    centre, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
+                                  sample2=film / mi.ScalarVector2f(width, height), sample3=mi.Point2f(0.5))
+    centre_hit = scene.ray_intersect(centre)
+    return means + [centre_hit.p.x, centre_hit.p.y, centre_hit.p.z, centre_hit.sh_frame.n.x, centre_hit.sh_frame.n.y,
+                    centre_hit.sh_frame.n.z, dr.select(centre_hit.is_valid(), 1.0, 0.0)]
+
+
+#: :func:`_survey_planes` recorded once per scene, film and guide rays, then replayed
+_frozen_survey = FrozenKernel(_survey_planes)
+
+
+def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 0) -> Survey:
+    """This frame's :class:`Survey` over ``guide_rays`` rays a pixel (seeded by ``seed``), in one pass."""
+    height, width = _sensor_film_size(sensor)
+    feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
+    planes = [np.asarray(plane, np.float32) for plane in
+              _frozen_survey(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), guide_rays,
+                                             _camera_key(sensor)))]
+    features, lighting, centre = planes[:9], planes[9], planes[10:]
+    hit = centre[6] > 0
+    # float32, as traced: the reprojection of 8 past frames reads them every frame, at half float64's traffic
+    positions = np.where(hit[:, None], np.stack(centre[0:3], axis=1), np.float32(np.nan))
+    normals = np.where(hit[:, None], np.stack(centre[3:6], axis=1), np.float32(np.nan))
+    return Survey(positions, normals, FeatureMeans(tuple(features), guide_rays, None, 0, (height, width)), lighting,
+                  camera_projection(sensor))
+
+
+def camera_projection(sensor: mi.Sensor) -> Projection:
+    """The sensor's :class:`~gmcpt.temporal.Projection`, fitted from rays through an 8x8 grid of pixel centres (a
+    grid, not a line of them: 11 numbers to fit)."""
+    height, width = _sensor_film_size(sensor)
+    columns, rows = np.meshgrid(np.linspace(0, width - 1, 8).round() + 0.5, np.linspace(0, height - 1, 8).round() + 0.5)
+    film = np.stack([columns.ravel(), rows.ravel()], axis=1)
     ray, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
-                               sample2=film / mi.ScalarVector2f(width, height), sample3=mi.Point2f(0.5))
-    rays = height * width  # a camera whose rays share an origin or a direction gives one lane of it
-    return (np.stack([np.asarray(film.x), np.asarray(film.y)], axis=1).astype(np.float64),
-            np.broadcast_to(_columns(ray.o), (rays, 3)), np.broadcast_to(_columns(ray.d), (rays, 3)))
+                               sample2=mi.Point2f(*(film / [width, height]).T.astype(np.float32)),
+                               sample3=mi.Point2f(0.5))
+    lanes = film.shape[0]  # a camera whose rays share an origin or a direction gives one lane of it
+    origins = np.broadcast_to(_columns(ray.o), (lanes, 3))
+    return fit_projection(film, origins, np.broadcast_to(_columns(ray.d), (lanes, 3)), width, height)
 
 
 def geometry(scene: mi.Scene, sensor: mi.Sensor) -> tuple[np.ndarray, np.ndarray, Projection]:
     """Where each pixel's centre ray hits (N, 3; NaN on a miss), the shading normal there (N, 3), and the
-    camera's :class:`~gmcpt.temporal.Projection`."""
-    height, width = _sensor_film_size(sensor)
-    film, origins, directions = centre_rays(sensor)
-    ray = mi.Ray3f(mi.Point3f(*origins.T.astype(np.float32)), mi.Vector3f(*directions.T.astype(np.float32)))
-    hit = scene.ray_intersect(ray)
-    dr.eval(hit.p, hit.sh_frame.n, hit.t)
-    valid = np.asarray(hit.is_valid())
-    # float32, as traced: the reprojection of 8 past frames reads them every frame, at half float64's traffic
-    positions = np.where(valid[:, None], _columns(hit.p, np.float32), np.float32(np.nan))
-    normals = np.where(valid[:, None], _columns(hit.sh_frame.n, np.float32), np.float32(np.nan))
-    rows, columns = np.meshgrid(np.linspace(0, height - 1, 8).astype(np.int64),
-                                np.linspace(0, width - 1, 8).astype(np.int64), indexing="ij")
-    picks = (rows * width + columns).ravel()  # a grid of rays, not a line of them: 11 numbers to fit
-    return positions, normals, fit_projection(film[picks], origins[picks], directions[picks], width, height)
+    camera's :class:`~gmcpt.temporal.Projection` (of :func:`survey`)."""
+    found = survey(scene, sensor)
+    return found.positions, found.normals, found.projection
 
 
 def _columns(vector, dtype=np.float64) -> np.ndarray:
     """A Dr.Jit 3-vector of N lanes as (N, 3) ``dtype``."""
     return np.stack([np.asarray(vector.x), np.asarray(vector.y), np.asarray(vector.z)], axis=1).astype(dtype,
                                                                                                      copy=False)
+
+
+@dataclass(frozen=True)
+class History:
+    """What the past frames give the current one (:meth:`SequenceRenderer._history`), flat over its pixels."""
+
+    total: np.ndarray  # (N, 3) weighted sums of the samples kept
+    count: np.ndarray  # (N,) their weighted count
+    offered: np.ndarray  # (N,) bool: some past frame saw the pixel's surface
+    latest_seen: np.ndarray  # (N,) bool: the frame shown last saw it, unchanged
+    latest_film: np.ndarray  # (N, 2) where on that frame's film
+    frames: int  # past frames used
+    dropped: dict  # reason -> share of pixels that lost a past frame's samples for it
 
 
 class SequenceRenderer:
@@ -140,14 +220,15 @@ class SequenceRenderer:
 
         start = time.perf_counter()
         guide_rays = guide_spp(settings.budget, DEFAULT_FEATURE_SPP)
-        guides = feature_means(scene, sensor, guide_rays, seed, visibility=False).buffers()
-        positions, normals, projection = geometry(scene, sensor)
+        found = survey(scene, sensor, guide_rays, settings.seed)  # one seed: a still camera's survey stays put
+        guides = found.features.buffers()
+        marks = signature(found.lighting, guides["albedo"].mean(axis=-1).ravel(), width, height)
         timings["features_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        history_total, history_count, latest_seen, latest_film = self._history(index, positions, normals, pixels)
+        history = self._history(index, found, marks)
         samples = int(round(settings.budget * pixels))
-        counts = _placement(history_count, samples, settings.budget, (height, width), seed)
+        counts = _placement(history.count, samples, settings.budget, (height, width), seed)
         timings["placement_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
@@ -162,11 +243,11 @@ class SequenceRenderer:
         start = time.perf_counter()
         own = total / np.maximum(count, 1)[:, None]
         with np.errstate(invalid="ignore", divide="ignore"):
-            past_mean = history_total / history_count[:, None]
+            past_mean = history.total / history.count[:, None]
         agrees = agreement(own.reshape(height, width, 3), np.nan_to_num(past_mean).reshape(height, width, 3),
-                           (history_count > 0).reshape(height, width)).ravel()
-        kept = np.where(agrees, history_count, 0.0)
-        image = (total + history_total * agrees[:, None]) / np.maximum(count + kept, 1e-9)[:, None]
+                           (history.count > 0).reshape(height, width)).ravel()
+        kept = np.where(agrees, history.count, 0.0)
+        image = (total + history.total * agrees[:, None]) / np.maximum(count + kept, 1e-9)[:, None]
         timings["combine_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
@@ -175,32 +256,45 @@ class SequenceRenderer:
         timings["denoise_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        shown, carried = self._carried(denoised, latest_film, latest_seen & agrees)
+        shown, carried = self._carried(denoised, history.latest_film, history.latest_seen & agrees)
         timings["carry_s"] = time.perf_counter() - start
 
         if settings.history:
             # float32, as the samples were traced: 8 past frames' gathers a frame at half float64's traffic
-            self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), positions, normals,
-                                       projection))
+            self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), found.positions,
+                                       found.normals, found.projection, marks))
             self.shown = (index, shown)
+        dropped = dict(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
         info = {"frame": index, "seed": seed, "budget": settings.budget, "path_samples": int(counts.sum()),
-                "history_frames": len(self.past) - 1 if settings.history else 0,
+                "history_frames": history.frames,
                 "history_pixels": float((kept > 0).mean()), "history_samples": float(kept.mean()),
-                "history_dropped": float(((history_count > 0) & ~agrees).mean()), "carried_pixels": carried,
+                "history_dropped": float((history.offered & ~((history.count > 0) & agrees)).mean()),
+                "dropped": dropped, "carried_pixels": carried,
                 "nonfinite_samples": int(sums.samples - count.sum()), "guide_rays": guide_rays}
         return shown, info, timings
 
-    def _history(self, index: int, positions: np.ndarray, normals: np.ndarray,
-                 pixels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The past frames' samples reprojected into this frame, weighted by age: (sums (N, 3), counts (N,)); and
-        where the frame last shown saw this frame's surfaces (N,) bool, with where they landed on its film (N, 2)."""
+    def _history(self, index: int, found: Survey, marks: Signature) -> History:
+        """The past frames' samples reprojected into this frame (``found``: its :func:`survey`; ``marks``: its
+        :class:`~gmcpt.temporal.Signature`), weighted by age, where each past pixel saw the same surface under the
+        same light and material (:func:`~gmcpt.temporal.unchanged`)."""
+        pixels = found.lighting.size
         summed, latest_seen = np.zeros((pixels, 4), np.float32), np.zeros(pixels, bool)
         latest_film = np.zeros((pixels, 2), np.float32)
+        offered = np.zeros(pixels, bool)
+        dropped = {"lighting": np.zeros(pixels, bool), "material": np.zeros(pixels, bool)}
         usable = [past for past in self.past if past.index < index and past.total.shape[0] == pixels]
         weights = history_weights([index - past.index for past in usable], self.settings.decay)
-        current = surfaces(positions, normals)
+        current = surfaces(found.positions, found.normals)
+        hits = found.lighting[current.pixels]
+        floor = LIGHTING_FLOOR * float(hits.mean()) if hits.size else 0.0
         for past, weight in zip(usable, weights):
             seen, source, film = matches(past, current)
+            lit, same_material = unchanged(past.signature, source, marks, seen, film, floor)
+            held = lit & same_material
+            offered[seen] = True
+            dropped["lighting"][seen[~lit]] = True
+            dropped["material"][seen[lit & ~same_material]] = True
+            seen, source, film = seen[held], source[held], film[held]
             # a gather over every pixel (the unmatched read a zero row), not a scatter into the matched ones:
             # half the time
             rows = np.full(pixels, pixels, np.int32)
@@ -208,7 +302,9 @@ class SequenceRenderer:
             summed += past.gatherable[rows] * np.float32(weight)
             if self.shown is not None and past.index == self.shown[0]:
                 latest_seen[seen], latest_film[seen] = True, film
-        return summed[:, :3], summed[:, 3], latest_seen, latest_film
+        shares = {reason: float(where.mean()) for reason, where in dropped.items()}
+        shares["unseen"] = float((~offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0
+        return History(summed[:, :3], summed[:, 3], offered, latest_seen, latest_film, len(usable), shares)
 
     def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, float]:
         """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`),
@@ -227,6 +323,7 @@ class SequenceRenderer:
         for slot, past in enumerate(self.past):
             for name in ("total", "count", "positions", "normals"):
                 state[f"{slot}_{name}"] = getattr(past, name)
+            state[f"{slot}_lighting"], state[f"{slot}_albedo"] = past.signature.lighting, past.signature.albedo
             state[f"{slot}_index"] = np.array(past.index)
             state[f"{slot}_matrix"] = past.projection.matrix
             state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
@@ -244,7 +341,8 @@ class SequenceRenderer:
             width, height = (int(value) for value in state[f"{slot}_size"])
             self.past.append(PastFrame(int(state[f"{slot}_index"]), state[f"{slot}_total"], state[f"{slot}_count"],
                                        state[f"{slot}_positions"], state[f"{slot}_normals"],
-                                       Projection(state[f"{slot}_matrix"], width, height)))
+                                       Projection(state[f"{slot}_matrix"], width, height),
+                                       signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height)))
             slot += 1
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
 

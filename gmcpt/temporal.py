@@ -29,6 +29,17 @@ DISAGREE_RADIUS = 7
 #: A pixel's luminance counts in the test up to this many times its image's mean: one firefly among a frame's
 #: few samples is no changed light (unclipped, the dining room's pan lost 6-9% of its history to them).
 DISAGREE_CLIP = 4.0
+#: History brighter than this many times the brightest current pixel around it is left out (:func:`agreement`).
+OUTLIER_RATIO = 8.0
+#: A past pixel's history is kept only where its lighting signature (:func:`gmcpt.sequence.survey`: direct light
+#: through fixed light samples, the same every frame) and the current pixel's differ by at most this share of the
+#: larger, :data:`LIGHTING_FLOOR` x the frame's mean and what a sub-pixel shift explains (:func:`unchanged`): a
+#: shadow that moved, a light switched or moved, a highlight that slid.
+LIGHTING_RATIO = 0.08
+LIGHTING_FLOOR = 0.02
+#: The same test on the guides' albedo (a changed material, the edge of an object that moved over its background),
+#: with an absolute margin: albedos are within [0, 1].
+ALBEDO_MARGIN = 0.05
 
 
 @dataclass(frozen=True)
@@ -96,6 +107,7 @@ class PastFrame:
     positions: np.ndarray  # (N, 3) where each pixel's centre ray hit (NaN on a miss)
     normals: np.ndarray  # (N, 3)
     projection: Projection
+    signature: "Signature | None" = None  # its lighting and albedo (for :func:`unchanged`)
 
     @functools.cached_property
     def gatherable(self) -> np.ndarray:
@@ -139,6 +151,57 @@ def matches(past: PastFrame, current: Surfaces) -> tuple[np.ndarray, np.ndarray,
     same = (np.einsum("ij,ij->i", step, step) <= DEPTH_TOLERANCE ** 2 * np.einsum("ij,ij->i", away, away)) & \
         (np.einsum("ij,ij->i", past.normals[source], current.normals[inside]) >= NORMAL_COSINE)
     return current.pixels[inside[same]], source[same], film[inside[same]]
+
+
+@dataclass(frozen=True)
+class Signature:
+    """A frame's lighting signature and albedo luminance (N,) each at its pixels, and how much each varies over the
+    pixel's 3x3 neighbourhood (greatest less least): what :func:`unchanged` compares."""
+
+    lighting: np.ndarray
+    albedo: np.ndarray
+    lighting_spread: np.ndarray
+    albedo_spread: np.ndarray
+
+
+def signature(lighting: np.ndarray, albedo: np.ndarray, width: int, height: int) -> Signature:
+    """The :class:`Signature` of a ``width`` x ``height`` frame's flat ``lighting`` and ``albedo`` (N,)."""
+    spreads = [np.subtract(*_neighbourhood_range(values, width, height)[::-1]) for values in (lighting, albedo)]
+    return Signature(lighting, albedo, *spreads)
+
+
+def unchanged(past: Signature, source: np.ndarray, current: Signature, pixels: np.ndarray, film: np.ndarray,
+              lighting_floor: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lighting held, albedo held) (K,) bool each, for the current ``pixels`` (K,) that :func:`matches` paired
+    with ``past`` pixels ``source`` (K,), landing at ``film`` (K, 2) on the past film.
+
+    The two frames' values may differ by :data:`LIGHTING_RATIO` of the larger (:data:`ALBEDO_MARGIN` for the
+    albedo), by ``lighting_floor`` (:data:`LIGHTING_FLOOR` x the current frame's mean, so that the dark does not
+    count its rounding), and by as much of their neighbourhoods' spread as the point landed off the past pixel's
+    centre (none at the centre, all of it half a pixel off): a still camera compares like with like, and a moving
+    one allows what a sub-pixel shift across an edge changes. A neighbourhood's range alone let the trailing edge
+    of a light that moved by less than a pixel a frame keep its light."""
+    offset = np.abs(film - np.floor(film) - np.float32(0.5)).max(axis=1)
+    shifted = np.minimum(np.float32(2) * offset, np.float32(1)).astype(np.float32)
+    held = []
+    for name, ratio, margin in (("lighting", LIGHTING_RATIO, lighting_floor), ("albedo", 0.0, ALBEDO_MARGIN)):
+        mine, theirs = getattr(current, name)[pixels], getattr(past, name)[source]
+        spread = np.maximum(getattr(current, f"{name}_spread")[pixels], getattr(past, f"{name}_spread")[source])
+        allowed = shifted * spread + np.float32(ratio) * np.maximum(mine, theirs) + np.float32(margin)
+        held.append(np.abs(mine - theirs) <= allowed)
+    return held[0], held[1]
+
+
+def _neighbourhood_range(values: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """(least, greatest) of flat ``values`` (N,) over each pixel's 3x3 neighbourhood on a ``width`` x ``height``
+    film (edges replicated), flat float32."""
+    plane = np.pad(values.astype(np.float32, copy=False).reshape(height, width), 1,
+                   mode="edge")
+    ranges = []
+    for reduce in (np.minimum, np.maximum):  # separable: rows of three, then columns of three
+        rows = reduce(reduce(plane[:-2], plane[1:-1]), plane[2:])
+        ranges.append(reduce(reduce(rows[:, :-2], rows[:, 1:-1]), rows[:, 2:]).ravel())
+    return ranges[0], ranges[1]
 
 
 def reproject(past: PastFrame, positions: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -186,12 +249,20 @@ def agreement(current_mean: np.ndarray, history_mean: np.ndarray, has_history: n
     bright, and that selection alone lost 4 dB over five frames of a still camera (docs/experiments.md); a
     15x15 neighbourhood and a factor of 3 dropped 1% of a still camera's history at 2 spp. Each luminance is
     clipped at :data:`DISAGREE_CLIP` x its image's mean, so fireflies do not count as a change.
+
+    And unclipped, pixel by pixel: history brighter than :data:`OUTLIER_RATIO` x the brightest of the current
+    samples' 3x3 neighbourhood is left out: the trailing edge of a light that moved, whose samples a few guide
+    rays need not see (:func:`unchanged`), is far brighter than anything near it now.
     """
-    current, past = _clipped(_luminance(current_mean)), _clipped(_luminance(history_mean))
-    floor = 0.05 * max(float(current.mean()), 1e-12)  # dark regions: noise, not a changed light
+    brightest = _luminance(current_mean)
+    floor = 0.05 * max(float(brightest.mean()), 1e-12)  # dark regions: noise, not a changed light
+    current, past = _clipped(brightest), _clipped(_luminance(history_mean))
     near, far = _box(np.where(has_history, current, 0.0)), _box(np.where(has_history, past, 0.0))
     near, far = near + floor, far + floor
-    return ~has_history | ((near <= DISAGREE_RATIO * far) & (far <= DISAGREE_RATIO * near))
+    width = brightest.shape[1]
+    brightest = _neighbourhood_range(brightest.ravel(), width, brightest.shape[0])[1].reshape(brightest.shape)
+    stale = _luminance(history_mean) > OUTLIER_RATIO * (brightest + floor)
+    return ~has_history | ((near <= DISAGREE_RATIO * far) & (far <= DISAGREE_RATIO * near) & ~stale)
 
 
 def _luminance(image: np.ndarray) -> np.ndarray:

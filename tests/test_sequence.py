@@ -77,3 +77,55 @@ def test_bad_settings_get_one_line(settings, message):
 
     with pytest.raises(GmcptError, match=message):
         SequenceSettings(**settings)
+
+
+def _move(mi, parameters, key, base, offset):
+    """Shape ``key``'s vertices at ``base`` + ``offset``, made opaque (no kernel compiled for the move)."""
+    import drjit as dr
+
+    parameters[key] = mi.Float((base + np.asarray(offset, np.float32)).ravel())
+    dr.make_opaque(parameters[key])
+    parameters.update()
+
+
+def test_a_moving_shapes_old_shadow_is_gone_within_one_frame(mi):
+    from gmcpt.render import render_native
+    from gmcpt.scene import path_integrator
+    from gmcpt.sequence import survey
+
+    scene = _scene()
+    sensor, integrator = scene.sensors()[0], path_integrator(scene)
+    parameters, key = mi.traverse(scene), "short_block.vertex_positions"
+    base = np.array(parameters[key]).reshape(-1, 3)
+    before = survey(scene, sensor).lighting
+    renderer = _renderer()
+    for index in range(4):  # history builds up with the block in place
+        renderer.render(scene, index, integrator)
+    _move(mi, parameters, key, base, [-0.35, 0.0, 0.0])
+    after = survey(scene, sensor).lighting
+    old_shadow = (after > 4 * before + 0.05 * after.mean()) & (before < 0.1 * after.mean())  # lit now, dark before
+    assert old_shadow.mean() > 0.01
+    image, info, _ = renderer.render(scene, 4, integrator)
+    reference = sum(render_native(scene, sensor, integrator, 64, 900 + i) for i in range(4)) / 4
+    luminance = image.reshape(-1, 3).mean(axis=1)
+    assert info["dropped"]["lighting"] > 0.25 * old_shadow.mean()
+    # the old shadow's pixels are as bright as they are now, not darkened by the history of the shadow
+    assert luminance[old_shadow].mean() > 0.9 * reference.mean(axis=1)[old_shadow].mean()
+
+
+def test_a_light_switched_off_or_on_drops_its_history(mi):
+    scene = _scene()
+    renderer = _renderer()
+    parameters = mi.traverse(scene)
+    key = next(k for k in parameters.keys() if k.endswith("radiance.value") and "light" in k)
+    radiance = mi.Color3f(parameters[key])
+    lit = [renderer.render(scene, index)[0].mean() for index in range(3)]
+    parameters[key] = mi.Color3f(0.0)
+    parameters.update()
+    image, info, _ = renderer.render(scene, 3)
+    # the directly lit pixels drop for their lighting, the rest (the ceiling, the shadows) as they disagree
+    assert image.mean() < 0.02 * np.mean(lit) and info["history_dropped"] > 0.95 and info["dropped"]["lighting"] > 0.5
+    parameters[key] = radiance
+    parameters.update()
+    image, info, _ = renderer.render(scene, 4)  # the dark frame's history goes, the lit frames' before it stays
+    assert abs(image.mean() / np.mean(lit) - 1) < 0.1 and info["dropped"]["lighting"] > 0.5

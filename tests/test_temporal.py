@@ -98,3 +98,49 @@ def test_recent_frames_weigh_most():
     assert history_weights([1, 2, 3], 0.5) == [0.5, 0.25, 0.125]
     with pytest.raises(GmcptError, match="decay"):
         history_weights([1], 0.0)
+
+
+def _edge(width=6, height=4, at=3, low=0.0, high=1.0):
+    """A signature with a step from ``low`` to ``high`` at column ``at`` (lighting), flat albedo."""
+    from gmcpt.temporal import signature
+
+    lighting = np.where(np.arange(width * height) % width < at, low, high).astype(np.float32)
+    return signature(lighting, np.full(width * height, 0.5, np.float32), width, height)
+
+
+def test_a_still_camera_keeps_a_static_edge_and_drops_one_that_moved():
+    from gmcpt.temporal import unchanged
+
+    pixels = np.arange(24)
+    centred = np.stack([pixels % 6 + 0.5, pixels // 6 + 0.5], axis=1).astype(np.float32)
+    lit, same = unchanged(_edge(), pixels, _edge(), pixels, centred, 0.0)
+    assert lit.all() and same.all()
+    # the edge moved by one pixel: only the column it crossed changed, and its wide spread excuses nothing there
+    lit, _ = unchanged(_edge(at=3), pixels, _edge(at=2), pixels, centred, 0.0)
+    np.testing.assert_array_equal(~lit, pixels % 6 == 2)
+
+
+def test_half_a_pixel_off_the_past_centre_excuses_what_a_sub_pixel_shift_changes_across_an_edge():
+    from gmcpt.temporal import unchanged
+
+    pixels = np.arange(24)
+    half = np.stack([pixels % 6 + 1.0, pixels // 6 + 0.5], axis=1).astype(np.float32)  # half a pixel off
+    lit, _ = unchanged(_edge(at=3), pixels, _edge(at=2), pixels, half, 0.0)
+    assert lit.all()
+    quarter = half - np.float32([0.25, 0.0])  # a quarter off: half the spread excused, the full step is not
+    lit, _ = unchanged(_edge(at=3), pixels, _edge(at=2), pixels, quarter, 0.0)
+    assert not lit[pixels % 6 == 2].any()
+
+
+def test_a_switched_light_or_a_changed_material_is_no_longer_the_same():
+    from gmcpt.temporal import signature, unchanged
+
+    pixels = np.arange(24)
+    centred = np.stack([pixels % 6 + 0.5, pixels // 6 + 0.5], axis=1).astype(np.float32)
+    on = signature(np.ones(24, np.float32), np.full(24, 0.5, np.float32), 6, 4)
+    off = signature(np.zeros(24, np.float32), np.full(24, 0.5, np.float32), 6, 4)
+    dimmer = signature(np.full(24, 0.95, np.float32), np.full(24, 0.8, np.float32), 6, 4)
+    assert not unchanged(on, pixels, off, pixels, centred, 0.02)[0].any()
+    assert not unchanged(off, pixels, on, pixels, centred, 0.02)[0].any()
+    lit, same = unchanged(on, pixels, dimmer, pixels, centred, 0.02)  # 5% dimmer light: within the ratio
+    assert lit.all() and not same.any()
