@@ -35,9 +35,10 @@ from .limits import SEED_LIMIT, check_seed
 from .guided_path import first_hit_features
 from .render import (FEATURE_SEED_OFFSET, SCATTER_MODE, FeatureMeans, FrozenKernel, SampleSums, _camera_key,
                      _primary_rays, _seeded_sampler, _sensor_film_size, render_native)
+from .reprojection import JitFrame, gather_history, jit_frame
 from .scene import path_integrator, scene_sensor
-from .temporal import (LIGHTING_FLOOR, PastFrame, Projection, agreement, cubic_sample, fit_projection, history_weights,
-                       matches, signature, Signature, surfaces, unchanged)
+from .temporal import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, cubic_sample, fit_projection,
+                       history_weights, signature)
 
 #: Frames of history kept by default, and the weight of a frame's samples per frame of age (0.9 over 0.8: +0.1-0.2
 #: dB on a pan; 16 frames another +0.1 for twice the reprojection time; docs/experiments.md).
@@ -208,6 +209,7 @@ class SequenceRenderer:
         self.settings = settings
         self.past: deque[PastFrame] = deque(maxlen=max(settings.history, 1))
         self.shown: tuple[int, np.ndarray] | None = None  # (frame, image) of the last frame shown
+        self._jit: dict[int, tuple[PastFrame, JitFrame]] = {}  # the past frames in Dr.Jit, by id
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
                sensor: mi.Sensor | None = None) -> tuple[np.ndarray, dict, dict]:
@@ -278,33 +280,25 @@ class SequenceRenderer:
         :class:`~gmcpt.temporal.Signature`), weighted by age, where each past pixel saw the same surface under the
         same light and material (:func:`~gmcpt.temporal.unchanged`)."""
         pixels = found.lighting.size
-        summed, latest_seen = np.zeros((pixels, 4), np.float32), np.zeros(pixels, bool)
-        latest_film = np.zeros((pixels, 2), np.float32)
-        offered = np.zeros(pixels, bool)
-        dropped = {"lighting": np.zeros(pixels, bool), "material": np.zeros(pixels, bool)}
         usable = [past for past in self.past if past.index < index and past.total.shape[0] == pixels]
         weights = history_weights([index - past.index for past in usable], self.settings.decay)
-        current = surfaces(found.positions, found.normals)
-        hits = found.lighting[current.pixels]
+        hits = found.lighting[np.isfinite(found.positions[:, 0])]
         floor = LIGHTING_FLOOR * float(hits.mean()) if hits.size else 0.0
-        for past, weight in zip(usable, weights):
-            seen, source, film = matches(past, current)
-            lit, same_material = unchanged(past.signature, source, marks, seen, film, floor)
-            held = lit & same_material
-            offered[seen] = True
-            dropped["lighting"][seen[~lit]] = True
-            dropped["material"][seen[lit & ~same_material]] = True
-            seen, source, film = seen[held], source[held], film[held]
-            # a gather over every pixel (the unmatched read a zero row), not a scatter into the matched ones:
-            # half the time
-            rows = np.full(pixels, pixels, np.int32)
-            rows[seen] = source
-            summed += past.gatherable[rows] * np.float32(weight)
-            if self.shown is not None and past.index == self.shown[0]:
-                latest_seen[seen], latest_film[seen] = True, film
-        shares = {reason: float(where.mean()) for reason, where in dropped.items()}
-        shares["unseen"] = float((~offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0
-        return History(summed[:, :3], summed[:, 3], offered, latest_seen, latest_film, len(usable), shares)
+        latest = self.shown[0] if self.shown is not None else None
+        frames = [(self._jit_frame(past), weight, past.index == latest) for past, weight in zip(usable, weights)]
+        gathered = gather_history(frames, found.positions, found.normals, marks, floor)
+        shares = {"lighting": float(gathered.lighting_dropped.mean()),
+                  "material": float(gathered.material_dropped.mean()),
+                  "unseen": float((~gathered.offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0}
+        return History(gathered.summed[:, :3], gathered.summed[:, 3], gathered.offered, gathered.latest_seen,
+                       gathered.latest_film, len(usable), shares)
+
+    def _jit_frame(self, past: PastFrame) -> JitFrame:
+        """``past`` in Dr.Jit, made once (kept while the frame is in the history)."""
+        self._jit = {key: entry for key, entry in self._jit.items() if any(entry[0] is frame for frame in self.past)}
+        if id(past) not in self._jit:  # the entry holds the frame itself, so no other frame takes its id meanwhile
+            self._jit[id(past)] = (past, jit_frame(past))
+        return self._jit[id(past)][1]
 
     def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, float]:
         """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`),

@@ -129,3 +129,28 @@ def test_a_light_switched_off_or_on_drops_its_history(mi):
     parameters.update()
     image, info, _ = renderer.render(scene, 4)  # the dark frame's history goes, the lit frames' before it stays
     assert abs(image.mean() / np.mean(lit) - 1) < 0.1 and info["dropped"]["lighting"] > 0.5
+
+
+def test_the_jit_gather_keeps_what_the_numpy_tests_keep(mi):
+    from gmcpt.reprojection import gather_history, jit_frame
+    from gmcpt.temporal import matches, surfaces, unchanged
+
+    renderer = _renderer()
+    renderer.render(_scene(frame=0), 0)
+    scene = _scene(frame=2)  # the camera turned two degrees
+    renderer.render(scene, 1)
+    past, current = renderer.past[0], renderer.past[1]  # frame 1's survey, as the next frame would see it
+    floor = 0.01
+    seen, source, film = matches(past, surfaces(current.positions, current.normals))
+    lit, same = unchanged(past.signature, source, current.signature, seen, film, floor)
+    gathered = gather_history([(jit_frame(past), 0.5, True)], current.positions, current.normals,
+                              current.signature, floor)
+    expected = np.zeros(current.count.size, bool)
+    expected[seen[lit & same]] = True
+    assert 0.3 < expected.mean() < 0.99 and (lit & same).mean() < 1  # some kept, some not
+    assert np.mean(gathered.latest_seen != expected) < 1e-3  # float rounding may flip a pixel on a boundary
+    both = expected & gathered.latest_seen
+    rows = np.zeros(current.count.size, np.int64)
+    rows[seen] = source
+    np.testing.assert_allclose(gathered.summed[both, 3], 0.5 * past.count[rows[both]], rtol=1e-6)
+    np.testing.assert_allclose(gathered.latest_film[both], film[np.isin(seen, np.flatnonzero(both))], atol=1e-3)
