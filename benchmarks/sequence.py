@@ -1,27 +1,49 @@
 #!/usr/bin/env python3
 """Sequences: the sequence mode against per-frame path tracing + OIDN and temporal accumulation + OIDN.
 
-An evaluation scene's camera moves over ``--frames`` frames (``--motion``: ``pan`` turns it about its own up
-axis by ``--step`` degrees a frame, ``dolly`` moves it along its view by ``--step`` hundredths of a scene unit,
-``still`` keeps it); each frame has two independent references (``--reference-spp`` each, cached; PSNR is read
-against their mean). Contenders, each at a ladder of samples a pixel a frame:
+An evaluation scene changes over ``--frames`` frames in each ``--motion`` in turn (``--step MOTION=VALUE`` sets the
+pace of ``pan``, ``dolly`` and ``light``):
 
-- ``path+oidn``: every frame on its own, ``mi.render`` + guides (charged an ``aov`` pass) + OIDN;
-- ``accumulation+oidn``: the same samples averaged with the previous frames' accumulated image, reprojected
-  to the nearest pixel with the depth and normal tests of :mod:`gmcpt.temporal`, an exponential moving average
-  (weight ``max(1 / n, 0.2)`` for the new samples, n the pixel's history length), then OIDN: SVGF's
-  accumulation, the strongest simple alternative;
-- ``sequence``: :class:`gmcpt.sequence.SequenceRenderer` at the same budget.
+- ``pan``: the camera turns about its own up axis, 0.5 degrees a frame;
+- ``dolly``: the camera moves along its view, 0.5 hundredths of a scene unit a frame;
+- ``object``: the camera stays; one object of the room (:data:`MOVING_OBJECTS`: the living room's table with its
+  bottle and glasses, the dining and breakfast rooms' front left chair) slides sideways at its own pace, about
+  2 pixels a frame at 256x256, and its shadow with it;
+- ``light``: the camera stays; the scene's main light (the living room's sky, the dining room's sun, the breakfast
+  room's sun sphere) turns about the vertical through the scene's centre, 1 degree a frame: the sun's patches and
+  the shadows move across the room;
+- ``still``: nothing moves.
 
-The contenders take turns frame by frame, so a machine whose pace drifts slows them alike. Printed: mean
-PSNR over the frames after the first ``--warm`` (history needs frames to build), mean warm time
-a frame, the flicker figures of :mod:`gmcpt.evaluation.stability` (``flicker``: the error of frame-to-frame
-changes along the motion; ``screen_flicker``: in place; both read against the two references, so their noise
-is no floor), and the equal-time speed-up of the sequence mode over each baseline
-(:func:`gmcpt.evaluation.report.equal_time_verdict`) with its flicker over the baseline's at the same time.
+A motion sets the scene's parameters through ``mi.traverse``, made opaque (``dr.make_opaque``) so that a new frame
+compiles no kernel of its own, and the contenders and the references see the same scene at each frame. Where shapes
+move (``object``, a light that is a shape), gmcpt's frozen kernels run as plain Dr.Jit code, as ``mi.render`` does
+(:class:`gmcpt.render.FrozenKernel`). Each frame has two independent
+references (``--reference-spp`` each, cached under the motion; PSNR is read against their mean). Contenders, each
+at a ladder of samples a pixel a frame:
 
-    python benchmarks/sequence.py [--scenes living-room] [--frames 12] [--res 128] [--motion pan]
-        [--record docs/sequences.json]
+- ``path+oidn`` (``--path-spp``): every frame on its own, as a Mitsuba user denoises it: ``mi.render`` at the
+  samples, then one pass of Mitsuba's ``aov`` integrator (albedo, shading normal) at as many samples whose images
+  are OIDN's guides (the albedo clipped to [0, 1], OIDN's range), then OIDN; all three timed;
+- ``accumulation+oidn`` (``--path-spp``): the same samples averaged with the previous frames' accumulated image,
+  reprojected to the nearest pixel with the depth and normal tests of :mod:`gmcpt.temporal`, an exponential moving
+  average (weight ``max(1 / n, 0.2)`` for the new samples, n the pixel's history length), then the same guides and
+  OIDN: SVGF's accumulation, the strongest simple alternative;
+- ``sequence`` (``--budgets``): :class:`gmcpt.sequence.SequenceRenderer` at the same budget.
+
+The contenders take turns frame by frame, so a machine whose pace drifts slows them alike. Printed per scene,
+motion and setting, over the frames after the first ``--warm`` (history needs frames to build): mean PSNR;
+``psnr_changed``, the PSNR over the pixels whose true image changed since the frame before (a moving object's old
+and new place, its shadow, a light's patches, what a camera move uncovers: where stale history shows;
+:func:`gmcpt.evaluation.stability.changed_pixels`), pooled over the frames, with the share of such pixels; mean warm
+time a frame; the flicker figures of :mod:`gmcpt.evaluation.stability` (``flicker``: the error of frame-to-frame
+changes along the camera's motion; ``screen_flicker``: in place; both read against the two references, so their
+noise is no floor). Then per baseline: the equal-time speed-up of the sequence mode over it
+(:func:`gmcpt.evaluation.report.equal_time_verdict`), its flicker over the baseline's at the same seconds a frame,
+and its ``psnr_changed`` minus the baseline's at the same seconds (``changed_gap_db``: below 0 the sequence is
+behind where the scene changed; :mod:`gmcpt.evaluation.sequences`).
+
+    python benchmarks/sequence.py [--scenes living-room] [--frames 12] [--res 128] [--motion pan object]
+        [--step pan=0.5 light=1] [--record docs/sequences.json]
 
 ``--record``: the rows, the verdicts and the settings as JSON, a plot beside it (``.png``); ``gmcpt eval --from
 docs/results.json`` then puts them in ``docs/results.md``.
@@ -31,13 +53,53 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import zlib
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 ACCUMULATION_MIN_WEIGHT = 0.2
+MOTIONS = ("pan", "dolly", "object", "light", "still")
+#: The pace of the motions that ``--step`` sets: degrees a frame (pan, light), hundredths of a unit (dolly).
+DEFAULT_STEPS = {"pan": 0.5, "dolly": 0.5, "light": 1.0}
+#: Mitsuba's ``aov`` integrator for OIDN's guides, as a Mitsuba user would render them.
+AOV_GUIDES = {"type": "aov", "aovs": "a:albedo,n:sh_normal"}
+#: The vertical axis of the evaluation's real scenes (their floors are level in y), about which a light turns.
+UP = np.array([0.0, 1.0, 0.0])
+
+
+@dataclass(frozen=True)
+class MovingObject:
+    """One object of a scene that the ``object`` motion slides: its meshes (Mitsuba names an imported OBJ mesh by
+    its file; the real scenes' shapes have no ids), a unit direction in world space and its pace a frame."""
+
+    name: str  # in words
+    meshes: tuple[str, ...]
+    direction: tuple[float, float, float]
+    step: float  # scene units a frame
+
+    def label(self) -> str:
+        """What the references' cache is keyed by: the object, its direction and pace."""
+        return f"object{zlib.crc32(repr(self).encode()):08x}"
+
+
+#: Per scene, the object that slides: in plain view, mid-sized, casting a shadow where the light falls. The living
+#: room's round table (top, stem, foot) with its bottle and glasses stands in the sun's patch before the windows
+#: and moves to the left across it (metres, 4 cm a frame); the dining and breakfast rooms (one model, lit by a sun
+#: from the right) move their front left chair (shell and chrome legs) to the left along the table, its shadow on
+#: the floor beside it (6 hundredths of a unit a frame). About 2 pixels a frame at 256x256 in each.
+FRONT_LEFT_CHAIR = MovingObject("the front left chair", ("Mesh010.obj", "Mesh036.obj"), (-1.0, 0.0, 0.0), 0.06)
+MOVING_OBJECTS = {
+    "living-room": MovingObject("the round table with its bottle and glasses",
+                                ("Mesh000.obj", "Mesh031.obj", "Mesh037.obj", "Mesh001.obj", "Mesh002.obj",
+                                 "Mesh030.obj", "Mesh044.obj"), (0.0, 0.0, 1.0), 0.04),
+    "dining-room": FRONT_LEFT_CHAIR,
+    "breakfast-room-open": FRONT_LEFT_CHAIR,
+}
 
 
 def moved(base, motion: str, step: float, frame: int):
@@ -51,28 +113,175 @@ def moved(base, motion: str, step: float, frame: int):
     return base
 
 
+def turned(value, name: str, degrees: float, pivot: np.ndarray):
+    """A light's parameter ``name`` (its value as ``mi.traverse`` holds it) turned by ``degrees`` about the
+    vertical through ``pivot``: a transform (``to_world``), points (``vertex_positions``, ``position``) or a
+    direction (``sun_direction``, ``direction``), in the parameter's own type, opaque."""
+    import drjit as dr
+    import mitsuba as mi
+
+    turn = mi.ScalarTransform4f().translate(pivot.tolist()) @ mi.ScalarTransform4f().rotate(UP.tolist(), degrees) \
+        @ mi.ScalarTransform4f().translate((-pivot).tolist())
+    matrix = np.array(turn.matrix, dtype=np.float64).reshape(4, 4)
+    if name == "to_world":
+        result = type(value)(mi.ScalarMatrix4f(matrix @ np.array(value.matrix, dtype=np.float64).reshape(4, 4)))
+    elif name == "vertex_positions":
+        points = np.array(value, dtype=np.float64).reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+        result = type(value)(points.ravel())
+    elif name in ("position", "sun_direction", "direction"):  # one point, or one direction that has no place
+        vector = matrix[:3, :3] @ np.array(value, dtype=np.float64).reshape(3)
+        result = type(value)(*(vector + matrix[:3, 3] if name == "position" else vector).tolist())
+    else:
+        raise ValueError(f"no way to turn a light's {name}")
+    dr.make_opaque(result)
+    return result
+
+
+class NoMotion(Exception):
+    """A scene has nothing that a motion moves (no object chosen for it, no one main light)."""
+
+
+class SceneMotion:
+    """A scene as it is at each frame of one motion (:meth:`at`), its parameters set through ``mi.traverse`` and
+    made opaque: a literal would be compiled into every kernel that reads it, so each frame would compile them
+    all again (a second and more a frame on two cores). Frame 0 is the scene as loaded."""
+
+    def __init__(self, scene, scene_name: str, motion: str, step: float):
+        import mitsuba as mi
+
+        self.motion, self.scene, self.parameters = motion, scene, mi.traverse(scene)
+        self.frames: dict[str, Callable[[int], object]] = {}  # parameter -> its value at a frame
+        if motion in ("pan", "dolly"):
+            self._camera(scene, motion, step)
+            self.label = f"{motion}{step:g}"
+            self.description = f"the camera, {step:g} {'degrees' if motion == 'pan' else 'hundredths'} a frame"
+        elif motion == "object":
+            if scene_name not in MOVING_OBJECTS:
+                raise NoMotion(f"no object of {scene_name} is chosen to move (MOVING_OBJECTS)")
+            moving = MOVING_OBJECTS[scene_name]
+            self._object(scene, moving)
+            self.label = moving.label()
+            self.description = f"{moving.name}, {moving.step:g} units a frame along {moving.direction}"
+        elif motion == "light":
+            self.description = f"{self._light(scene, step)}, {step:g} degrees a frame"
+            self.label = f"light{step:g}"
+        else:
+            self.label, self.description = "still", "nothing"
+        self.parameters.keep(list(self.frames))  # an update then schedules these alone, not every parameter
+
+    def at(self, frame: int) -> None:
+        """Set the scene as it is at ``frame``."""
+        for key, value_at in self.frames.items():
+            self.parameters[key] = value_at(frame)
+        if self.frames:
+            self.parameters.update()
+
+    def _key(self, node, name: str) -> str:
+        """The key of ``node``'s parameter ``name``: keys of shapes without ids are made of addresses."""
+        for key, (_, _, owner, _) in self.parameters.properties.items():
+            if owner is node and key.rsplit(".", 1)[-1] == name:
+                return key
+        raise KeyError(f"{node.class_name()} has no parameter {name}")
+
+    def _camera(self, scene, motion: str, step: float) -> None:
+        import drjit as dr
+        import mitsuba as mi
+
+        key = self._key(scene.sensors()[0], "to_world")
+        base = mi.ScalarTransform4f(np.array(self.parameters[key].matrix).reshape(4, 4))
+
+        def value_at(frame: int):
+            value = mi.AffineTransform4f(moved(base, motion, step, frame))
+            dr.make_opaque(value)
+            return value
+        self.frames[key] = value_at
+
+    def _object(self, scene, moving: MovingObject) -> None:
+        import mitsuba as mi
+
+        shapes = [shape for shape in scene.shapes() if _mesh_name(shape) in moving.meshes]
+        if len(shapes) != len(moving.meshes):
+            raise NoMotion(f"found {len(shapes)} of the meshes of {moving.name}: {', '.join(moving.meshes)}")
+        offset = np.asarray(moving.direction) * moving.step
+        for shape in shapes:
+            key = self._key(shape, "vertex_positions")
+            original = np.array(self.parameters[key], dtype=np.float64).reshape(-1, 3)
+            # a buffer made from an array is no literal: nothing to make opaque
+            self.frames[key] = lambda frame, original=original: mi.Float((original + frame * offset).ravel())
+
+    def _light(self, scene, degrees: float) -> str:
+        """Turn the scene's main light (its one emitter other than a constant background); what it is, in words."""
+        lights = [e for e in scene.emitters() if e.class_name() != "ConstantBackgroundEmitter"]
+        if len(lights) != 1:
+            raise NoMotion(f"the light motion turns a scene's one main light; this scene has {len(lights)}")
+        light, pivot = lights[0], np.asarray(scene.bbox().center(), dtype=np.float64)
+        shape = light.get_shape()
+        node = shape if shape is not None else light
+        names = [key.rsplit(".", 1)[-1] for key, (_, _, owner, _) in self.parameters.properties.items()
+                 if owner is node]
+        name = next((n for n in ("sun_direction", "direction", "position", "vertex_positions", "to_world")
+                     if n in names), None)
+        if name is None:
+            raise NoMotion(f"no way to turn {light.class_name()}")
+        key = self._key(node, name)
+        original = type(self.parameters[key])(self.parameters[key])
+        self.frames[key] = lambda frame: turned(original, name, degrees * frame, pivot)
+        return f"{light.class_name()}'s {name}" + (f" ({shape.class_name()})" if shape is not None else "")
+
+
+def _mesh_name(shape) -> str | None:
+    """The file an imported mesh was loaded from: Mitsuba keeps it only in the mesh's description."""
+    text = str(shape)
+    return text.split('name = "', 1)[1].split('"', 1)[0] if 'name = "' in text else None
+
+
 #: The two independent references of a frame (sampler seeds): flicker is read against both (see stability).
 REFERENCE_SEEDS = (7_000_000, 8_000_000)
 
 
-def reference(loaded_scene, name: str, motion: str, step: float, frame: int, spp: int, res: int,
-              second: bool = False) -> np.ndarray:
-    """The frame's reference (``second``: another, independent of the first), cached under the gmcpt cache."""
+def reference(loaded_scene, name: str, label: str, frame: int, spp: int, res: int, second: bool = False) -> np.ndarray:
+    """The frame's reference (``second``: another, independent of the first), cached under the gmcpt cache by the
+    scene, the motion's ``label`` (:class:`SceneMotion`), the frame, size and samples."""
     from gmcpt.files import cache_folder
     from gmcpt.render import render_native
 
     tail = "-b" if second else ""
-    path = cache_folder("sequence-references") / f"{name}-{motion}{step:g}-{frame:03d}-{res}-{spp}{tail}.npy"
+    path = cache_folder("sequence-references") / f"{name}-{label}-{frame:03d}-{res}-{spp}{tail}.npy"
     if path.exists():
         return np.load(path)
     scene, integrator = loaded_scene
-    total, chunk, seed = 0.0, 128, REFERENCE_SEEDS[second]
-    for index in range(spp // chunk):
+    chunk, seed = min(128, spp), REFERENCE_SEEDS[second]
+    passes = max(1, spp // chunk)
+    total = 0.0
+    for index in range(passes):
         total = total + render_native(scene, scene.sensors()[0], integrator, chunk, seed + frame * 97 + index)
-    image = (total / (spp // chunk)).reshape(res, res, 3).astype(np.float32)
+    image = (total / passes).reshape(res, res, 3).astype(np.float32)
     path.parent.mkdir(parents=True, exist_ok=True)
     np.save(path, image)
     return image
+
+
+def denoised_with_aov_guides(scene, aov, noisy: np.ndarray, spp: int, seed: int) -> np.ndarray:
+    """``noisy`` (N, 3) through OIDN with the guides of one pass of Mitsuba's ``aov`` integrator at ``spp``: its
+    albedo clipped to [0, 1] (OIDN's range; Mitsuba's albedo of a rough metal reaches 18 in the dining room) and
+    its shading normal in world space, a pixel's mean of unit normals (0 on a miss), as OIDN takes them and as
+    :func:`gmcpt.render.render_features` gives them but for the renormalising, which OIDN does not need."""
+    import mitsuba as mi
+
+    from gmcpt.denoise import denoise_oidn
+
+    guides = np.asarray(mi.render(scene, integrator=aov, spp=spp, seed=seed), dtype=np.float32)
+    return denoise_oidn(noisy.reshape(*guides.shape[:2], 3), np.clip(guides[..., 0:3], 0, 1), guides[..., 3:6], spp)
+
+
+def path_oidn(scene, integrator, aov, spp: int, seed: int) -> tuple[np.ndarray, float]:
+    """(image, seconds) of a frame on its own: render, ``aov`` guides and OIDN (the module's docstring)."""
+    from gmcpt.render import render_native
+
+    start = time.perf_counter()
+    noisy = render_native(scene, scene.sensors()[0], integrator, spp, seed)
+    image = denoised_with_aov_guides(scene, aov, noisy, spp, seed)
+    return image, time.perf_counter() - start
 
 
 class Accumulation:
@@ -81,15 +290,14 @@ class Accumulation:
     def __init__(self):
         self.previous = None
 
-    def render(self, scene, integrator, spp: int, seed: int, aov_seconds) -> tuple[np.ndarray, float]:
-        from gmcpt.denoise import denoise_oidn
-        from gmcpt.render import _sensor_film_size, render_features, render_native
+    def render(self, scene, integrator, aov, spp: int, seed: int) -> tuple[np.ndarray, float]:
+        """(image, seconds) of the next frame, every stage timed."""
+        from gmcpt.render import render_native
         from gmcpt.sequence import geometry
         from gmcpt.temporal import PastFrame, reproject
 
         start = time.perf_counter()
         sensor = scene.sensors()[0]
-        height, width = _sensor_film_size(sensor)
         image = render_native(scene, sensor, integrator, spp, seed)
         positions, normals, projection = geometry(scene, sensor)
         length = np.ones(image.shape[0])
@@ -97,15 +305,23 @@ class Accumulation:
             past, past_length = self.previous
             source, valid = reproject(past, positions, normals)
             weight = np.maximum(1 / (past_length[source] + 1), ACCUMULATION_MIN_WEIGHT)
-            image = np.where(valid[:, None], weight[:, None] * image + (1 - weight[:, None]) * past.total[source], image)
+            blended = weight[:, None] * image + (1 - weight[:, None]) * past.total[source]
+            image = np.where(valid[:, None], blended, image)
             length = np.where(valid, past_length[source] + 1, 1)
         self.previous = (PastFrame(0, image, length, positions, normals, projection), length)
-        guides = render_features(scene, sensor, max(1, spp), seed)
-        seconds = time.perf_counter() - start
-        start = time.perf_counter()
-        denoised = denoise_oidn(image.reshape(height, width, 3).astype(np.float32), guides["albedo"], guides["normal"],
-                                max(1, spp))
-        return denoised, seconds + time.perf_counter() - start + aov_seconds(spp)
+        return denoised_with_aov_guides(scene, aov, image, spp, seed), time.perf_counter() - start
+
+
+def motion_step(text: str) -> tuple[str, float]:
+    """``MOTION=VALUE`` of ``--step``."""
+    name, _, value = text.partition("=")
+    try:
+        if name in DEFAULT_STEPS:
+            return name, float(value)
+    except ValueError:
+        pass
+    raise argparse.ArgumentTypeError(f"--step takes MOTION=VALUE with MOTION one of {', '.join(DEFAULT_STEPS)}, "
+                                     f"got {text!r}")
 
 
 def main() -> int:
@@ -114,124 +330,135 @@ def main() -> int:
     parser.add_argument("--frames", type=int, default=12)
     parser.add_argument("--warm", type=int, default=4, help="frames left out of the means (history builds up)")
     parser.add_argument("--res", type=int, default=128)
-    parser.add_argument("--motion", choices=["pan", "dolly", "still"], default="pan")
-    parser.add_argument("--step", type=float, default=0.5, help="degrees (pan) or hundredths of a unit (dolly)")
+    parser.add_argument("--motion", nargs="+", choices=MOTIONS, default=["pan", "dolly", "object", "light"])
+    parser.add_argument("--step", type=motion_step, nargs="+", default=[],
+                        help="MOTION=VALUE: degrees a frame (pan, light) or hundredths of a unit (dolly); "
+                             + ", ".join(f"{k}={v:g}" for k, v in DEFAULT_STEPS.items()) + " unless given")
     parser.add_argument("--budgets", type=float, nargs="+", default=[1, 2, 4])
-    parser.add_argument("--path-spp", type=int, nargs="+", default=[1, 2, 4, 8])
+    parser.add_argument("--path-spp", type=int, nargs="+", default=[1, 2, 4, 8, 16, 32])
     parser.add_argument("--reference-spp", type=int, default=1024)
     parser.add_argument("--record", type=Path, help="write the rows and verdicts here (JSON) and a plot beside it")
     args = parser.parse_args()
+    args.step = {**DEFAULT_STEPS, **dict(args.step)}  # the record keeps every motion's pace
+    if args.record:
+        args.record.parent.mkdir(parents=True, exist_ok=True)  # before the run, not after it
 
     import gmcpt  # noqa: F401  (variant, LLVM)
     import mitsuba as mi
 
-    from gmcpt.denoise import denoise_oidn
-    from gmcpt.evaluation.report import equal_time_verdict
-    from gmcpt.evaluation.stability import FrameGeometry, screen_flicker, surface_flicker
-    from gmcpt.evaluation.scenes import evaluation_scenes
-    from gmcpt.metrics import all_metrics
-    from gmcpt.render import render_features, render_native
-    from gmcpt.scene import path_integrator
-    from gmcpt.sequence import SequenceRenderer, SequenceSettings, geometry
-
     from gmcpt.evaluation.cli import _commit
+    from gmcpt.evaluation.scenes import evaluation_scenes
+    from gmcpt.scene import path_integrator
 
-    rows, verdicts, started, commit = [], [], time.time(), _commit()  # the commit before the run rewrites docs/
+    rows, verdicts, moving, started, commit = [], [], {}, time.time(), _commit()  # the commit before docs/ changes
     for eval_scene in [s for s in evaluation_scenes(None, 2) if s.name in args.scenes]:
         scene = eval_scene.load(args.res)
         integrator = path_integrator(scene)
-        sensor = scene.sensors()[0]
-        parameters = mi.traverse(sensor)
-        base = mi.ScalarTransform4f(np.array(parameters["to_world"].matrix).reshape(4, 4))
-        def at(frame: int):
-            parameters["to_world"] = moved(base, args.motion, args.step, frame)
-            parameters.update()
-
-        aov = mi.load_dict({"type": "aov", "aovs": "a:albedo,n:sh_normal"})  # loading it is no part of a frame
-
-        def aov_seconds(spp: int) -> float:
-            start = time.perf_counter()
-            np.asarray(mi.render(scene, integrator=aov, spp=max(1, spp)))
-            return time.perf_counter() - start
-
-        firsts, seconds, geometries = [], [], []
-        for frame in range(args.frames):
-            at(frame)
-            firsts.append(reference((scene, integrator), eval_scene.name, args.motion, args.step, frame,
-                                    args.reference_spp, args.res))
-            seconds.append(reference((scene, integrator), eval_scene.name, args.motion, args.step, frame,
-                                     args.reference_spp, args.res, second=True))
-            geometries.append(FrameGeometry(*geometry(scene, sensor)))
-        references = [(a + b) / 2 for a, b in zip(firsts, seconds)]
-        contenders = [("path+oidn", spp) for spp in args.path_spp] + [("accumulation+oidn", spp) for spp in args.path_spp] \
-            + [("sequence", budget) for budget in args.budgets]
-        # frame by frame, every contender in turn: a machine whose pace drifts over minutes slows them alike
-        runs = [{"contender": contender, "amount": amount, "accumulation": Accumulation(), "images": [],
-                 "sequence": SequenceRenderer(SequenceSettings(budget=amount, seed=3)), "seconds": []}
-                for contender, amount in contenders]
-        for frame in range(args.frames):
-            at(frame)
-            seed = 1000 + frame
-            for run in runs:
-                contender, amount = run["contender"], run["amount"]
-                if contender == "path+oidn":
-                    start = time.perf_counter()
-                    noisy = render_native(scene, sensor, integrator, int(amount), seed)
-                    guides = render_features(scene, sensor, int(amount), seed)
-                    image = denoise_oidn(noisy.reshape(args.res, args.res, 3).astype(np.float32), guides["albedo"],
-                                         guides["normal"], int(amount))
-                    spent = time.perf_counter() - start + aov_seconds(int(amount))
-                elif contender == "accumulation+oidn":
-                    image, spent = run["accumulation"].render(scene, integrator, int(amount), seed, aov_seconds)
-                else:
-                    start = time.perf_counter()
-                    image, _, _ = run["sequence"].render(scene, frame, integrator)
-                    spent = time.perf_counter() - start
-                run["images"].append(image)
-                run["seconds"].append(spent)
-        kept = slice(args.warm, None)
-        for run in runs:
-            images, contender, amount = run["images"], run["contender"], run["amount"]
-            metrics = [all_metrics(i, r) for i, r in zip(images[kept], references[kept])]
-            psnr = float(np.mean([m["psnr"] for m in metrics]))
-            row = {"scene": eval_scene.name, "contender": contender, "rate": 1.0, "spp": amount, "psnr": psnr,
-                   "flip": float(np.mean([m["flip"] for m in metrics])),
-                   "seconds": float(np.mean(run["seconds"][kept])),
-                   "flicker": surface_flicker(images[kept], firsts[kept], geometries[kept], seconds[kept]),
-                   "screen_flicker": screen_flicker(images[kept], firsts[kept], seconds[kept])}
-            rows.append(row)
-            print(f"{eval_scene.name:20s} {contender:18s} {amount:4g}: {psnr:6.2f} dB  FLIP {row['flip']:.4f}  "
-                  f"{row['seconds']:.3f} s a frame  "
-                  f"flicker {row['flicker']:.3f} (in place {row['screen_flicker']:.3f})", flush=True)
-        for baseline in ("path+oidn", "accumulation+oidn"):
-            verdict = equal_time_verdict([r for r in rows if r["scene"] == eval_scene.name], "sequence", (baseline,))
-            if verdict:
-                scene_rows = [r for r in rows if r["scene"] == eval_scene.name]
-                flicker_ratio = equal_time_flicker(scene_rows, baseline)
-                screen_ratio = equal_time_flicker(scene_rows, baseline, "screen_flicker")
-                verdicts.append({"scene": eval_scene.name, "baseline": baseline, "speedup": verdict["speedup"],
-                                 "bounds": verdict["bounds"], "settings": verdict["settings"],
-                                 "flicker_ratio": flicker_ratio, "screen_flicker_ratio": screen_ratio})
-                print(f"{eval_scene.name}: sequence vs {baseline}: {verdict['speedup']:.2f}x at equal time "
-                      f"({verdict['bounds']} bounds of {verdict['settings']}); flicker {flicker_ratio:.2f}x its "
-                      f"flicker at the sequence's time (in place {screen_ratio:.2f}x)")
+        aov = mi.load_dict(AOV_GUIDES)  # loading it is no part of a frame
+        for motion in args.motion:
+            try:
+                changes = SceneMotion(scene, eval_scene.name, motion, args.step.get(motion, 0.0))
+            except NoMotion as reason:
+                print(f"skipping {eval_scene.name} {motion}: {reason}", flush=True)
+                continue
+            found = measure(args, eval_scene.name, scene, integrator, aov, changes)
+            changes.at(0)  # the scene as loaded, for the next motion
+            rows += found
+            verdicts += judge(found, eval_scene.name, motion)
+            moving.setdefault(eval_scene.name, {})[motion] = changes.description
     if args.record:
-        record(args, rows, verdicts, time.time() - started, commit)
+        record(args, rows, verdicts, moving, time.time() - started, commit)
     return 0
 
 
-def equal_time_flicker(rows: list[dict], baseline: str, figure: str = "flicker") -> float:
-    """Geometric mean over the sequence's settings of its ``figure`` over ``baseline``'s at the same seconds a
-    frame (interpolated in log time between the baseline's settings, held at its ends)."""
-    points = sorted((r["seconds"], r[figure]) for r in rows if r["contender"] == baseline)
-    times, values = np.log([p[0] for p in points]), [p[1] for p in points]
-    ratios = [r[figure] / np.interp(np.log(r["seconds"]), times, values)
-              for r in rows if r["contender"] == "sequence"]
-    return float(np.exp(np.mean(np.log(ratios))))
+def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> list[dict]:
+    """The rows of every contender on one scene in one motion (printed as they come)."""
+    from gmcpt.evaluation.stability import (FrameGeometry, changed_pixels, changed_psnr, screen_flicker,
+                                            surface_flicker)
+    from gmcpt.metrics import all_metrics
+    from gmcpt.sequence import SequenceRenderer, SequenceSettings, geometry
+
+    sensor = scene.sensors()[0]
+    firsts, seconds, geometries = [], [], []
+    for frame in range(args.frames):
+        changes.at(frame)
+        firsts.append(reference((scene, integrator), name, changes.label, frame, args.reference_spp, args.res))
+        seconds.append(reference((scene, integrator), name, changes.label, frame, args.reference_spp, args.res,
+                                 second=True))
+        geometries.append(FrameGeometry(*geometry(scene, sensor)))
+    references = [(a + b) / 2 for a, b in zip(firsts, seconds)]
+    kept = slice(args.warm, None)
+    changed = {t: changed_pixels(firsts, seconds, geometries, t) for t in range(max(1, args.warm), args.frames)}
+    changed_share = float(np.mean([mask.mean() for mask in changed.values()])) if changed else 0.0
+    contenders = [("path+oidn", spp) for spp in args.path_spp] + [("accumulation+oidn", spp) for spp in args.path_spp] \
+        + [("sequence", budget) for budget in args.budgets]
+    # frame by frame, every contender in turn: a machine whose pace drifts over minutes slows them alike
+    runs = [{"contender": contender, "amount": amount, "accumulation": Accumulation(), "images": [],
+             "sequence": SequenceRenderer(SequenceSettings(budget=amount, seed=3)), "seconds": []}
+            for contender, amount in contenders]
+    for frame in range(args.frames):
+        changes.at(frame)
+        seed = 1000 + frame
+        for run in runs:
+            contender, amount = run["contender"], run["amount"]
+            if contender == "path+oidn":
+                image, spent = path_oidn(scene, integrator, aov, int(amount), seed)
+            elif contender == "accumulation+oidn":
+                image, spent = run["accumulation"].render(scene, integrator, aov, int(amount), seed)
+            else:
+                start = time.perf_counter()
+                image, _, _ = run["sequence"].render(scene, frame, integrator)
+                spent = time.perf_counter() - start
+            run["images"].append(image)
+            run["seconds"].append(spent)
+    rows = []
+    for run in runs:
+        images, contender, amount = run["images"], run["contender"], run["amount"]
+        metrics = [all_metrics(i, r) for i, r in zip(images[kept], references[kept])]
+        row = {"scene": name, "motion": changes.motion, "contender": contender, "rate": 1.0, "spp": amount,
+               "psnr": float(np.mean([m["psnr"] for m in metrics])),
+               "psnr_changed": changed_psnr([images[t] for t in changed], [references[t] for t in changed],
+                                            list(changed.values())),
+               "changed_share": changed_share, "flip": float(np.mean([m["flip"] for m in metrics])),
+               "seconds": float(np.mean(run["seconds"][kept])),
+               "flicker": surface_flicker(images[kept], firsts[kept], geometries[kept], seconds[kept]),
+               "screen_flicker": screen_flicker(images[kept], firsts[kept], seconds[kept])}
+        rows.append(row)
+        on_changed = "-" if row["psnr_changed"] is None else f"{row['psnr_changed']:6.2f}"
+        print(f"{name:20s} {changes.motion:6s} {contender:18s} {amount:4g}: {row['psnr']:6.2f} dB "
+              f"(changed pixels {on_changed} dB, {changed_share:.1%} of them)  FLIP {row['flip']:.4f}  "
+              f"{row['seconds']:.3f} s a frame  flicker {row['flicker']:.3f} (in place {row['screen_flicker']:.3f})",
+              flush=True)
+    return rows
 
 
-def record(args, rows: list[dict], verdicts: list[dict], seconds: float, commit: str) -> None:
-    """``args.record`` (JSON: command, date, settings, versions, rows, verdicts) and its plot (``.png``)."""
+def judge(rows: list[dict], name: str, motion: str) -> list[dict]:
+    """The sequence mode's verdicts against each baseline on one scene in one motion (printed)."""
+    from gmcpt.evaluation.report import equal_time_verdict
+    from gmcpt.evaluation.sequences import equal_time_gap, equal_time_ratio
+
+    verdicts = []
+    for baseline in ("path+oidn", "accumulation+oidn"):
+        verdict = equal_time_verdict(rows, "sequence", (baseline,))
+        if not verdict:
+            continue
+        found = {"scene": name, "motion": motion, "baseline": baseline, "speedup": verdict["speedup"],
+                 "bounds": verdict["bounds"], "settings": verdict["settings"],
+                 "flicker_ratio": equal_time_ratio(rows, baseline),
+                 "screen_flicker_ratio": equal_time_ratio(rows, baseline, "screen_flicker"),
+                 "changed_gap_db": equal_time_gap(rows, baseline)}
+        verdicts.append(found)
+        gap = "-" if found["changed_gap_db"] is None else f"{found['changed_gap_db']:+.2f} dB"
+        print(f"{name} {motion}: sequence vs {baseline}: {verdict['speedup']:.2f}x at equal time "
+              f"({verdict['bounds']} bounds of {verdict['settings']}); flicker {found['flicker_ratio']:.2f}x its "
+              f"flicker at the sequence's time (in place {found['screen_flicker_ratio']:.2f}x); changed pixels "
+              f"{gap} against it at the sequence's time")
+    return verdicts
+
+
+def record(args, rows: list[dict], verdicts: list[dict], moving: dict, seconds: float, commit: str) -> None:
+    """``args.record`` (JSON: command, date, settings, what moved, versions, rows, verdicts) and its plot
+    (``.png``)."""
     import datetime
 
     from gmcpt.evaluation.cli import _versions, machine_line
@@ -242,7 +469,7 @@ def record(args, rows: list[dict], verdicts: list[dict], seconds: float, commit:
     data = {"command": "python benchmarks/sequence.py " + " ".join(sys.argv[1:]),
             "date": datetime.date.today().isoformat(), "commit": commit, "machine": machine_line(),
             "settings": {key: (str(value) if isinstance(value, Path) else value) for key, value in vars(args).items()},
-            "versions": _versions(), "seconds": seconds, "rows": rows, "verdicts": verdicts}
+            "moving": moving, "versions": _versions(), "seconds": seconds, "rows": rows, "verdicts": verdicts}
     with atomic_output(args.record) as temporary:
         Path(temporary).write_text(json_text(data, indent=1))
     sequence_plot(rows, args.record.with_suffix(".png"))

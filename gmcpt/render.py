@@ -68,7 +68,15 @@ class FrozenKernel:
         self.function = function
 
     def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple]):
-        recordings = scene_state(scene).setdefault("recordings", {})
+        state, shapes = scene_state(scene), geometry_key(scene)
+        recordings, seen = state.setdefault("recordings", {}), state.setdefault("geometry", {})
+        moved, seen[self] = self in seen and seen[self] != shapes, shapes
+        if moved:
+            # shapes moved since this kernel last ran: a replay would trace the old geometry (or freed memory), and a
+            # recording made now would serve one frame of a moving object; the plain function runs until the shapes
+            # keep still for a second call
+            recordings.pop(self, None)
+            return self._plain(scene, arguments)
         if self not in recordings:
             recordings[self] = dr.freeze(self.function, **FREEZE_OPTIONS)
         if recordings[self] is not None:
@@ -76,9 +84,26 @@ class FrozenKernel:
                 return recordings[self](scene, *arguments())
             except RuntimeError:
                 recordings[self] = None
+        return self._plain(scene, arguments)
+
+    def _plain(self, scene: mi.Scene, arguments: Callable[[], tuple]):
         outputs = self.function(scene, *arguments())
         dr.eval(outputs)  # one kernel for all of them, as a replay gives (else one kernel a column read)
         return outputs
+
+
+def geometry_key(scene: mi.Scene) -> tuple:
+    """What changes when a shape of ``scene`` moves through ``mi.traverse``: each mesh's vertex buffer (a new Dr.Jit
+    variable on every update) and each other shape's bounding box. A recording of :class:`FrozenKernel` replayed
+    after such a move traced stale geometry (NaN pixels in the living room after four moves of a table)."""
+    key = []
+    for shape in scene.shapes():
+        if isinstance(shape, mi.Mesh):
+            key.append(shape.vertex_positions_buffer().index)
+        else:
+            box = shape.bbox()
+            key.append((tuple(box.min), tuple(box.max)))
+    return tuple(key)
 
 
 def pass_seed(seed: int, index: int, passes: int) -> int:

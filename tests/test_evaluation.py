@@ -263,9 +263,10 @@ def test_eval_from_a_record_rewrites_the_documents_and_a_sequence_record_beside_
     assert "## Results" in text and "## Limits" in text and readme_limits(json.loads(RESULTS.read_text())) in text
     assert not (tmp_path / "results.json").exists()  # a rewrite measures nothing and records nothing new
     assert "## Sequences" in markdown
-    assert "| living-room | sequence | 1 | 23.90 | 0.0800 | 0.210 | 6.10 (8.20) |" in markdown
-    assert "| living-room | path+oidn | 1 | 22.10 | - | 0.200 | 9.50 |" in markdown
-    assert "| living-room | path+oidn | 1.61x | 0.66 (0.81) |" in markdown and "(sequences.png)" in markdown
+    assert "| living-room | sequence | 1 | 23.90 | - | 0.0800 | 0.210 | 6.10 (8.20) |" in markdown
+    assert "| living-room | path+oidn | 1 | 22.10 | - | - | 0.200 | 9.50 |" in markdown
+    assert "| living-room | path+oidn | 1.61x | 0.66 (0.81) | - |" in markdown and "(sequences.png)" in markdown
+    assert "## At a glance\n\n**Sequences** (`benchmarks/sequence.py`, 1 scenes at 256x256): " in markdown
     assert (tmp_path / "sequences.png").read_bytes()[:4] == b"\x89PNG"
 
 

@@ -59,3 +59,73 @@ def test_two_noisy_references_read_the_flicker_a_clean_one_gives():
     assert surface_flicker(images, first, geometries) > 1.3 * truth  # one noisy reference overstates it
     assert abs(surface_flicker(images, first, geometries, second) / truth - 1) < 0.08
     assert abs(screen_flicker(images, first, second) / screen_flicker(images, clean) - 1) < 0.08
+
+
+def _grey(values):
+    """(HEIGHT, WIDTH, 3) of a flat grey level a pixel."""
+    return _image(np.asarray(values, dtype=float))
+
+
+def _noisy(clean, sigma, rng):
+    """``clean`` plus noise of ``sigma`` (the same in R, G and B, as a grey reference's), independent a call."""
+    return clean + rng.normal(0, sigma, clean.shape[:2])[..., None].astype(np.float32)
+
+
+def _square(column, row=5, size=4):
+    """A grey wall at 0.2 with a square at 0.8 whose top-left pixel is (column, row)."""
+    values = np.full((HEIGHT, WIDTH), 0.2)
+    values[row:row + size, column:column + size] = 0.8
+    return values.ravel()
+
+
+def test_a_moved_square_changes_its_old_and_new_place_and_a_static_noisy_area_does_not():
+    """The square moves 5 pixels under a still camera; the right third is noisy in both frames' references (a
+    reference's change there is often above the 5% floor, never above 4 sigma of its noise)."""
+    from gmcpt.evaluation.stability import CHANGE_FLOOR, changed_pixels
+
+    geometries, rng = _geometries(0.0)[:2], np.random.default_rng(3)
+    sigma = np.where(np.arange(WIDTH) >= 16, 0.06, 0.002)[None, :] * np.ones((HEIGHT, 1))
+    clean = [_grey(_square(2)), _grey(_square(7))]
+    firsts = [c + (rng.normal(0, 1, sigma.shape) * sigma)[..., None].astype(np.float32) for c in clean]
+    seconds = [c + (rng.normal(0, 1, sigma.shape) * sigma)[..., None].astype(np.float32) for c in clean]
+    changed = changed_pixels(firsts, seconds, geometries, 1).reshape(HEIGHT, WIDTH)
+    old, new = np.zeros((HEIGHT, WIDTH), bool), np.zeros((HEIGHT, WIDTH), bool)
+    old[5:9, 2:6], new[5:9, 7:11] = True, True
+    assert changed[old].all() and changed[new].all()
+    quiet, noisy = ~(old | new), np.zeros((HEIGHT, WIDTH), bool)
+    quiet[:, 16:] = False
+    noisy[:, 16:] = True
+    assert not changed[quiet].any()
+    assert changed[noisy].mean() < 0.02
+    mean = [tonemap((a + b) / 2).mean(axis=-1) for a, b in zip(firsts, seconds)]
+    assert (np.abs(mean[1] - mean[0])[noisy] > CHANGE_FLOOR).mean() > 0.2  # a fixed threshold would take the noise
+
+
+def test_what_slides_along_with_the_camera_has_not_changed_and_what_it_uncovers_has():
+    """A pattern fixed to the wall under a sliding camera (about a pixel a frame), noise-free: only the column
+    the motion brings into view counts; a still camera's last row and column are no disocclusion."""
+    from gmcpt.evaluation.stability import changed_pixels
+
+    for step, expected in ((0.25, 1), (0.0, 0)):
+        geometries = _geometries(step)[:2]
+        references = [_image(_on_the_wall(g)) for g in geometries]
+        changed = changed_pixels(references, references, geometries, 1).reshape(HEIGHT, WIDTH)
+        assert changed.sum() == expected * HEIGHT
+        assert changed[:, -1].all() if expected else not changed.any()
+
+
+def test_the_changed_pixels_psnr_pools_one_squared_error_over_every_frames_changed_pixels():
+    from gmcpt.evaluation.stability import changed_psnr
+
+    references = [_grey(np.full(WIDTH * HEIGHT, 0.3)) for _ in range(2)]
+    images = [r.copy() for r in references]
+    masks = [np.zeros(WIDTH * HEIGHT, bool) for _ in range(2)]
+    masks[0][:2], masks[1][10:16] = True, True
+    images[0].reshape(-1, 3)[:2] += 0.1
+    images[1].reshape(-1, 3)[10:16] -= 0.05
+    images[1].reshape(-1, 3)[100:] = 5.0  # unchanged pixels' error does not count
+    level = lambda value: float(tonemap(np.array([value], np.float32))[0])  # noqa: E731
+    errors = [level(0.3 + 0.1) - level(0.3)] * 2 * 3 + [level(0.3 - 0.05) - level(0.3)] * 6 * 3
+    expected = 10 * np.log10(1 / np.mean(np.square(errors, dtype=np.float64)))
+    assert abs(changed_psnr(images, references, masks) - expected) < 1e-4
+    assert changed_psnr(images, references, [np.zeros(WIDTH * HEIGHT, bool)] * 2) is None

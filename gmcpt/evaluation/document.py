@@ -6,6 +6,7 @@ from .glance import LIMITS_END, LIMITS_START, default_placement, glance_section,
 from .plots import GROUPS_PLOT
 from .config import DEFAULT_VARIANT
 from .measure import timed_runs
+from .sequences import MOTION_WORDS, motion_of, motions as sequence_motions
 
 README_START = "<!-- results:start (written by python -m gmcpt eval; do not edit) -->"
 README_END = "<!-- results:end -->"
@@ -75,43 +76,64 @@ def full_resolution_section(run: dict) -> list[str]:
 
 
 def _figure(row: dict, key: str, form: str) -> str:
-    """A figure of a record's row, or ``-`` where the record has none (records made before it was measured)."""
-    return format(row[key], form) if key in row else "-"
+    """A figure of a record's row, or ``-`` where the record has none (records made before it was measured, a
+    still scene's changed pixels)."""
+    return format(row[key], form) if row.get(key) is not None else "-"
 
 
 def _in_place(row: dict, key: str) -> str:
     """`` (x.xx)`` of an in-place figure where the record has one (records before it do not)."""
-    return f" ({row[key]:.2f})" if key in row else ""
+    return f" ({row[key]:.2f})" if row.get(key) is not None else ""
 
 
 def sequence_section(sequences: dict | None) -> list[str]:
     """The sequence mode against per-frame path tracing + OIDN and accumulation + OIDN, from the record of
-    ``benchmarks/sequence.py --record`` (none: no section)."""
+    ``benchmarks/sequence.py --record`` (none: no section): the settings, then per motion its rows and its verdicts
+    (speed-up, flicker ratio, the gap on the pixels that changed). Records from before the benchmark ran several
+    motions, or measured the changed pixels, read as one motion with ``-`` for what they lack."""
     if not sequences:
         return []
     settings = sequences["settings"]
     lines = ["## Sequences: reusing earlier frames' samples", "",
              f"`{sequences['command']}` on {sequences['date']} (commit {sequences['commit']}, "
-             f"{sequences['machine']}): {settings['frames']} frames of a {settings['motion']} "
-             f"(step {settings['step']:g}) at {settings['res']}x{settings['res']}, references of "
-             f"{settings['reference_spp']} spp; means over the frames after the first {settings['warm']}, warm "
-             "seconds a frame with every stage counted (guides of the baselines charged an `aov` pass). Flicker "
-             "(`gmcpt/evaluation/stability.py`, x100): the RMS error of frame-to-frame changes of the displayed "
-             "image against the references' changes, along the motion (the frame before read where each pixel's "
-             "surface was) and, in brackets, in place; both read against two independent references of each frame, "
-             "so that the references' own noise is no floor under them.", "",
-             "| scene | contender | samples a pixel a frame | PSNR dB | FLIP | seconds a frame | flicker (in place) |",
-             "|---|---|---|---|---|---|---|"]
-    lines += [f"| {r['scene']} | {r['contender']} | {r['spp']:g} | {r['psnr']:.2f} | "
-              f"{_figure(r, 'flip', '.4f')} | {r['seconds']:.3f} | "
-              f"{r['flicker']:.2f}{_in_place(r, 'screen_flicker')} |"
-              for r in sequences["rows"]]
-    lines += ["", "Speed-up of the sequence mode at equal quality (geometric mean over its budgets; above 1x it is "
-              "faster) and its flicker over the baseline's at the same seconds a frame:", "",
-              "| scene | baseline | speed-up | flicker ratio (in place) |", "|---|---|---|---|"]
-    lines += [f"| {v['scene']} | {v['baseline']} | {v['speedup']:.2f}x | "
-              f"{v['flicker_ratio']:.2f}{_in_place(v, 'screen_flicker_ratio')} |" for v in sequences["verdicts"]]
-    return [*lines, "", "![sequences: PSNR against seconds a frame](sequences.png)", ""]
+             f"{sequences['machine']}): {settings['frames']} frames at {settings['res']}x{settings['res']}, "
+             f"references of {settings['reference_spp']} spp; means over the frames after the first "
+             f"{settings['warm']}, warm seconds a frame with every stage counted (the baselines' guides one pass of "
+             "Mitsuba's `aov` integrator at their samples). *Changed pixels*: the PSNR over the pixels whose true "
+             "image changed since the frame before (a moving object's old and new place, its shadow, a light's "
+             "patches, what a camera move uncovers: where stale history shows; `changed_pixels` of "
+             "`gmcpt/evaluation/stability.py`), pooled over the frames, and their share. Flicker (x100): the RMS "
+             "error of frame-to-frame changes of the displayed image against the references' changes, along the "
+             "camera's motion (the frame before read where each pixel's surface was) and, in brackets, in place; "
+             "both read against two independent references of each frame, so that the references' own noise is no "
+             "floor under them. Verdicts: the sequence mode's speed-up at equal quality (geometric mean over its "
+             "budgets; above 1x it is faster), its flicker over the baseline's and its changed-pixel PSNR minus the "
+             "baseline's at the same seconds a frame (below 0 it is behind where the scene changed).", ""]
+    for motion in sequence_motions(sequences):
+        rows = [r for r in sequences["rows"] if motion_of(r, settings) == motion]
+        verdicts = [v for v in sequences["verdicts"] if motion_of(v, settings) == motion]
+        moving = "; ".join(f"{scene}: {what[motion]}" for scene, what in sequences.get("moving", {}).items()
+                           if motion in what)
+        lines += [f"### {motion}", "", f"{MOTION_WORDS.get(motion, motion)}" + (f" ({moving})." if moving else "."),
+                  "", "| scene | contender | samples a pixel a frame | PSNR dB | changed pixels dB (share) | FLIP | "
+                  "seconds a frame | flicker (in place) |", "|---|---|---|---|---|---|---|---|"]
+        lines += [f"| {r['scene']} | {r['contender']} | {r['spp']:g} | {r['psnr']:.2f} | {_changed(r)} | "
+                  f"{_figure(r, 'flip', '.4f')} | {r['seconds']:.3f} | "
+                  f"{r['flicker']:.2f}{_in_place(r, 'screen_flicker')} |" for r in rows]
+        lines += ["", "| scene | baseline | speed-up | flicker ratio (in place) | changed pixels, dB at equal time |",
+                  "|---|---|---|---|---|"]
+        lines += [f"| {v['scene']} | {v['baseline']} | {v['speedup']:.2f}x | "
+                  f"{_figure(v, 'flicker_ratio', '.2f')}{_in_place(v, 'screen_flicker_ratio')} | "
+                  f"{_figure(v, 'changed_gap_db', '+.2f')} |" for v in verdicts]
+        lines.append("")
+    return [*lines, "![sequences: PSNR against seconds a frame, per scene and motion](sequences.png)", ""]
+
+
+def _changed(row: dict) -> str:
+    """``24.10 (3.2%)``: a row's PSNR over the changed pixels and their share, ``-`` where it has none."""
+    if row.get("psnr_changed") is None:
+        return "-"
+    return f"{row['psnr_changed']:.2f} ({row['changed_share']:.1%})"
 
 
 def results_markdown(run: dict) -> str:

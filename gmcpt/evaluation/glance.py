@@ -8,6 +8,7 @@ import numpy as np
 from . import report
 from .config import DEFAULT_VARIANT
 from .plots import GROUPS_PLOT
+from .sequences import glance_line
 
 LIMITS_START = "<!-- limits:start (python -m gmcpt eval) -->"
 LIMITS_END = "<!-- limits:end -->"
@@ -61,10 +62,14 @@ def glance_table(run: dict) -> str:
 
 
 def glance_section(run: dict) -> list[str]:
-    """The opening of ``results.md``: the table, one line on how to read it, the plot per group."""
+    """The opening of ``results.md``: the sequence benchmark's verdict in one line where its record is beside the
+    run's (:func:`gmcpt.evaluation.sequences.glance_line`), the table, one line on how to read it, the plot per
+    group."""
+    sequences = [glance_line(run["sequences"]), ""] if run.get("sequences") else []
     return [
         "## At a glance",
         "",
+        *sequences,
         f"The default (`{DEFAULT_VARIANT}`) against the better of path tracing + OIDN and adaptive path tracing + "
         "OIDN. Equal samples: PSNR difference, above 0 the default is better. Equal time: the time the better "
         "baseline needs for the default's PSNR over the default's time, above 1x the default is faster "

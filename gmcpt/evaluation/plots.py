@@ -176,17 +176,30 @@ SEQUENCE_STYLE = {"path+oidn": ("tab:blue", "s"), "accumulation+oidn": ("tab:pur
                   "sequence": ("tab:green", "*")}
 
 
-def sequence_plot(rows: list[dict], path: Path) -> None:
-    """Per scene of a sequence benchmark (``benchmarks/sequence.py``): mean PSNR against mean seconds a frame."""
-    scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    figure, axes = _figure(min(3, len(scenes)), len(scenes))
-    for axis, scene in zip(axes, scenes):
+def sequence_plot(rows: list[dict], path: Path, settings: dict | None = None) -> None:
+    """Per (scene, motion) of a sequence benchmark (``benchmarks/sequence.py``): mean PSNR against mean seconds a
+    frame, and the ceiling (:func:`gmcpt.evaluation.sequences.ceiling`): what path tracing + OIDN reaches at
+    :data:`~gmcpt.evaluation.sequences.CEILING_SAMPLES` x the sequence's samples, dashed at the sequence's seconds. ``settings``: the record's, for the motion
+    of rows from before the benchmark ran several."""
+    from matplotlib.ticker import NullFormatter
+
+    from .sequences import CEILING_SAMPLES, ceiling, groups, motion_of
+
+    panels = groups(rows, settings)
+    figure, axes = _figure(min(3, len(panels)), len(panels))
+    for axis, (scene, motion) in zip(axes, panels):
+        chosen = [r for r in rows if r["scene"] == scene and motion_of(r, settings or {}) == motion]
         for contender, (color, marker) in SEQUENCE_STYLE.items():
-            points = sorted((r["seconds"], r["psnr"]) for r in rows if r["scene"] == scene and r["contender"] == contender)
+            points = sorted((r["seconds"], r["psnr"]) for r in chosen if r["contender"] == contender)
             if points:
                 axis.plot(*zip(*points), color=color, marker=marker, label=contender)
+        top = ceiling(chosen)
+        if top:
+            axis.plot(*zip(*top), color=SEQUENCE_STYLE["path+oidn"][0], linestyle="--",
+                      label=f"ceiling ({CEILING_SAMPLES:g}x samples)")
         axis.set_xscale("log")
-        axis.set_title(scene, fontsize=9)
+        axis.xaxis.set_minor_formatter(NullFormatter())
+        axis.set_title(f"{scene}, {motion}", fontsize=9)
         axis.set_xlabel("seconds a frame (warm)")
         axis.set_ylabel("PSNR dB")
         axis.grid(alpha=0.3)

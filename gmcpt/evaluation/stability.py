@@ -15,6 +15,11 @@ A reference has noise of its own, new every frame, which adds to every contender
 pixel in the living room: 3.8 of a figure near 6). Given a ``second`` reference of each frame, independent of
 the first, the figures are read from the product of the errors against the two, whose mean is the squared error
 against the noise-free changes: the floor is gone, not subtracted by a guess.
+
+Where a sequence's history goes stale (a moving object's old and new place, its shadow, a moving light's
+patches, what a camera move uncovers) is read from the references alone: :func:`changed_pixels` marks those
+pixels of a frame, :func:`changed_psnr` reads a contender's PSNR over them only, where a method that keeps stale
+history shows it and a whole-frame PSNR dilutes it.
 """
 from __future__ import annotations
 
@@ -24,6 +29,16 @@ import numpy as np
 
 from ..metrics import tonemap
 from ..temporal import PastFrame, Projection, reproject
+
+#: A pixel's change between frames (tonemapped, mean over R, G, B) counts as a change of the scene from this much
+#: (:func:`changed_pixels`): 5% of the display range; fainter changes are too faint for stale history to show.
+CHANGE_FLOOR = 0.05
+#: ... and only where it is this many standard deviations of the references' own noise in the change: a noisy
+#: pixel (a caustic, a firefly's neighbourhood) moves by chance that far less than once in ten thousand.
+CHANGE_NOISE_SIGMAS = 4.0
+#: The side of the window (pixels) over which a reference's noise is estimated: enough pixels to average out the
+#: estimate's own noise, few enough to follow the noise from a lit floor to a dark corner.
+NOISE_WINDOW = 7
 
 
 @dataclass(frozen=True)
@@ -74,11 +89,12 @@ def _figure(images, references, second, change) -> float:
     return 100 * float(np.sqrt(max(products / max(count, 1), 0.0)))
 
 
-def _motion(past: FrameGeometry, current: FrameGeometry, shape: tuple[int, int]) -> tuple:
+def _motion(past: FrameGeometry, current: FrameGeometry, shape: tuple[int, int], edges: bool = False) -> tuple:
     """Where each ``current`` pixel's surface point lies on the ``past`` film of ``shape`` (H, W), once for every
     image read there (:func:`_warped`): (seen (N,) bool: the point was in view in the past frame, by the depth and
     normal tests of :func:`gmcpt.temporal.matches`, with all four bilinear taps on the film; the top-left tap's
-    column and row (N,); the fractions (N, 1) each)."""
+    column and row (N,); the fractions (N, 1) each). ``edges``: a point in the film's outer half pixel is seen
+    too and reads the edge pixels (else a still camera would lose its last row and column)."""
     height, width = shape
     frame = PastFrame(0, np.zeros((height * width, 3)), np.zeros(height * width), past.positions, past.normals,
                       past.projection)
@@ -86,7 +102,10 @@ def _motion(past: FrameGeometry, current: FrameGeometry, shape: tuple[int, int])
     film, _ = past.projection.project(np.nan_to_num(current.positions.astype(np.float64)))
     x, y = film[:, 0] - 0.5, film[:, 1] - 0.5
     x0, y0 = np.floor(x), np.floor(y)
-    seen &= (x0 >= 0) & (x0 + 1 < width) & (y0 >= 0) & (y0 + 1 < height)
+    if edges:
+        seen &= (film[:, 0] >= 0) & (film[:, 0] < width) & (film[:, 1] >= 0) & (film[:, 1] < height)
+    else:
+        seen &= (x0 >= 0) & (x0 + 1 < width) & (y0 >= 0) & (y0 + 1 < height)
     x0, y0 = np.clip(x0, 0, width - 2).astype(np.int64), np.clip(y0, 0, height - 2).astype(np.int64)
     return seen, x0, y0, np.clip(x - x0, 0, 1)[:, None], np.clip(y - y0, 0, 1)[:, None]
 
@@ -99,3 +118,62 @@ def _warped(image: np.ndarray, motion: tuple) -> tuple[np.ndarray, np.ndarray]:
     top = flat[y0 * width + x0] * (1 - fx) + flat[y0 * width + x0 + 1] * fx
     bottom = flat[(y0 + 1) * width + x0] * (1 - fx) + flat[(y0 + 1) * width + x0 + 1] * fx
     return top * (1 - fy) + bottom * fy, seen
+
+
+def changed_pixels(firsts: list[np.ndarray], seconds: list[np.ndarray], geometries: list[FrameGeometry],
+                   frame: int) -> np.ndarray:
+    """(N,) bool: the pixels of ``frame`` (>= 1) whose true image changed since the frame before, from the two
+    independent references of each frame (``firsts``, ``seconds``: (H, W, 3) linear) and the frames' geometry.
+
+    The mean of a frame's two references is compared with the frame before's, read along the camera's motion
+    (bilinear, as :func:`surface_flicker` reads it). A pixel has changed where:
+
+    - its surface point was not in view in the frame before (a disocclusion, or a moved object's new place: its
+      points are not where the frame before saw a surface); a miss (the sky through a window) has no point to
+      follow and is read in place, as the background is far; or
+    - its tonemapped change (the mean over R, G, B) is above :data:`CHANGE_FLOOR` and above
+      :data:`CHANGE_NOISE_SIGMAS` standard deviations of the references' noise in it (a moved object's old place,
+      its shadow, a moved light's patches). The noise comes from the references themselves: a reference's
+      variance is half the mean squared difference of the two (over :data:`NOISE_WINDOW` x :data:`NOISE_WINDOW`
+      pixels), their mean's a quarter, the change's the sum of both frames'.
+
+    Where stale history would show is what this marks: a static noisy area stays out however noisy its
+    references, and a pixel that only slid along with the camera is compared with where it was.
+    """
+    from scipy.ndimage import uniform_filter
+
+    if frame < 1:
+        raise ValueError("a frame's change needs the frame before")
+    shape = firsts[frame].shape[:2]
+    pairs = {t: (_grey(firsts[t]), _grey(seconds[t])) for t in (frame - 1, frame)}
+    now, before = ((first + second) / 2 for first, second in (pairs[frame], pairs[frame - 1]))
+    warped, seen = _warped(before[..., None], _motion(geometries[frame - 1], geometries[frame], shape, edges=True))
+    warped = warped[:, 0]
+    miss = np.isnan(geometries[frame].positions).any(axis=1)
+    warped[miss], seen = before.reshape(-1)[miss], seen | miss
+    variance = sum(uniform_filter((first - second) ** 2, NOISE_WINDOW, mode="nearest") / 4
+                   for first, second in pairs.values())
+    change = np.abs(now.reshape(-1) - warped)
+    threshold = np.maximum(CHANGE_FLOOR, CHANGE_NOISE_SIGMAS * np.sqrt(variance.reshape(-1)))
+    return ~seen | (change > threshold)
+
+
+def changed_psnr(images: list[np.ndarray], references: list[np.ndarray], masks: list[np.ndarray]) -> float | None:
+    """PSNR (dB, tonemapped, peak 1, as :func:`gmcpt.metrics.psnr`) over the pixels of ``masks`` ((N,) bool, one a
+    frame: :func:`changed_pixels`) of every frame, pooled: one mean squared error over all of them, so that a frame
+    with more changed pixels weighs more. None where no pixel changed (a still scene)."""
+    if not len(images) == len(references) == len(masks):
+        raise ValueError("one reference and one mask a frame")
+    squares, count = 0.0, 0
+    for image, reference, mask in zip(images, references, masks):
+        error = tonemap(image).reshape(-1, 3)[mask].astype(np.float64) - tonemap(reference).reshape(-1, 3)[mask]
+        squares += float(np.sum(error ** 2))
+        count += error.size
+    if count == 0:
+        return None
+    return float("inf") if squares == 0 else float(10.0 * np.log10(count / squares))
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    """(H, W): the tonemapped image's mean over R, G, B."""
+    return tonemap(image).mean(axis=-1)

@@ -1,0 +1,83 @@
+"""The sequence benchmark's record read back (gmcpt.evaluation.sequences): figures at equal time, the plot's ceiling,
+the line at a glance and the results' section."""
+import numpy as np
+import pytest
+
+from gmcpt.evaluation.sequences import ceiling, equal_time_gap, equal_time_ratio, glance_line
+
+
+def _row(contender, spp, seconds, **figures):
+    return {"scene": "living-room", "motion": "object", "contender": contender, "rate": 1.0, "spp": spp,
+            "seconds": seconds, **figures}
+
+
+#: a baseline measured at 0.1 and 0.4 s a frame; the sequence between them and past the slower
+ROWS = [_row("path+oidn", 1, 0.1, flicker=8.0, psnr_changed=20.0),
+        _row("path+oidn", 4, 0.4, flicker=4.0, psnr_changed=24.0),
+        _row("sequence", 1, 0.2, flicker=3.0, psnr_changed=21.0),
+        _row("sequence", 4, 0.8, flicker=2.0, psnr_changed=26.0)]
+
+
+def test_equal_time_figures_read_the_baseline_in_log_time_and_hold_it_past_its_ends():
+    """At 0.2 s (the log-midpoint of 0.1 and 0.4) the baseline's flicker is 6 and its PSNR 22; at 0.8 s, past its
+    slowest setting, 4 and 24."""
+    assert equal_time_ratio(ROWS, "path+oidn") == pytest.approx(np.sqrt(3 / 6 * 2 / 4))
+    assert equal_time_gap(ROWS, "path+oidn") == pytest.approx(((21 - 22) + (26 - 24)) / 2)
+
+
+def test_equal_time_figures_leave_out_what_was_not_measured():
+    """A still scene has no changed pixels: no gap; a baseline that did not run: no ratio."""
+    still = [dict(r, psnr_changed=None) for r in ROWS]
+    assert equal_time_gap(still, "path+oidn") is None
+    assert equal_time_ratio(ROWS, "accumulation+oidn") is None
+
+
+def test_the_ceiling_is_path_tracing_at_7_6_times_the_sequences_samples_at_the_sequences_seconds():
+    rows = [_row("path+oidn", spp, 0.05 * spp, psnr=20 + 2 * np.log2(spp)) for spp in (1, 2, 4, 8, 16, 32)]
+    rows += [_row("sequence", 1, 0.3, psnr=25.0), _row("sequence", 8, 0.9, psnr=27.0)]
+    (first, top_1), (second, top_8) = ceiling(rows)
+    assert (first, second) == (0.3, 0.9)
+    assert top_1 == pytest.approx(20 + 2 * np.log2(7.6))
+    assert top_8 == pytest.approx(30.0)  # 61 samples: held at path tracing's most, 32
+    assert ceiling([r for r in rows if r["contender"] == "sequence"]) == []
+
+
+def _verdict(motion, speedup, flicker):
+    return {"scene": "dining-room", "motion": motion, "baseline": "path+oidn", "speedup": speedup, "bounds": 0,
+            "settings": 3, "flicker_ratio": flicker, "screen_flicker_ratio": 0.8, "changed_gap_db": -0.5}
+
+
+SEQUENCES = {"command": "python benchmarks/sequence.py --record x", "date": "2026-12-01", "commit": "abc",
+             "machine": "x86_64, 2 CPU cores", "settings": {"frames": 6, "warm": 2, "res": 64, "reference_spp": 64,
+                                                           "motion": ["pan", "object"], "step": {"pan": 0.5}},
+             "moving": {"dining-room": {"pan": "the camera, 0.5 degrees a frame", "object": "Mesh010.obj"}},
+             "rows": [dict(_row("sequence", 1, 0.2, psnr=24.0, flip=0.1, flicker=3.0, screen_flicker=4.0,
+                                psnr_changed=21.5, changed_share=0.032), scene="dining-room"),
+                      dict(_row("path+oidn", 1, 0.1, psnr=22.0, flip=0.12, flicker=8.0, screen_flicker=9.0,
+                                psnr_changed=None, changed_share=0.0), scene="dining-room", motion="pan")],
+             "verdicts": [_verdict("pan", 1.9, 0.4), _verdict("dolly", 1.2, 0.9), _verdict("object", 0.8, 0.7),
+                          _verdict("light", 1.1, 0.6)]}
+
+
+def test_the_line_at_a_glance_gives_the_speedups_on_camera_and_on_scene_motion_and_the_flicker():
+    line = glance_line(SEQUENCES)
+    assert "1.20-1.90x on pans and dollies" in line and "0.80-1.10x on moving objects and lights" in line
+    assert "flicker 0.40-0.90x theirs" in line and "1 scenes at 64x64" in line
+    old = dict(SEQUENCES, settings={"res": 256, "motion": "pan"},
+               verdicts=[{k: v for k, v in _verdict("pan", 1.6, 0.5).items() if k != "motion"}])
+    assert "1.60x on pans and dollies (above" in glance_line(old) and "objects" not in glance_line(old)
+
+
+def test_the_results_section_has_a_table_and_verdicts_per_motion_and_the_glance_leads_with_the_sequences():
+    from gmcpt.evaluation.document import sequence_section
+    from gmcpt.evaluation.glance import glance_section
+
+    text = "\n".join(sequence_section(SEQUENCES))
+    pan, obj = text.index("### pan"), text.index("### object")
+    assert pan < obj and "(dining-room: Mesh010.obj)." in text[obj:]
+    assert "| dining-room | sequence | 1 | 24.00 | 21.50 (3.2%) | 0.1000 | 0.200 | 3.00 (4.00) |" in text[obj:]
+    assert "| dining-room | path+oidn | 1 | 22.00 | - | 0.1200 | 0.100 | 8.00 (9.00) |" in text[pan:obj]
+    assert "| dining-room | path+oidn | 0.80x | 0.70 (0.80) | -0.50 |" in text[obj:]
+    run = {"sequences": SEQUENCES, "config": {"rates": [], "spp": 16}, "equal_time": [], "placement": []}
+    opening = glance_section(run)
+    assert opening[0] == "## At a glance" and opening[2] == glance_line(SEQUENCES)
