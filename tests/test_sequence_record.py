@@ -62,7 +62,12 @@ SEQUENCES = {"command": "python benchmarks/sequence.py --record x", "date": "202
 def test_the_line_at_a_glance_gives_the_speedups_on_camera_and_on_scene_motion_and_the_flicker():
     line = glance_line(SEQUENCES)
     assert "1.20-1.90x on pans and dollies" in line and "0.80-1.10x on moving objects and lights" in line
-    assert "flicker 0.40-0.90x theirs" in line and "1 scenes at 64x64" in line
+    assert "flicker 0.40-0.90x of that baseline's" in line and "1 scenes at 64x64" in line
+    assert "accumulation" not in line  # no verdict against it in this record
+    against = dict(SEQUENCES, verdicts=SEQUENCES["verdicts"] + [dict(_verdict("pan", 0.9, 1.2),
+                                                                     baseline="accumulation+oidn")])
+    line = glance_line(against)
+    assert "over accumulation + OIDN 0.90x on pans and dollies" in line and "1.20-1.90x on pans" in line
     old = dict(SEQUENCES, settings={"res": 256, "motion": "pan"},
                verdicts=[{k: v for k, v in _verdict("pan", 1.6, 0.5).items() if k != "motion"}])
     assert "1.60x on pans and dollies (above" in glance_line(old) and "objects" not in glance_line(old)

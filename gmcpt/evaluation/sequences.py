@@ -87,17 +87,26 @@ def _span(values: list[float], form: str) -> str:
 
 def glance_line(sequences: dict) -> str:
     """One line on the sequence mode's verdicts from the benchmark's record: its speed-up at equal quality over
-    either baseline on camera motion and on moving objects and lights, and its flicker over theirs at equal time."""
+    per-frame path tracing + OIDN (the yardstick) on camera motion and on moving objects and lights, its flicker
+    over that baseline's at equal time, and its speed-up over accumulation + OIDN."""
     settings, verdicts = sequences["settings"], sequences["verdicts"]
-    said = []
-    for label, chosen in (("on pans and dollies", lambda motion: motion in CAMERA_MOTIONS),
-                          ("on moving objects and lights", lambda motion: motion in ("object", "light"))):
-        speedups = [v["speedup"] for v in verdicts if chosen(motion_of(v, settings))]
-        if speedups:
-            said.append(f"{_span(speedups, '.2f')} {label}")
-    flicker = [v["flicker_ratio"] for v in verdicts if v.get("flicker_ratio") is not None]
+
+    def spans(baseline: str) -> list[str]:
+        said = []
+        for label, chosen in (("on pans and dollies", lambda motion: motion in CAMERA_MOTIONS),
+                              ("on moving objects and lights", lambda motion: motion in ("object", "light"))):
+            speedups = [v["speedup"] for v in verdicts
+                        if v["baseline"] == baseline and chosen(motion_of(v, settings))]
+            if speedups:
+                said.append(f"{_span(speedups, '.2f')} {label}")
+        return said
+
+    flicker = [v["flicker_ratio"] for v in verdicts
+               if v["baseline"] == "path+oidn" and v.get("flicker_ratio") is not None]
+    accumulation = spans("accumulation+oidn")
     return (f"**Sequences** (`benchmarks/sequence.py`, {len({v['scene'] for v in verdicts})} scenes at "
-            f"{settings['res']}x{settings['res']}): the sequence mode's speed-up at equal quality over path tracing "
-            f"+ OIDN and accumulation + OIDN is {'; '.join(said) or 'not measured'} (above 1x it is faster)"
-            + (f"; its flicker {_span(flicker, '.2f')} theirs at equal time" if flicker else "")
+            f"{settings['res']}x{settings['res']}): the sequence mode's speed-up at equal quality over per-frame path "
+            f"tracing + OIDN is {'; '.join(spans('path+oidn')) or 'not measured'} (above 1x it is faster)"
+            + (f", its flicker {_span(flicker, '.2f')} of that baseline's at equal time" if flicker else "")
+            + (f"; over accumulation + OIDN {'; '.join(accumulation)}" if accumulation else "")
             + " (*Sequences* below).")
