@@ -45,8 +45,9 @@ behind where the scene changed; :mod:`gmcpt.evaluation.sequences`).
     python benchmarks/sequence.py [--scenes living-room] [--frames 12] [--res 128] [--motion pan object]
         [--step pan=0.5 light=1] [--record docs/sequences.json]
 
-``--record``: the rows, the verdicts and the settings as JSON, a plot beside it (``.png``); ``gmcpt eval --from
-docs/results.json`` then puts them in ``docs/results.md``.
+``--record``: the rows, the verdicts and the settings as JSON, a plot beside it (``.png``); ``--merge PART.json ...
+--record OUT.json`` joins runs on other scenes into one record; ``gmcpt eval --from docs/results.json`` then puts
+them in ``docs/results.md``.
 """
 from __future__ import annotations
 
@@ -338,7 +339,14 @@ def main() -> int:
     parser.add_argument("--path-spp", type=int, nargs="+", default=[1, 2, 4, 8, 16, 32])
     parser.add_argument("--reference-spp", type=int, default=1024)
     parser.add_argument("--record", type=Path, help="write the rows and verdicts here (JSON) and a plot beside it")
+    parser.add_argument("--merge", type=Path, nargs="+", metavar="PART.json",
+                        help="measure nothing: merge records of runs on other scenes into --record (and its plot)")
     args = parser.parse_args()
+    if args.merge:
+        if not args.record:
+            parser.error("--merge writes --record: give it")
+        merge(args.record, args.merge)
+        return 0
     args.step = {**DEFAULT_STEPS, **dict(args.step)}  # the record keeps every motion's pace
     if args.record:
         args.record.parent.mkdir(parents=True, exist_ok=True)  # before the run, not after it
@@ -474,6 +482,29 @@ def record(args, rows: list[dict], verdicts: list[dict], moving: dict, seconds: 
         Path(temporary).write_text(json_text(data, indent=1))
     sequence_plot(rows, args.record.with_suffix(".png"))
     print(f"wrote {args.record} and {args.record.with_suffix('.png')}")
+
+
+def merge(target: Path, parts: list[Path]) -> None:
+    """One record of several runs on other scenes (each a ``--record``): their rows, verdicts and what moved, the
+    commands joined, the seconds summed, the settings of the first with every scene; and its plot."""
+    import json
+
+    from gmcpt.evaluation.plots import sequence_plot
+    from gmcpt.exr import atomic_output
+    from gmcpt.files import json_text
+
+    records = [json.loads(part.read_text()) for part in parts]
+    scenes = [scene for r in records for scene in r["settings"]["scenes"]]
+    merged = dict(records[0], command=" && ".join(r["command"] for r in records),
+                  seconds=sum(r["seconds"] for r in records),
+                  settings=dict(records[0]["settings"], scenes=scenes, record=str(target)),
+                  moving={k: v for r in records for k, v in r["moving"].items()},
+                  rows=[row for r in records for row in r["rows"]],
+                  verdicts=[verdict for r in records for verdict in r["verdicts"]])
+    with atomic_output(target) as temporary:
+        Path(temporary).write_text(json_text(merged, indent=1))
+    sequence_plot(merged["rows"], target.with_suffix(".png"))
+    print(f"wrote {target} and {target.with_suffix('.png')} ({len(records)} records)")
 
 
 if __name__ == "__main__":
