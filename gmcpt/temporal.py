@@ -196,8 +196,7 @@ def unchanged(past: Signature, source: np.ndarray, current: Signature, pixels: n
 def _neighbourhood_range(values: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
     """(least, greatest) of flat ``values`` (N,) over each pixel's 3x3 neighbourhood on a ``width`` x ``height``
     film (edges replicated), flat float32."""
-    plane = np.pad(values.astype(np.float32, copy=False).reshape(height, width), 1,
-                   mode="edge")
+    plane = np.pad(values.astype(np.float32, copy=False).reshape(height, width), 1, mode="edge")
     ranges = []
     for reduce in (np.minimum, np.maximum):  # separable: rows of three, then columns of three
         rows = reduce(reduce(plane[:-2], plane[1:-1]), plane[2:])
@@ -257,15 +256,14 @@ def agreement(current_mean: np.ndarray, history_mean: np.ndarray, has_history: n
     image's mean keeps the test off dark noise: against the neighbourhood alone, one sample a pixel often left it
     dark by chance, and the history kept where it was dark lost 1.6 dB on a still camera at budget 1.
     """
-    brightest = _luminance(current_mean)
-    mean = max(float(brightest.mean()), 1e-12)
+    current, history = _luminance(current_mean), _luminance(history_mean)
+    mean = max(float(current.mean()), 1e-12)
     floor = 0.05 * mean  # dark regions: noise, not a changed light
-    current, past = _clipped(brightest), _clipped(_luminance(history_mean))
-    near, far = _box(np.where(has_history, current, 0.0)), _box(np.where(has_history, past, 0.0))
-    near, far = near + floor, far + floor
-    width = brightest.shape[1]
-    brightest = _neighbourhood_range(brightest.ravel(), width, brightest.shape[0])[1].reshape(brightest.shape)
-    stale = _luminance(history_mean) > OUTLIER_RATIO * (brightest + mean)
+    near = _box(np.where(has_history, _clipped(current), 0.0)) + floor
+    far = _box(np.where(has_history, _clipped(history), 0.0)) + floor
+    height, width = current.shape
+    brightest = _neighbourhood_range(current.ravel(), width, height)[1].reshape(current.shape)
+    stale = history > OUTLIER_RATIO * (brightest + mean)
     return ~has_history | ((near <= DISAGREE_RATIO * far) & (far <= DISAGREE_RATIO * near) & ~stale)
 
 
