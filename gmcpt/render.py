@@ -164,14 +164,16 @@ def _feature_means(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, feature_
     if visibility:
         _, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, hit)
         values.append(dr.select(hit & ((emitter_weight[0] + emitter_weight[1] + emitter_weight[2]) > 0), 1.0, 0.0))
-    # Average each pixel's samples inside the kernel (as trace_pixels sums its radiance): one value per
-    # pixel comes back, not a buffer per sample.
-    if feature_spp > 1:
-        means = [dr.zeros(mi.Float, height * width) for _ in values]
-        for target, value in zip(means, values):
-            dr.scatter_reduce(dr.ReduceOp.Add, target, value * share, pixel, mode=SCATTER_MODE)
-        values = means
-    return values
+    return pixel_means(values, pixel, share, height * width) if feature_spp > 1 else values
+
+
+def pixel_means(values: list, pixel: mi.UInt32, share: mi.Float, pixels: int) -> list:
+    """Each of ``values`` (one lane a ray) averaged over the rays of its ``pixel`` (``share``: 1 / rays a pixel),
+    inside the kernel (as trace_pixels sums its radiance): one value per pixel comes back, not a buffer per ray."""
+    means = [dr.zeros(mi.Float, pixels) for _ in values]
+    for target, value in zip(means, values):
+        dr.scatter_reduce(dr.ReduceOp.Add, target, value * share, pixel, mode=SCATTER_MODE)
+    return means
 
 
 #: :func:`_feature_means` recorded once per scene, resolution and feature spp, then replayed (as the radiance pass)

@@ -33,8 +33,8 @@ from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP
 from .limits import SEED_LIMIT, check_seed
 from .guided_path import first_hit_features
-from .render import (FEATURE_SEED_OFFSET, SCATTER_MODE, FeatureMeans, FrozenKernel, SampleSums, _camera_key,
-                     _primary_rays, _seeded_sampler, _sensor_film_size, render_native)
+from .render import (FEATURE_SEED_OFFSET, FeatureMeans, FrozenKernel, SampleSums, _camera_key, _primary_rays,
+                     _seeded_sampler, _sensor_film_size, pixel_means, render_native)
 from .reprojection import JitFrame, gather_history, jit_frame
 from .scene import path_integrator, scene_sensor
 from .temporal import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, cubic_sample, fit_projection,
@@ -127,22 +127,26 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     light = bsdf.eval(mi.BSDFContext(), si, si.to_local(towards.d), hit & (towards.pdf > 0)) * weight
     light += dr.select(hit, si.emitter(scene).eval(si, hit), 0.0)
     values.append(dr.select(hit, (light.x + light.y + light.z) / 3, 0.0))
-    share = dr.opaque(mi.Float, 1 / guide_rays)
-    means = [dr.zeros(mi.Float, height * width) for _ in values]
-    for target, value in zip(means, values):
-        dr.scatter_reduce(dr.ReduceOp.Add, target, value * share, pixel, mode=SCATTER_MODE)
+    means = pixel_means(values, pixel, dr.opaque(mi.Float, 1 / guide_rays), height * width)
+    return means + _centre_planes(scene, sensor, (width, height))
 
+
+def _centre_planes(scene: mi.Scene, sensor: mi.Sensor, size: tuple[int, int]) -> list:
+    """Where one ray through each pixel's centre of a ``size`` (W, H) film hits: x, y, z, normal x, y, z, hit."""
+    width, height = size
     index = dr.arange(mi.UInt32, height * width)
     film = mi.Point2f(mi.Float(index % width) + 0.5, mi.Float(index // width) + 0.5)
     centre, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
                                   sample2=film / mi.ScalarVector2f(width, height), sample3=mi.Point2f(0.5))
-    centre_hit = scene.ray_intersect(centre)
-    return means + [centre_hit.p.x, centre_hit.p.y, centre_hit.p.z, centre_hit.sh_frame.n.x, centre_hit.sh_frame.n.y,
-                    centre_hit.sh_frame.n.z, dr.select(centre_hit.is_valid(), 1.0, 0.0)]
+    hit = scene.ray_intersect(centre)
+    return [hit.p.x, hit.p.y, hit.p.z, hit.sh_frame.n.x, hit.sh_frame.n.y, hit.sh_frame.n.z,
+            dr.select(hit.is_valid(), 1.0, 0.0)]
 
 
-#: :func:`_survey_planes` recorded once per scene, film and guide rays, then replayed
+#: :func:`_survey_planes` recorded once per scene, film and guide rays, then replayed; :func:`_centre_planes` alone
+#: for :func:`geometry`
 _frozen_survey = FrozenKernel(_survey_planes)
+_frozen_centres = FrozenKernel(_centre_planes)
 
 
 def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 0) -> Survey:
@@ -152,13 +156,18 @@ def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 
     planes = [np.asarray(plane, np.float32) for plane in
               _frozen_survey(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), guide_rays,
                                              _camera_key(sensor)))]
-    features, lighting, centre = planes[:9], planes[9], planes[10:]
-    hit = centre[6] > 0
-    # float32, as traced: the reprojection of 8 past frames reads them every frame, at half float64's traffic
-    positions = np.where(hit[:, None], np.stack(centre[0:3], axis=1), np.float32(np.nan))
-    normals = np.where(hit[:, None], np.stack(centre[3:6], axis=1), np.float32(np.nan))
+    features, lighting = planes[:9], planes[9]
+    positions, normals = _hits(planes[10:])
     return Survey(positions, normals, FeatureMeans(tuple(features), guide_rays, None, 0, (height, width)), lighting,
                   camera_projection(sensor))
+
+
+def _hits(planes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(positions, normals) (N, 3) each, NaN on a miss, of :func:`_centre_planes`' planes. float32, as traced: the
+    reprojection of 8 past frames reads them every frame, at half float64's traffic."""
+    hit = planes[6][:, None] > 0
+    return (np.where(hit, np.stack(planes[0:3], axis=1), np.float32(np.nan)),
+            np.where(hit, np.stack(planes[3:6], axis=1), np.float32(np.nan)))
 
 
 def camera_projection(sensor: mi.Sensor) -> Projection:
@@ -177,9 +186,11 @@ def camera_projection(sensor: mi.Sensor) -> Projection:
 
 def geometry(scene: mi.Scene, sensor: mi.Sensor) -> tuple[np.ndarray, np.ndarray, Projection]:
     """Where each pixel's centre ray hits (N, 3; NaN on a miss), the shading normal there (N, 3), and the
-    camera's :class:`~gmcpt.temporal.Projection` (of :func:`survey`)."""
-    found = survey(scene, sensor)
-    return found.positions, found.normals, found.projection
+    camera's :class:`~gmcpt.temporal.Projection`: the centre rays of :func:`survey` alone (no guides, no shadow
+    rays), for the stability figures and the benchmark's accumulation baseline."""
+    height, width = _sensor_film_size(sensor)
+    planes = [np.asarray(plane, np.float32) for plane in _frozen_centres(scene, lambda: (sensor, (width, height)))]
+    return (*_hits(planes), camera_projection(sensor))
 
 
 def _columns(vector, dtype=np.float64) -> np.ndarray:
