@@ -66,6 +66,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "auto, HOST:PORT, ray://HOST:PORT (default: in this process)")
     parser.add_argument("--gpus", type=float, help="GPUs per Ray task (default: 1 where the cluster has GPUs)")
     parser.add_argument("--retries", type=int, default=3, help="runs of a Ray task again when its worker dies")
+    parser.add_argument("--video", metavar="OUT.mp4", help="also write the frames' PNGs, in order and of one size, "
+                        "as an H.264 movie in sRGB, once all are there (default: none)")
+    parser.add_argument("--fps", type=float, default=24, help="frames a second of --video")
     return parser
 
 
@@ -214,6 +217,10 @@ def _validate_batch(args) -> list[dict]:
         raise GmcptError(f"--threads must be >= 1, got {args.threads}")
     if args.retries < 0 or (args.gpus is not None and args.gpus < 0):
         raise GmcptError("--retries and --gpus must be >= 0")
+    if args.video is not None:
+        from .video import check_fps, check_video_path
+        check_video_path(args.video, "--video")
+        check_fps(args.fps, "--fps")
     if args.history is not None:
         from .sequence_batch import check
         check(args)
@@ -273,10 +280,23 @@ def batch(args, say=lambda message: None, committed: Callable[[], None] | None =
     return _summary(args, jobs, rows, started, committed)
 
 
+def _movie(args, jobs: list[dict]) -> None:
+    """``--video``: the frames' PNG previews, in the jobs' order, as one movie (:func:`gmcpt.video.write_video`)."""
+    from .files import make_folder
+    from .outputs import sidecar_paths
+    from .video import write_video
+
+    make_folder(args.video)
+    write_video((sidecar_paths(job["out"])[1] for job in jobs), args.video, args.fps)
+
+
 def _summary(args, jobs: list[dict], rows: dict, started: float, committed) -> dict:
-    """Write and return ``DIR/batch-summary.json`` of ``rows`` (by frame name), in the jobs' order."""
+    """Write and return ``DIR/batch-summary.json`` of ``rows`` (by frame name), in the jobs' order; the movie
+    (``--video``) first, so that the summary stays the batch's last output."""
     from .exr import atomic_output
 
+    if getattr(args, "video", None) is not None:
+        _movie(args, jobs)
     ordered = [rows[job["name"]] for job in jobs]
     summary = {"command": "gmcpt batch " + " ".join(getattr(args, "argv", [])), "ray": args.ray,
                "threads": args.threads, "frames": len(jobs),
