@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import drjit as dr
 import mitsuba as mi
@@ -30,8 +30,9 @@ import numpy as np
 from .budget import check_budget, even_fill, guide_spp
 from .denoise import denoise_oidn
 from .errors import GmcptError
-from .frame import DEFAULT_FEATURE_SPP
-from .limits import SEED_LIMIT, check_seed
+from .frame import DEFAULT_FEATURE_SPP, SparseFrame
+from .limits import SEED_LIMIT, check_seconds, check_seed
+from .masks import DEFAULT_RATE
 from .guided_path import first_hit_features
 from .render import (FEATURE_SEED_OFFSET, FeatureMeans, FrozenKernel, SampleSums, _camera_key, _primary_rays,
                      _seeded_sampler, _sensor_film_size, pixel_means, render_native)
@@ -69,22 +70,70 @@ class SequenceSettings:
     seed : sampler seed of frame 0; frame i draws from ``seed + i * FRAME_SEED_STEP``.
     history : past frames kept (0: every frame on its own).
     decay : weight of a past frame's samples per frame of age, in (0, 1].
+    time : seconds a frame, from one frame's end to the next's (0: none, every frame spends ``budget``). With a
+        time, ``budget`` is the first frame's, and each later frame's is read from the pace of the ones before
+        (:class:`FramePace`); the guides keep ``budget``'s rays, so a still surface keeps its signature.
     """
 
     budget: float = 2.0
     seed: int = 0
     history: int = HISTORY_FRAMES
     decay: float = HISTORY_DECAY
+    time: float = 0.0
 
     def __post_init__(self):
         check_budget(self.budget)
         check_seed(self.seed)
+        if self.time:
+            check_seconds(self.time, "time")
         if not isinstance(self.history, int) or not 0 <= self.history <= 64:
             raise GmcptError(f"history must be a whole number of frames in [0, 64], got {self.history}")
         history_weights([1], self.decay)
 
     def frame_seed(self, index: int) -> int:
         return (self.seed + index * FRAME_SEED_STEP) % SEED_LIMIT
+
+
+#: The fewest and most samples a pixel a timed frame spends (below the fewest the frame is late; a warning says so).
+TIMED_BUDGETS = (0.25, 64.0)
+
+
+@dataclass
+class FramePace:
+    """What a sequence's frames cost, read from the frames so far, to size the next frame's samples to a time.
+
+    A frame's period runs from the end of the frame before to its own end, so it holds what the caller does between
+    frames (loading the next scene, writing the last frame's files) as well as the frame itself. Its seconds split
+    into those that grow with the samples (the path tracing; the median of the last :data:`PACE_FRAMES` frames'
+    seconds a sample) and the rest (the least of theirs: a slow frame, the first compiling its kernels or one in a
+    busy moment, would starve the next of samples)."""
+
+    ended: float | None = None  # perf_counter() at the end of the last frame
+    fixed: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # seconds a frame besides its samples
+    per_sample: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # seconds a sample a pixel
+
+    def budget(self, seconds: float, first: float) -> float:
+        """Samples a pixel for a frame of ``seconds``; ``first`` until a frame has been measured."""
+        if not self.per_sample:
+            return first
+        fixed, per_sample = min(self.fixed), float(np.median(self.per_sample))
+        low, high = TIMED_BUDGETS
+        return float(np.clip((seconds - fixed) / max(per_sample, 1e-9), low, high))
+
+    def record(self, started: float, ended: float, render_s: float, budget: float, seconds: float) -> None:
+        """A frame that ran from ``started`` to ``ended`` (perf_counter), ``render_s`` of it tracing ``budget``
+        samples a pixel, in a sequence of ``seconds`` a frame. A gap of more than twice that before the frame is
+        a pause (the caller waited on something else), not the caller's share of a frame: it is left out."""
+        period = ended - started
+        if self.ended is not None and started - self.ended <= 2 * seconds:
+            period += started - self.ended
+        self.ended = ended
+        self.fixed.append(period - render_s)
+        self.per_sample.append(render_s / budget)
+
+
+#: Frames whose costs :class:`FramePace` averages
+PACE_FRAMES = 3
 
 
 @dataclass(frozen=True)
@@ -212,6 +261,30 @@ class History:
     dropped: dict  # reason -> share of pixels that lost a past frame's samples for it
 
 
+@dataclass(frozen=True)
+class SequenceFrame:
+    """One frame of a sequence: the image shown (H, W, 3) float32; its layers as a single frame's
+    (:class:`~gmcpt.frame.SparseFrame`: the samples' mean, this frame's and the history's, where there were any;
+    the guides); the frame's figures (history kept and dropped, samples) and its stage timings in seconds."""
+
+    image: np.ndarray
+    layers: SparseFrame
+    info: dict
+    timings: dict
+
+
+def _layers(mean: np.ndarray, count: np.ndarray, guides: dict, budget: float) -> SparseFrame:
+    """The :class:`~gmcpt.frame.SparseFrame` of a sequence frame: ``mean`` (N, 3) of ``count`` (N,) weighted
+    samples, this frame's and the history's, and the survey's ``guides``; no variance is kept (zeros)."""
+    height, width = guides["albedo"].shape[:2]
+    sampled = (count > 0).reshape(height, width)
+    radiance = np.where(sampled[..., None], mean.reshape(height, width, 3), 0.0).astype(np.float32)
+    return SparseFrame(radiance=radiance, mask=sampled, variance=np.zeros((height, width), np.float32),
+                       albedo=guides["albedo"], normal=guides["normal"], depth=guides["depth"],
+                       visibility=guides["visibility"], spp=max(1, round(budget)), coverage=guides["coverage"],
+                       info={"sequence": True})
+
+
 class SequenceRenderer:
     """Renders the frames of a sequence in order, keeping the last :attr:`SequenceSettings.history` frames'
     samples (:class:`~gmcpt.temporal.PastFrame`)."""
@@ -221,11 +294,20 @@ class SequenceRenderer:
         self.past: deque[PastFrame] = deque(maxlen=max(settings.history, 1))
         self.shown: tuple[int, np.ndarray] | None = None  # (frame, image) of the last frame shown
         self._jit: dict[int, tuple[PastFrame, JitFrame]] = {}  # the past frames in Dr.Jit, by id
+        self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
                sensor: mi.Sensor | None = None) -> tuple[np.ndarray, dict, dict]:
         """Frame ``index`` of ``scene``: (image (H, W, 3) float32, info, timings in seconds)."""
+        frame = self.render_frame(scene, index, integrator, sensor)
+        return frame.image, frame.info, frame.timings
+
+    def render_frame(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
+                     sensor: mi.Sensor | None = None) -> SequenceFrame:
+        """Frame ``index`` of ``scene`` with its layers (:class:`SequenceFrame`)."""
         settings = self.settings
+        started = time.perf_counter()
+        budget = self.pace.budget(settings.time, settings.budget) if settings.time else settings.budget
         sensor = sensor if sensor is not None else scene_sensor(scene)
         integrator = integrator if integrator is not None else path_integrator(scene)
         height, width = _sensor_film_size(sensor)
@@ -240,8 +322,8 @@ class SequenceRenderer:
 
         start = time.perf_counter()
         history = self._history(index, found, marks)
-        samples = int(round(settings.budget * pixels))
-        counts = _placement(history.count, samples, settings.budget, (height, width), seed)
+        samples = int(round(budget * pixels))
+        counts = _placement(history.count, samples, budget, (height, width), seed)
         timings["placement_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
@@ -269,7 +351,7 @@ class SequenceRenderer:
         timings["denoise_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        shown, carried = self._carried(denoised, history.latest_film, history.latest_seen & agrees)
+        shown, carried = self._carried(denoised, history.latest_film, history.latest_seen & agrees, budget)
         timings["carry_s"] = time.perf_counter() - start
 
         if settings.history:
@@ -278,13 +360,17 @@ class SequenceRenderer:
                                        found.normals, found.projection, marks))
             self.shown = (index, shown)
         dropped = dict(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
-        info = {"frame": index, "seed": seed, "budget": settings.budget, "path_samples": int(counts.sum()),
+        info = {"frame": index, "seed": seed, "budget": budget, "path_samples": int(counts.sum()),
                 "history_frames": history.frames,
                 "history_pixels": float((kept > 0).mean()), "history_samples": float(kept.mean()),
                 "history_dropped": float((history.offered & ~((history.count > 0) & agrees)).mean()),
                 "dropped": dropped, "carried_pixels": carried,
                 "nonfinite_samples": int(sums.samples - count.sum()), "guide_rays": guide_rays}
-        return shown, info, timings
+        if settings.time:
+            info["time_short"] = budget <= TIMED_BUDGETS[0]
+        layers = _layers(image, count + kept, guides, budget)
+        self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time)
+        return SequenceFrame(shown, layers, info, timings)
 
     def _history(self, index: int, found: Survey, marks: Signature) -> History:
         """The past frames' samples reprojected into this frame (``found``: its :func:`survey`; ``marks``: its
@@ -311,13 +397,14 @@ class SequenceRenderer:
             self._jit[id(past)] = (past, jit_frame(past))
         return self._jit[id(past)][1]
 
-    def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray) -> tuple[np.ndarray, float]:
+    def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray,
+                 budget: float) -> tuple[np.ndarray, float]:
         """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`),
         read along the motion at ``film`` (N, 2, its film coordinates) where ``where`` (N,) says its surface was
         seen and its history held; the share of pixels blended)."""
         if self.shown is None or not where.any():
             return denoised, 0.0
-        carry = SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / self.settings.budget)
+        carry = SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / budget)
         flat = denoised.reshape(-1, 3).copy()
         flat[where] = (1 - carry) * flat[where] + carry * cubic_sample(self.shown[1], film[where])
         return flat.reshape(denoised.shape), float(where.mean())
@@ -350,6 +437,48 @@ class SequenceRenderer:
                                        signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height)))
             slot += 1
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
+
+
+def sequence_budget(budget: float | None, sensor: mi.Sensor) -> float:
+    """A sequence's samples a pixel a frame: ``budget``, or by default as many as rate ``DEFAULT_RATE`` traces at
+    the sensor's spp (what a single frame spends by default)."""
+    return budget if budget else DEFAULT_RATE * sensor.sampler().sample_count()
+
+
+class RenderLoop:
+    """The frames of successive renders of one scene object, as ``mi.render`` gives them to ``masked_path``: each a
+    frame of one sequence, reusing the ones before it (the camera and shapes may move through ``mi.traverse``
+    between them). Another scene, another film size or :meth:`reset` starts a new sequence.
+
+    Frame ``i`` draws the samples :class:`SequenceSettings` gives frame ``i``, so the frames equal those of
+    ``gmcpt batch --frames 0:N --history H`` on a scene that moves the same way."""
+
+    def __init__(self, budget: float | None, seed: int, history: int, seconds: float = 0.0):
+        self.budget, self.seed, self.history, self.seconds = budget, seed, history, seconds
+        SequenceSettings(budget=budget or 1.0, seed=seed, history=history, time=seconds)  # one line on a bad value
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the frames so far: the next render is frame 0 of a new sequence."""
+        self.renderer: SequenceRenderer | None = None
+        self._held: tuple = ()
+        self.next_index = 0
+
+    def render(self, scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
+               index: int | None = None) -> SequenceFrame:
+        """Frame ``index`` (default: the one after the last) of the sequence ``scene`` is in, started anew here
+        for another scene or film size. The scene is known by its address: holding it would keep it alive."""
+        held = (scene.ptr, _sensor_film_size(sensor))
+        if self.renderer is None or held != self._held:
+            self.reset()
+            self.renderer = SequenceRenderer(SequenceSettings(budget=sequence_budget(self.budget, sensor),
+                                                              seed=self.seed, history=self.history,
+                                                              time=self.seconds))
+            self._held = held
+        index = self.next_index if index is None else index
+        frame = self.renderer.render_frame(scene, index, integrator, sensor)
+        self.next_index = index + 1
+        return frame
 
 
 def _placement(history_count: np.ndarray, samples: int, budget: float, shape: tuple[int, int],

@@ -15,6 +15,7 @@ from gmcpt.plugins import constructor
 from gmcpt.render import DEFAULT_FEATURE_SPP
 from gmcpt.sampling import RenderSettings, check_one_sample_count
 from gmcpt.scene import scene_sensor
+from gmcpt.sequence import RenderLoop
 
 
 class MaskedPathIntegrator(mi.SamplingIntegrator):
@@ -65,6 +66,14 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - |string|
        - Generator weights of the GAN methods: a shipped name or a ``.pt`` path, checked at load time.
          (Default: the shipped ``gan-cpu``)
+     * - history
+       - |int|
+       - Past frames a frame reuses (0: none). Above 0, successive ``mi.render`` calls on the same scene are the
+         frames of one sequence (move the camera and shapes through ``mi.traverse`` between them): each frame
+         spends ``budget`` (or ``time``) on every pixel, reuses the samples of up to ``history`` frames before
+         it where they still hold, then OIDN (see ``gmcpt.sequence``); ``mi.render``'s ``seed``, when given,
+         is the frame's number. Another scene, another film size or ``reset()`` starts over. ``rate``,
+         ``mask``, ``completion`` and ``weights`` are single-frame options, refused here. (Default: 0)
      * - tile
        - |int|
        - Largest side of the tiles a larger frame is completed in (overlapping, blended), so memory stays
@@ -127,9 +136,18 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
              "rr_depth": depth_settings.get("rr_depth", 5)})
         self.last_frame = None
         self.last_timings = {}
+        self.history = int(props.get("history", 0))
+        self.loop = None
+        if self.history:
+            given = [name for name in ("rate", "mask", "completion", "weights") if name in props]
+            if given:
+                raise GmcptError(f"masked_path with history spends its budget on every pixel, then OIDN: drop "
+                                 f"{', '.join(given)}")
+            self.loop = RenderLoop(self.budget or None, self.seed, self.history, self.time)
 
     def plugin_properties(self) -> dict:
-        """The plugin's own properties as set (``rate``, ``mask``, ...), for a copy with some changed."""
+        """The plugin's own properties as set (``rate``, ``mask``, ...), for a copy with some changed: a
+        single frame's (``gmcpt render``), so ``history`` does not follow."""
         return {"rate": self.rate, "budget": self.budget, "time": self.time or None, "mask": self.mask_pattern,
                 "seed": self.seed,
                 "feature_spp": self.feature_spp,
@@ -170,10 +188,23 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
             raise GmcptError("masked_path only renders developed images (develop=True)")
         if isinstance(sensor, int):
             sensor = scene_sensor(scene, sensor)
-        rendered = self.render_frame(scene, sensor, seed, spp)
-        tensor = pack(rendered.frame, rendered.image)
+        if self.loop is not None:
+            if spp:
+                raise GmcptError("masked_path with history spends its budget: give it a budget, not an spp")
+            sequence_frame = self.loop.render(scene, sensor, self.integrator, int(seed) or None)
+            self.last_frame, self.last_timings = sequence_frame.layers, sequence_frame.timings
+            self.last_frame.info.update(sequence_frame.info)
+            tensor = pack(sequence_frame.layers, sequence_frame.image)
+        else:
+            rendered = self.render_frame(scene, sensor, seed, spp)
+            tensor = pack(rendered.frame, rendered.image)
         fill_film(sensor.film(), tensor)  # so that film().bitmap() and film().write() give the named layers
         return mi.TensorXf(tensor)
+
+    def reset(self) -> None:
+        """Start a new sequence: the next ``mi.render`` is frame 0 (with ``history``; nothing to do without)."""
+        if self.loop is not None:
+            self.loop.reset()
 
     def sample(self, scene, sampler, ray, medium=None, active=True):
         return self.integrator.sample(scene, sampler, ray, medium, active)
@@ -185,7 +216,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
     def to_string(self) -> str:
         return (f"MaskedPathIntegrator[rate={self.rate}, budget={self.budget}, time={self.time}, "
                 f"mask={self.mask_pattern!r}, seed={self.seed}, "
-                f"feature_spp={self.feature_spp}, completion={self.completion!r}, weights={self.weights!r},\n"
+                f"feature_spp={self.feature_spp}, completion={self.completion!r}, weights={self.weights!r}, "
+                f"history={self.history},\n"
                 f"  integrator={self.integrator}]")
 
 

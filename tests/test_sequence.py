@@ -154,3 +154,36 @@ def test_the_jit_gather_keeps_what_the_numpy_tests_keep(mi):
     rows[seen] = source
     np.testing.assert_allclose(gathered.summed[both, 3], 0.5 * past.count[rows[both]], rtol=1e-6)
     np.testing.assert_allclose(gathered.latest_film[both], film[np.isin(seen, np.flatnonzero(both))], atol=1e-3)
+
+
+def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():
+    from gmcpt.sequence import FramePace
+
+    pace, clock = FramePace(), 0.0
+    assert pace.budget(1.0, first=3.0) == 3.0  # nothing measured yet
+
+    def frame(budget, fixed=0.2, per_sample=0.1, gap=0.0):
+        nonlocal clock
+        started = clock + gap
+        clock = started + fixed + per_sample * budget
+        pace.record(started, clock, per_sample * budget, budget, 1.0)
+
+    frame(3.0)
+    assert pace.budget(1.0, first=3.0) == pytest.approx(8.0)  # (1 - 0.2) / 0.1
+    frame(8.0, gap=0.1)  # the caller's 0.1 s between frames (loading, writing) is part of a frame's period
+    assert pace.budget(1.0, first=3.0) == pytest.approx(8.0)  # the least fixed cost of the frames so far
+    frame(8.0, gap=50.0)  # a pause is not a frame's cost
+    frame(8.0, fixed=2.0, per_sample=0.3)  # one slow frame on a busy machine does not starve the next
+    assert pace.budget(1.0, first=3.0) == pytest.approx(8.0)
+    frame(8.0, per_sample=0.3)
+    frame(8.0, per_sample=0.3)  # slower for good: the budget follows
+    assert pace.budget(1.0, first=3.0) == pytest.approx(0.8 / 0.3)
+    assert pace.budget(0.01, first=3.0) == 0.25  # the fewest a timed frame spends
+
+
+def test_a_timed_sequence_records_its_time_and_each_frame_its_own_budget(mi):
+    scene = _scene()
+    renderer = _renderer(time=0.5)
+    budgets = [renderer.render(scene, index)[1]["budget"] for index in range(3)]
+    assert budgets[0] == 2 and budgets[1] != 2 and budgets[2] != 2
+    assert "time_short" in renderer.render(scene, 3)[1]
