@@ -67,8 +67,6 @@ ACCUMULATION_MIN_WEIGHT = 0.2
 MOTIONS = ("pan", "dolly", "object", "light", "still")
 #: The pace of the motions that ``--step`` sets: degrees a frame (pan, light), hundredths of a unit (dolly).
 DEFAULT_STEPS = {"pan": 0.5, "dolly": 0.5, "light": 1.0}
-#: Mitsuba's ``aov`` integrator for OIDN's guides, as a Mitsuba user would render them.
-AOV_GUIDES = {"type": "aov", "aovs": "a:albedo,n:sh_normal"}
 #: The vertical axis of the evaluation's real scenes (their floors are level in y), about which a light turns.
 UP = np.array([0.0, 1.0, 0.0])
 
@@ -236,13 +234,10 @@ def _mesh_name(shape) -> str | None:
     return text.split('name = "', 1)[1].split('"', 1)[0] if 'name = "' in text else None
 
 
-#: The two independent references of a frame (sampler seeds): flicker is read against both (see stability).
-REFERENCE_SEEDS = (7_000_000, 8_000_000)
-
-
 def reference(loaded_scene, name: str, label: str, frame: int, spp: int, res: int, second: bool = False) -> np.ndarray:
     """The frame's reference (``second``: another, independent of the first), cached under the gmcpt cache by the
     scene, the motion's ``label`` (:class:`SceneMotion`), the frame, size and samples."""
+    from gmcpt.evaluation.sequences import REFERENCE_SEEDS
     from gmcpt.files import cache_folder
     from gmcpt.render import render_native
 
@@ -262,42 +257,19 @@ def reference(loaded_scene, name: str, label: str, frame: int, spp: int, res: in
     return image
 
 
-def denoised_with_aov_guides(scene, aov, noisy: np.ndarray, spp: int, seed: int) -> np.ndarray:
-    """``noisy`` (N, 3) through OIDN with the guides of one pass of Mitsuba's ``aov`` integrator at ``spp``: its
-    albedo clipped to [0, 1] (OIDN's range; Mitsuba's albedo of a rough metal reaches 18 in the dining room) and
-    its shading normal in world space, a pixel's mean of unit normals (0 on a miss), as OIDN takes them and as
-    :func:`gmcpt.render.render_features` gives them but for the renormalising, which OIDN does not need."""
-    import mitsuba as mi
-
-    from gmcpt.denoise import denoise_oidn
-
-    guides = np.asarray(mi.render(scene, integrator=aov, spp=spp, seed=seed), dtype=np.float32)
-    return denoise_oidn(noisy.reshape(*guides.shape[:2], 3), np.clip(guides[..., 0:3], 0, 1), guides[..., 3:6], spp)
-
-
-def path_oidn(scene, integrator, aov, spp: int, seed: int) -> tuple[np.ndarray, float]:
-    """(image, seconds) of a frame on its own: render, ``aov`` guides and OIDN (the module's docstring)."""
-    from gmcpt.render import render_native
-
-    start = time.perf_counter()
-    noisy = render_native(scene, scene.sensors()[0], integrator, spp, seed)
-    image = denoised_with_aov_guides(scene, aov, noisy, spp, seed)
-    return image, time.perf_counter() - start
-
-
 class Accumulation:
     """Temporal accumulation + OIDN (see the module's docstring)."""
 
     def __init__(self):
         self.previous = None
 
-    def render(self, scene, integrator, aov, spp: int, seed: int) -> tuple[np.ndarray, float]:
-        """(image, seconds) of the next frame, every stage timed."""
+    def render(self, scene, integrator, aov, spp: int, seed: int) -> np.ndarray:
+        """The next frame (every stage is charged to it: :func:`gmcpt.evaluation.sequences.take_turns`)."""
+        from gmcpt.evaluation.sequences import denoised_with_aov_guides
         from gmcpt.render import render_native
         from gmcpt.sequence import geometry
         from gmcpt.temporal import PastFrame, reproject
 
-        start = time.perf_counter()
         sensor = scene.sensors()[0]
         image = render_native(scene, sensor, integrator, spp, seed)
         positions, normals, projection = geometry(scene, sensor)
@@ -310,7 +282,7 @@ class Accumulation:
             image = np.where(valid[:, None], blended, image)
             length = np.where(valid, past_length[source] + 1, 1)
         self.previous = (PastFrame(0, image, length, positions, normals, projection), length)
-        return denoised_with_aov_guides(scene, aov, image, spp, seed), time.perf_counter() - start
+        return denoised_with_aov_guides(scene, aov, image, spp, seed)
 
 
 def motion_step(text: str) -> tuple[str, float]:
@@ -356,6 +328,7 @@ def main() -> int:
 
     from gmcpt.evaluation.cli import _commit
     from gmcpt.evaluation.scenes import evaluation_scenes
+    from gmcpt.evaluation.sequences import AOV_GUIDES
     from gmcpt.scene import path_integrator
 
     rows, verdicts, moving, started, commit = [], [], {}, time.time(), _commit()  # the commit before docs/ changes
@@ -381,10 +354,9 @@ def main() -> int:
 
 def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> list[dict]:
     """The rows of every contender on one scene in one motion (printed as they come)."""
-    from gmcpt.evaluation.stability import (FrameGeometry, changed_pixels, changed_psnr, screen_flicker,
-                                            surface_flicker)
-    from gmcpt.metrics import all_metrics
-    from gmcpt.sequence import SequenceRenderer, SequenceSettings, geometry
+    from gmcpt.evaluation.sequences import Run, Truth, path_oidn_run, sequence_figures, sequence_run, take_turns
+    from gmcpt.evaluation.stability import FrameGeometry
+    from gmcpt.sequence import geometry
 
     sensor = scene.sensors()[0]
     firsts, seconds, geometries = [], [], []
@@ -394,47 +366,24 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
         seconds.append(reference((scene, integrator), name, changes.label, frame, args.reference_spp, args.res,
                                  second=True))
         geometries.append(FrameGeometry(*geometry(scene, sensor)))
-    references = [(a + b) / 2 for a, b in zip(firsts, seconds)]
-    kept = slice(args.warm, None)
-    changed = {t: changed_pixels(firsts, seconds, geometries, t) for t in range(max(1, args.warm), args.frames)}
-    changed_share = float(np.mean([mask.mean() for mask in changed.values()])) if changed else 0.0
-    contenders = [("path+oidn", spp) for spp in args.path_spp] + [("accumulation+oidn", spp) for spp in args.path_spp] \
-        + [("sequence", budget) for budget in args.budgets]
-    # frame by frame, every contender in turn: a machine whose pace drifts over minutes slows them alike
-    runs = [{"contender": contender, "amount": amount, "accumulation": Accumulation(), "images": [],
-             "sequence": SequenceRenderer(SequenceSettings(budget=amount, seed=3)), "seconds": []}
-            for contender, amount in contenders]
-    for frame in range(args.frames):
-        changes.at(frame)
-        seed = 1000 + frame
-        for run in runs:
-            contender, amount = run["contender"], run["amount"]
-            if contender == "path+oidn":
-                image, spent = path_oidn(scene, integrator, aov, int(amount), seed)
-            elif contender == "accumulation+oidn":
-                image, spent = run["accumulation"].render(scene, integrator, aov, int(amount), seed)
-            else:
-                start = time.perf_counter()
-                image, _, _ = run["sequence"].render(scene, frame, integrator)
-                spent = time.perf_counter() - start
-            run["images"].append(image)
-            run["seconds"].append(spent)
+    truth = Truth.of(firsts, seconds, geometries, args.warm)
+
+    def accumulation_run(spp):
+        accumulation = Accumulation()
+        return Run("accumulation+oidn", spp, lambda frame, seed: accumulation.render(scene, integrator, aov, spp, seed))
+
+    runs = [path_oidn_run(scene, integrator, aov, spp) for spp in args.path_spp] \
+        + [accumulation_run(spp) for spp in args.path_spp] \
+        + [sequence_run(scene, integrator, budget, seed=3) for budget in args.budgets]
+    take_turns(runs, range(args.frames), changes.at, lambda frame: 1000 + frame)
     rows = []
     for run in runs:
-        images, contender, amount = run["images"], run["contender"], run["amount"]
-        metrics = [all_metrics(i, r) for i, r in zip(images[kept], references[kept])]
-        row = {"scene": name, "motion": changes.motion, "contender": contender, "rate": 1.0, "spp": amount,
-               "psnr": float(np.mean([m["psnr"] for m in metrics])),
-               "psnr_changed": changed_psnr([images[t] for t in changed], [references[t] for t in changed],
-                                            list(changed.values())),
-               "changed_share": changed_share, "flip": float(np.mean([m["flip"] for m in metrics])),
-               "seconds": float(np.mean(run["seconds"][kept])),
-               "flicker": surface_flicker(images[kept], firsts[kept], geometries[kept], seconds[kept]),
-               "screen_flicker": screen_flicker(images[kept], firsts[kept], seconds[kept])}
+        row = {"scene": name, "motion": changes.motion, "contender": run.contender, "rate": 1.0, "spp": run.amount,
+               **sequence_figures(run.images, run.seconds, truth)}
         rows.append(row)
         on_changed = "-" if row["psnr_changed"] is None else f"{row['psnr_changed']:6.2f}"
-        print(f"{name:20s} {changes.motion:6s} {contender:18s} {amount:4g}: {row['psnr']:6.2f} dB "
-              f"(changed pixels {on_changed} dB, {changed_share:.1%} of them)  FLIP {row['flip']:.4f}  "
+        print(f"{name:20s} {changes.motion:6s} {run.contender:18s} {run.amount:4g}: {row['psnr']:6.2f} dB "
+              f"(changed pixels {on_changed} dB, {row['changed_share']:.1%} of them)  FLIP {row['flip']:.4f}  "
               f"{row['seconds']:.3f} s a frame  flicker {row['flicker']:.3f} (in place {row['screen_flicker']:.3f})",
               flush=True)
     return rows
@@ -442,23 +391,18 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
 
 def judge(rows: list[dict], name: str, motion: str) -> list[dict]:
     """The sequence mode's verdicts against each baseline on one scene in one motion (printed)."""
-    from gmcpt.evaluation.report import equal_time_verdict
-    from gmcpt.evaluation.sequences import equal_time_gap, equal_time_ratio
+    from gmcpt.evaluation.sequences import sequence_verdict
 
     verdicts = []
     for baseline in ("path+oidn", "accumulation+oidn"):
-        verdict = equal_time_verdict(rows, "sequence", (baseline,))
-        if not verdict:
+        found = sequence_verdict(rows, baseline)
+        if not found:
             continue
-        found = {"scene": name, "motion": motion, "baseline": baseline, "speedup": verdict["speedup"],
-                 "bounds": verdict["bounds"], "settings": verdict["settings"],
-                 "flicker_ratio": equal_time_ratio(rows, baseline),
-                 "screen_flicker_ratio": equal_time_ratio(rows, baseline, "screen_flicker"),
-                 "changed_gap_db": equal_time_gap(rows, baseline)}
+        found = {"scene": name, "motion": motion, **found}
         verdicts.append(found)
         gap = "-" if found["changed_gap_db"] is None else f"{found['changed_gap_db']:+.2f} dB"
-        print(f"{name} {motion}: sequence vs {baseline}: {verdict['speedup']:.2f}x at equal time "
-              f"({verdict['bounds']} bounds of {verdict['settings']}); flicker {found['flicker_ratio']:.2f}x its "
+        print(f"{name} {motion}: sequence vs {baseline}: {found['speedup']:.2f}x at equal time "
+              f"({found['bounds']} bounds of {found['settings']}); flicker {found['flicker_ratio']:.2f}x its "
               f"flicker at the sequence's time (in place {found['screen_flicker_ratio']:.2f}x); changed pixels "
               f"{gap} against it at the sequence's time")
     return verdicts

@@ -125,6 +125,28 @@ def check_scene_file(path: str | Path) -> Path:
     return path
 
 
+def check_animated(path: str | Path) -> Path:
+    """``path`` if its scene reads ``$frame`` somewhere (itself or a file it includes); else one line.
+
+    ``--frames A:B`` loads the scene with ``frame=A, ..., B-1``: Mitsuba refuses a parameter nothing reads
+    ("Found unused parameters"), and this says so before any work, in the words of ``--frames``. Declaring
+    ``<default name="frame" value="0"/>`` alone animates nothing; reading ``$frame`` without a default works
+    (``--frames`` passes it)."""
+    import re
+
+    path = check_scene_file(path)
+    try:
+        root = ET.parse(path).getroot()
+        _inline_includes(root, (path.resolve().parent,))
+    except (OSError, ET.ParseError, GmcptError):
+        return path  # load_scene says what is wrong with it
+    reads = re.compile(r"\$frame\b")
+    if not any(reads.search(value) for element in root.iter() for value in element.attrib.values()):
+        raise GmcptError(f"{path} has no animation for --frames: nothing in it reads $frame (e.g. "
+                         f'<default name="frame" value="0"/> and <rotate y="1" angle="$frame"/> in the camera)')
+    return path
+
+
 def scene_inputs(path: str | Path) -> list[Path]:
     """The files a scene reads: itself, the files it includes and the files it names (meshes, textures)."""
     path = Path(path)

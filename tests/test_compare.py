@@ -42,6 +42,13 @@ BOX = """<scene version="3.0.0">
 """
 
 
+#: BOX animated: frame N turns the camera N degrees about the vertical (its film 16x16, to keep the test quick)
+ANIMATED_BOX = BOX.replace('<scene version="3.0.0">', '<scene version="3.0.0"><default name="frame" value="0"/>') \
+    .replace('<lookat origin="0, 1, 4" target="0, 0.3, 0" up="0, 1, 0"/>',
+             '<lookat origin="0, 1, 4" target="0, 0.3, 0" up="0, 1, 0"/><rotate y="1" angle="$frame"/>') \
+    .replace('value="32"', 'value="16"')
+
+
 def _environment(tmp_path):
     """A cache of the test's own for the references; the generator's conversions stay the user's (each is 10-17 s
     of a process that would import torch for it, and not what these tests check)."""
@@ -207,14 +214,126 @@ def test_reference_rendered_once_then_cached(tmp_path):
     (["box.xml", "--reference", "box.xml"], "cannot read EXR box.xml"),
     (["box.xml", "--reference", "small.exr"], "small.exr is 8x8, the film is 32x32"),
     (["box.xml", "--seed", "-1"], "--seed must be"),
+    (["box.xml", "--frames", "0:3"], "box.xml has no animation for --frames: nothing in it reads $frame"),
+    (["anim.xml", "--frames", "0:3", "--reference", "small.exr"], "--frames renders a reference of each frame: drop "
+                                                                  "--reference"),
+    (["anim.xml", "--frames", "2:3"], "--frames 2:3 is one frame"),
+    (["anim.xml", "--frames", "3:1"], "--frames expects START:STOP with START < STOP"),
+    (["anim.xml", "--frames", "0:3", "--budgets", "0.5"], "--budgets must each be in [1, 32]"),
 ])
 def test_bad_input_is_one_line(tmp_path, args, message):
     from gmcpt.exr import write_exr
 
     (tmp_path / "box.xml").write_text(BOX)
+    (tmp_path / "anim.xml").write_text(ANIMATED_BOX)
     write_exr(tmp_path / "small.exr", {c: np.ones((8, 8), np.float32) for c in "RGB"})
     result = _compare(tmp_path, *args)
     assert result.returncode == 2, result.stderr
     assert result.stderr.startswith("error: ") and len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert message in result.stderr
-    assert not (tmp_path / "compare-box").exists()
+    assert not list(tmp_path.glob("compare-*"))
+
+
+def test_compare_frames_writes_the_movie_the_table_the_plot_and_the_verdict(tmp_path):
+    """An animation of four 16x16 frames: the sequence mode at budget 1 against per-frame path tracing + OIDN at
+    1, 2, 4, 8 spp; references of 8 spp a frame."""
+    import re
+
+    from test_video import decoded
+
+    (tmp_path / "anim.xml").write_text(ANIMATED_BOX)
+    result = _compare(tmp_path, "anim.xml", "--frames", "0:4", "--budgets", "1", "--reference-spp", "8", "--out", "a")
+    assert result.returncode == 0, result.stderr[-3000:]
+    out = tmp_path / "a"
+    assert sorted(p.name for p in out.iterdir()) == ["compare.json", "compare.mp4", "psnr_vs_time.png"]
+    record = json.loads((out / "compare.json").read_text())
+    assert [(r["contender"], r["spp"]) for r in record["rows"]] == [("path+oidn", s) for s in (1, 2, 4, 8)] + [
+        ("sequence", 1)]
+    assert all(len(r["frames"]["psnr"]) == 4 and len(r["frames"]["flicker"]) == 3 and r["seconds"] > 0
+               for r in record["rows"])
+    assert record["frames"] == [0, 4] and record["size"] == [16, 16] and record["reference_spp"] == 8
+    frames, _ = decoded(out / "compare.mp4")  # reference | sequence | path + OIDN, 2 pixels apart
+    assert len(frames) == 4 and frames[0].shape == (16, 3 * 16 + 2 * 2, 3)
+    assert (out / "psnr_vs_time.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("| contender | samples a pixel a frame | PSNR dB |") and len(lines) == 2 + 5 + 1
+    assert lines[-1] == record["verdict_line"]
+    ratio, spread = r"\d+\.\d\dx", r"\d+\.\d\d-\d+\.\d\dx"
+    baseline = r"per-frame path tracing \+ OIDN at equal quality"
+    speed = rf"(is {ratio} (faster|slower) than {baseline} \({spread} within the run's noise\)" \
+            rf"|against {baseline}: a wash \(within the run's noise: a speed-up of {ratio}, {spread}\))"
+    flicker = rf"its flicker ({ratio} the baseline's at equal time \({spread}\)|a wash \(within the run's noise: .*\))"
+    assert re.fullmatch(rf"verdict: the sequence mode {speed}( \(.* only bounds.*\))?; {flicker}", lines[-1]), lines[-1]
+    assert "references 4/4 frames" in result.stderr and "Traceback" not in result.stderr
+    again = _compare(tmp_path, "anim.xml", "--frames", "0:4", "--budgets", "1", "--reference-spp", "8", "--out", "b")
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert len(list((tmp_path / "cache" / "references").glob("*.exr"))) == 2 * 4  # the second run read them
+    assert json.loads((tmp_path / "b" / "compare.json").read_text())["rows"][0]["psnr"] == record["rows"][0]["psnr"]
+
+
+def _frame_rows(sequence_seconds, flicker=(2.0, 2.0, 2.0)):
+    """Path tracing + OIDN at 1, 2, 4 spp (20, 23, 26 dB at 0.1, 0.2, 0.4 s a frame, flicker 8, 6, 4) and the
+    sequence at 23 dB, four frames each; the sequence's seconds a frame as given."""
+    def row(contender, spp, psnr, seconds, pair_flicker):
+        return {"scene": "s", "motion": "frames 0-3", "contender": contender, "rate": 1.0, "spp": spp, "psnr": psnr,
+                "seconds": float(np.mean(seconds)), "flicker": float(np.sqrt(np.mean(np.square(pair_flicker)))),
+                "screen_flicker": 1.0, "psnr_changed": None,
+                "frames": {"psnr": [psnr] * 4, "seconds": list(seconds), "flicker": list(pair_flicker)}}
+    return [row("path+oidn", 1, 20.0, [0.1] * 4, [8.0] * 3), row("path+oidn", 2, 23.0, [0.2] * 4, [6.0] * 3),
+            row("path+oidn", 4, 26.0, [0.4] * 4, [4.0] * 3), row("sequence", 1, 23.0, sequence_seconds, flicker)]
+
+
+def test_the_frames_verdict_says_a_wash_where_the_frames_spread_holds_one():
+    """The sequence reaches path tracing's 2-spp PSNR: at 0.1 s a frame it is 2x faster; at 0.1 or 0.3 s on
+    alternate frames (0.2 s on the mean) it is 1x, and the frames' spread holds 1: a wash."""
+    from gmcpt.evaluation.sequences import frame_ladder, frames_verdict_line, sequence_verdict, verdict_noise
+
+    steady = _frame_rows([0.1] * 4)
+    verdict, noise = sequence_verdict(steady, "path+oidn"), verdict_noise(steady, draws=200)
+    assert verdict["speedup"] == pytest.approx(2.0) and noise["speedup"] == pytest.approx((2.0, 2.0))
+    assert verdict["flicker_ratio"] == pytest.approx(2 / 8)  # the baseline's flicker at 0.1 s: 8
+    line = frames_verdict_line(verdict, noise)
+    assert line == ("verdict: the sequence mode is 2.00x faster than per-frame path tracing + OIDN at equal quality "
+                    "(2.00-2.00x within the run's noise); its flicker 0.25x the baseline's at equal time (0.25-0.25x)")
+    uneven = _frame_rows([0.1, 0.3, 0.1, 0.3], flicker=(1.0, 12.0, 1.0))
+    verdict, noise = sequence_verdict(uneven, "path+oidn"), verdict_noise(uneven, draws=200)
+    low, high = noise["speedup"]
+    assert verdict["speedup"] == pytest.approx(1.0) and low < 1 < high
+    line = frames_verdict_line(verdict, noise)
+    assert "at equal quality: a wash (within the run's noise: a speed-up of 1.00x, " in line
+    assert "; its flicker a wash (within the run's noise: " in line
+    slower = _frame_rows([0.4] * 4)
+    assert "is 2.00x slower than per-frame path tracing + OIDN at equal quality (2.00-2.00x" in frames_verdict_line(
+        sequence_verdict(slower, "path+oidn"), verdict_noise(slower, draws=50))
+    assert frame_ladder([1, 2, 4]) == (1, 2, 4, 8, 16, 32) and frame_ladder([3]) == (1, 2, 3, 4, 8, 16, 32)
+
+
+def test_an_animation_is_a_scene_that_reads_frame(tmp_path):
+    from gmcpt.errors import GmcptError
+    from gmcpt.scene import check_animated
+
+    (tmp_path / "declared.xml").write_text(BOX.replace('<scene version="3.0.0">',
+                                                       '<scene version="3.0.0"><default name="frame" value="0"/>'))
+    (tmp_path / "camera.xml").write_text('<scene version="3.0.0"><sensor type="perspective"><transform name="to_world">'
+                                         '<rotate y="1" angle="$frame"/></transform></sensor></scene>')
+    (tmp_path / "included.xml").write_text('<scene version="3.0.0"><include filename="camera.xml"/></scene>')
+    assert check_animated(tmp_path / "included.xml") == tmp_path / "included.xml"
+    with pytest.raises(GmcptError, match="declared.xml has no animation for --frames"):
+        check_animated(tmp_path / "declared.xml")  # a default that nothing reads animates nothing
+
+
+def test_an_animations_frames_are_its_xml_at_each_frame(mi, tmp_path):
+    """XmlFrames sets each frame's changes on one scene: the same image as the scene file loaded at that frame,
+    back and forth."""
+    from gmcpt.evaluation.sequences import XmlFrames
+    from gmcpt.render import render_native
+    from gmcpt.scene import load_scene, path_integrator
+
+    (tmp_path / "anim.xml").write_text(ANIMATED_BOX)
+    frames = XmlFrames(tmp_path / "anim.xml", (8, 8), range(2, 5))
+    assert len(frames.keys) == 1 and frames.keys[0].endswith("to_world")  # the camera's, alone
+    for frame in (4, 2, 3):
+        frames.at(frame)
+        loaded = load_scene(tmp_path / "anim.xml", (8, 8), {"frame": str(frame)})
+        mine, theirs = (render_native(s, s.sensors()[0], path_integrator(s), 2, 5) for s in (frames.scene, loaded))
+        assert np.allclose(mine, theirs, atol=1e-6)

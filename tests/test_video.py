@@ -115,7 +115,8 @@ def test_a_failed_encode_leaves_no_file(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-@pytest.mark.parametrize("frames, message", [([], "no frames to write"), (["nope.png"], "cannot read the frame nope.png"),
+@pytest.mark.parametrize("frames, message", [([], "no frames to write"),
+                                             (["nope.png"], "cannot read the frame nope.png"),
                                              ([np.zeros((4, 4), np.uint8)], "(H, W, 3)")])
 def test_bad_frames_are_one_line_and_no_file(tmp_path, monkeypatch, frames, message):
     from gmcpt.errors import GmcptError

@@ -1,10 +1,21 @@
-"""The figures of the sequence benchmark's record (``benchmarks/sequence.py --record``) as pure functions of its rows:
-what the benchmark prints, the plot draws and ``docs/results.md`` states all come from here, so that they agree.
+"""The sequence mode against per-frame path tracing + OIDN, shared by ``benchmarks/sequence.py`` (evaluation scenes
+moved through ``mi.traverse``) and ``gmcpt compare SCENE --frames A:B`` (a scene file's own ``$frame`` animation):
+how the baseline renders a frame (:func:`path_oidn`), how the contenders take turns (:func:`take_turns`), how a
+scene file's frames become one scene whose parameters change (:class:`XmlFrames`), and the figures of a run
+(:func:`sequence_figures`, :func:`sequence_verdict`).
+
+The rest are the figures of the benchmark's record (``benchmarks/sequence.py --record``) as pure functions of its
+rows: what the benchmark prints, the plot draws and ``docs/results.md`` states all come from here, so that they agree.
 
 A row is one contender at one setting on one (scene, motion): ``contender`` (``path+oidn``, ``accumulation+oidn``,
 ``sequence``), ``spp`` (samples a pixel a frame), ``seconds`` (warm, a frame), ``psnr`` and the other figures.
 """
 from __future__ import annotations
+
+import re
+import time
+from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -20,6 +31,27 @@ MOTION_WORDS = {"pan": "The camera turns about its own up axis", "dolly": "The c
 #: The plot's ceiling, as issue 75 sets it: path tracing + OIDN at this many times the sequence's samples a pixel a
 #: frame, the quality that reusing earlier frames' samples is held against.
 CEILING_SAMPLES = 7.6
+
+
+def frame_ladder(budgets) -> tuple[int, ...]:
+    """Per-frame path tracing's samples a pixel against the sequence mode at ``budgets``: powers of two up to the
+    first at or past :data:`CEILING_SAMPLES` x the largest budget, the quality the sequence is held against (so
+    that the time the baseline needs for the sequence's PSNR is read between its settings, not bounded), and each
+    budget rounded (equal samples)."""
+    top = int(np.ceil(np.log2(CEILING_SAMPLES * max(budgets))))
+    return tuple(sorted({2 ** k for k in range(top + 1)} | {max(1, round(b)) for b in budgets}))
+
+
+def frames_table(rows: list[dict]) -> str:
+    """The sequence table of ``gmcpt compare --frames``: each contender's setting, PSNR, PSNR over the changed
+    pixels (and their share), seconds a frame and flicker (along the motion; in place)."""
+    from .report import _table
+
+    lines = [[row["contender"], f"{row['spp']:g}", f"{row['psnr']:.2f}",
+              "-" if row["psnr_changed"] is None else f"{row['psnr_changed']:.2f} ({row['changed_share']:.1%})",
+              f"{row['seconds']:.3f}", f"{row['flicker']:.2f} ({row['screen_flicker']:.2f})"] for row in rows]
+    return _table(["contender", "samples a pixel a frame", "PSNR dB", "PSNR changed pixels dB (share)",
+                   "seconds a frame", "flicker (in place)"], lines)
 
 
 def motion_of(row: dict, settings: dict) -> str:
@@ -110,3 +142,290 @@ def glance_line(sequences: dict) -> str:
             + (f", its flicker {_span(flicker, '.2f')} of that baseline's at equal time" if flicker else "")
             + (f"; over accumulation + OIDN {'; '.join(accumulation)}" if accumulation else "")
             + " (*Sequences* below).")
+
+
+#: Mitsuba's ``aov`` integrator for OIDN's guides, as a Mitsuba user would render them.
+AOV_GUIDES = {"type": "aov", "aovs": "a:albedo,n:sh_normal"}
+#: The two independent references of a frame (sampler seeds): flicker is read against both (see stability).
+REFERENCE_SEEDS = (7_000_000, 8_000_000)
+
+
+def denoised_with_aov_guides(scene, aov, noisy: np.ndarray, spp: int, seed: int) -> np.ndarray:
+    """``noisy`` (N, 3) through OIDN with the guides of one pass of Mitsuba's ``aov`` integrator at ``spp``: its
+    albedo clipped to [0, 1] (OIDN's range; Mitsuba's albedo of a rough metal reaches 18 in the dining room) and
+    its shading normal in world space, a pixel's mean of unit normals (0 on a miss), as OIDN takes them and as
+    :func:`gmcpt.render.render_features` gives them but for the renormalising, which OIDN does not need."""
+    import mitsuba as mi
+
+    from ..denoise import denoise_oidn
+
+    guides = np.asarray(mi.render(scene, integrator=aov, spp=spp, seed=seed), dtype=np.float32)
+    return denoise_oidn(noisy.reshape(*guides.shape[:2], 3), np.clip(guides[..., 0:3], 0, 1), guides[..., 3:6], spp)
+
+
+def path_oidn(scene, integrator, aov, spp: int, seed: int) -> np.ndarray:
+    """A frame on its own, as a Mitsuba user denoises it: Mitsuba's render of every pixel at ``spp``
+    (:func:`gmcpt.render.render_native`), one pass of ``aov`` (:data:`AOV_GUIDES`) at as many samples for OIDN's
+    guides, then OIDN (:func:`denoised_with_aov_guides`). All three are what :func:`take_turns` charges it."""
+    from ..render import render_native
+
+    noisy = render_native(scene, scene.sensors()[0], integrator, spp, seed)
+    return denoised_with_aov_guides(scene, aov, noisy, spp, seed)
+
+
+@dataclass
+class Run:
+    """One contender at one setting through a sequence: ``render(frame, seed)`` gives a frame's image, and all it
+    does is charged to it; the images and seconds of the frames so far."""
+
+    contender: str
+    amount: float  # samples a pixel a frame: spp, or the sequence's budget
+    render: Callable[[int, int], np.ndarray]
+    images: list = field(default_factory=list)
+    seconds: list = field(default_factory=list)
+
+
+def path_oidn_run(scene, integrator, aov, spp: int) -> Run:
+    """Per-frame path tracing + OIDN at ``spp`` (:func:`path_oidn`) on ``scene`` as it is at each frame."""
+    return Run("path+oidn", spp, lambda frame, seed: path_oidn(scene, integrator, aov, spp, seed))
+
+
+def sequence_run(scene, integrator, budget: float, seed: int) -> Run:
+    """The sequence mode (:class:`gmcpt.sequence.SequenceRenderer`, its default history) at ``budget``, seeded
+    once for the sequence (each frame draws its own from it)."""
+    from ..sequence import SequenceRenderer, SequenceSettings
+
+    renderer = SequenceRenderer(SequenceSettings(budget=budget, seed=seed))
+    return Run("sequence", budget, lambda frame, _: renderer.render(scene, frame, integrator)[0])
+
+
+def take_turns(runs: list[Run], frames, at: Callable[[int], None], seed: Callable[[int], int]) -> None:
+    """Frame by frame, every run in turn (a machine whose pace drifts over minutes slows them alike): ``at(frame)``
+    sets the scene, uncharged; then each run renders the frame with ``seed(frame)``, timed."""
+    for frame in frames:
+        at(frame)
+        for run in runs:
+            start = time.perf_counter()
+            image = run.render(frame, seed(frame))
+            run.seconds.append(time.perf_counter() - start)
+            run.images.append(image)
+
+
+def _plain(value) -> np.ndarray:
+    """A ``mi.traverse`` value as an array to compare: a transform's matrix, else its values."""
+    matrix = getattr(value, "matrix", None)
+    return np.array(matrix if matrix is not None else value)
+
+
+def _anonymous(key: str) -> str:
+    """``key`` of ``mi.traverse`` with the address that names an object without an id left out."""
+    return re.sub(r"\bobject_\d+", "object", key)
+
+
+class XmlFrames:
+    """A scene file's ``$frame`` animation as one scene whose parameters change from frame to frame (:meth:`at`),
+    as the benchmark's ``SceneMotion`` moves the evaluation's scenes.
+
+    Each frame's XML is loaded once, up front (uncharged), and what differs from the first frame (a camera's or
+    a shape's ``to_world``, a mesh's vertices, a colour) is kept; :meth:`at` sets those parameters through
+    ``mi.traverse``, made opaque. Rendering a newly loaded scene each frame would compile every kernel again each
+    frame (its camera, a literal, is compiled into them: a second and more a frame on two cores), in each
+    contender alike; one scene with opaque parameters compiles once. A frame that changes what the scene is made
+    of (a parameter that comes or goes, a mesh of another size) cannot be set so: one line.
+    """
+
+    def __init__(self, path, resolution: tuple[int, int] | None, frames: range):
+        import mitsuba as mi
+
+        from ..errors import GmcptError
+        from ..scene import load_scene
+
+        self.scene = load_scene(path, resolution, {"frame": str(frames[0])})
+        loaded = mi.traverse(self.scene)
+        first = {key: _plain(loaded[key]) for key in loaded.keys()}
+        self.changes: dict[int, dict] = {frames[0]: {}}
+        for frame in frames[1:]:
+            loaded = mi.traverse(load_scene(path, resolution, {"frame": str(frame)}))
+            # the same parameters in the same order; an object without an id is named by its address, another
+            # in each load, so the keys are matched by their place
+            pairs = list(zip(first, loaded.keys()))
+            odd = [_anonymous(mine) for mine, theirs in pairs if _anonymous(mine) != _anonymous(theirs)
+                   or first[mine].shape != _plain(loaded[theirs]).shape]
+            if odd or len(first) != len(loaded.keys()):
+                raise GmcptError(f"frame {frame} of {path} changes what the scene is made of "
+                                 f"({', '.join(odd[:3]) or 'its number of parameters'}), not only values that "
+                                 f"mi.traverse can set")
+            self.changes[frame] = {mine: loaded[theirs] for mine, theirs in pairs
+                                   if not np.array_equal(_plain(loaded[theirs]), first[mine])}
+        self.keys = sorted({key for changed in self.changes.values() for key in changed})
+        self.parameters = mi.traverse(self.scene)  # a new one: reading every value above marked each as updated
+        self.parameters.keep(self.keys)  # an update then schedules these alone
+        # copies: setting a parameter writes into the object the scene held
+        self.first = {key: type(self.parameters[key])(self.parameters[key]) for key in self.keys}
+        self.at(frames[0])  # opaque from the first frame on: the kernels compiled for it serve every frame
+
+    def at(self, frame: int) -> None:
+        """Set the scene as it is at ``frame`` (one of the frames it was made with)."""
+        import drjit as dr
+
+        for key in self.keys:
+            value = self.changes[frame].get(key, self.first[key])
+            value = type(value)(value)
+            dr.make_opaque(value)
+            self.parameters[key] = value
+        if self.keys:
+            self.parameters.update()
+
+
+@dataclass(frozen=True)
+class Truth:
+    """What a sequence's runs are read against: two independent references of each frame (``firsts``,
+    ``seconds``; PSNR against their mean, flicker against both: :mod:`gmcpt.evaluation.stability`), each frame's
+    geometry, the frames left out of the figures at the start (``warm``) and, per frame after them, its changed
+    pixels (:func:`gmcpt.evaluation.stability.changed_pixels`)."""
+
+    firsts: list
+    seconds: list
+    geometries: list
+    warm: int
+    changed: dict
+
+    @classmethod
+    def of(cls, firsts: list, seconds: list, geometries: list, warm: int = 0) -> "Truth":
+        from .stability import changed_pixels
+
+        changed = {t: changed_pixels(firsts, seconds, geometries, t) for t in range(max(1, warm), len(firsts))}
+        return cls(firsts, seconds, geometries, warm, changed)
+
+    @property
+    def references(self) -> list:
+        return [(a + b) / 2 for a, b in zip(self.firsts, self.seconds)]
+
+    @property
+    def changed_share(self) -> float:
+        return float(np.mean([mask.mean() for mask in self.changed.values()])) if self.changed else 0.0
+
+
+def sequence_figures(images: list, seconds: list, truth: Truth) -> dict:
+    """A run's figures over the frames after ``truth.warm``: mean PSNR and FLIP, PSNR over the changed pixels
+    (pooled) and their share, mean seconds a frame, flicker along the motion and in place."""
+    from ..metrics import all_metrics
+    from .stability import changed_psnr, screen_flicker, surface_flicker
+
+    kept, references = slice(truth.warm, None), truth.references
+    metrics = [all_metrics(i, r) for i, r in zip(images[kept], references[kept])]
+    changed = list(truth.changed)
+    return {"psnr": float(np.mean([m["psnr"] for m in metrics])),
+            "psnr_changed": changed_psnr([images[t] for t in changed], [references[t] for t in changed],
+                                         list(truth.changed.values())),
+            "changed_share": truth.changed_share, "flip": float(np.mean([m["flip"] for m in metrics])),
+            "seconds": float(np.mean(seconds[kept])),
+            "flicker": surface_flicker(images[kept], truth.firsts[kept], truth.geometries[kept], truth.seconds[kept]),
+            "screen_flicker": screen_flicker(images[kept], truth.firsts[kept], truth.seconds[kept])}
+
+
+def sequence_verdict(rows: list[dict], baseline: str) -> dict | None:
+    """The sequence mode against ``baseline`` on one (scene, motion): its equal-time speed-up
+    (:func:`gmcpt.evaluation.report.equal_time_verdict`), its flicker over the baseline's at the same seconds a
+    frame (along the motion and in place) and its ``psnr_changed`` minus the baseline's there. None where either
+    did not run."""
+    from .report import equal_time_verdict
+
+    verdict = equal_time_verdict(rows, "sequence", (baseline,))
+    if not verdict:
+        return None
+    return {"baseline": baseline, "speedup": verdict["speedup"], "bounds": verdict["bounds"],
+            "settings": verdict["settings"], "flicker_ratio": equal_time_ratio(rows, baseline),
+            "screen_flicker_ratio": equal_time_ratio(rows, baseline, "screen_flicker"),
+            "changed_gap_db": equal_time_gap(rows, baseline)}
+
+
+#: Resamples of the frames behind the noise of a sequence's verdict (:func:`verdict_noise`), and the share of them
+#: its interval holds: the 5th to the 95th percentile.
+NOISE_DRAWS = 1000
+NOISE_LEVEL = 0.9
+
+
+def frame_figures(images: list, seconds: list, truth: Truth) -> dict:
+    """A run's figures frame by frame after ``truth.warm``, for :func:`verdict_noise`: PSNR and seconds of each
+    frame, and the flicker (along the motion, against both references) of each pair of consecutive frames."""
+    from ..metrics import psnr
+    from .stability import surface_flicker
+
+    kept, references = range(truth.warm, len(images)), truth.references
+    return {"psnr": [psnr(images[t], references[t]) for t in kept], "seconds": [float(seconds[t]) for t in kept],
+            "flicker": [surface_flicker(images[t - 1:t + 1], truth.firsts[t - 1:t + 1], truth.geometries[t - 1:t + 1],
+                                        truth.seconds[t - 1:t + 1]) for t in kept if t > truth.warm]}
+
+
+def _drawn(row: dict, frames: np.ndarray, pairs: np.ndarray) -> dict:
+    """``row`` with its PSNR and seconds the means over ``frames``, its flicker the RMS over ``pairs`` (its
+    ``frames`` figures: :func:`frame_figures`)."""
+    figures = row["frames"]
+    flicker = np.asarray(figures["flicker"], dtype=np.float64)
+    return dict(row, psnr=float(np.mean(np.asarray(figures["psnr"])[frames])),
+                seconds=float(np.mean(np.asarray(figures["seconds"])[frames])),
+                flicker=float(np.sqrt(np.mean(flicker[pairs] ** 2))) if pairs.size else None)
+
+
+def verdict_noise(rows: list[dict], baseline: str = "path+oidn", draws: int = NOISE_DRAWS,
+                  level: float = NOISE_LEVEL, seed: int = 0) -> dict:
+    """How far the run's noise moves :func:`sequence_verdict`'s speed-up and flicker ratio: a paired bootstrap over
+    the frames. Each draw takes as many frames as the run had, with replacement, the same frames for every row
+    (and as many pairs of frames for the flicker), and reads the verdict from their means; the interval holds
+    ``level`` of the draws. So a frame that was slow for every contender (the machine) moves them together, and
+    what moves the verdict is how the contenders' PSNR and seconds vary from frame to frame: the timing noise and
+    the scene's own changes along the animation. Rows carry their ``frames`` figures (:func:`frame_figures`).
+
+    Returns ``{"speedup": (low, high) or None, "flicker_ratio": (low, high) or None, "draws", "level"}``."""
+    from .report import equal_time_verdict
+
+    chosen = [r for r in rows if r["contender"] in ("sequence", baseline)]
+    count, pairs = len(chosen[0]["frames"]["psnr"]), len(chosen[0]["frames"]["flicker"])
+    random = np.random.default_rng(seed)
+    found = {"speedup": [], "flicker_ratio": []}
+    for _ in range(draws):
+        frames, paired = random.integers(0, count, count), random.integers(0, max(pairs, 1), pairs)
+        drawn = [_drawn(row, frames, paired) for row in chosen]
+        verdict = equal_time_verdict(drawn, "sequence", (baseline,))
+        if verdict:
+            found["speedup"].append(verdict["speedup"])
+        ratio = equal_time_ratio([r for r in drawn if r["flicker"]], baseline) if pairs else None
+        if ratio is not None and np.isfinite(ratio):
+            found["flicker_ratio"].append(ratio)
+    tail = 100 * (1 - level) / 2
+    return {**{key: (tuple(float(v) for v in np.percentile(values, [tail, 100 - tail])) if values else None)
+               for key, values in found.items()}, "draws": draws, "level": level}
+
+
+def _within(interval: tuple[float, float] | None) -> bool:
+    return interval is not None and interval[0] <= 1 <= interval[1]
+
+
+def frames_verdict_line(verdict: dict | None, noise: dict, baseline: str = "per-frame path tracing + OIDN") -> str:
+    """One line: the sequence mode's speed-up at equal quality over ``baseline`` and its flicker over the
+    baseline's at equal time, each with its interval (:func:`verdict_noise`), or "a wash (within the run's
+    noise)" where the interval holds 1."""
+    if verdict is None:
+        return f"verdict: none: the sequence mode or {baseline} did not run"
+    ratio, spread = verdict["speedup"], noise.get("speedup")
+    if _within(spread):
+        speed = (f"against {baseline} at equal quality: a wash (within the run's noise: a speed-up of {ratio:.2f}x, "
+                 f"{spread[0]:.2f}-{spread[1]:.2f}x)")
+    else:
+        way, shown = ("faster", (ratio, spread)) if ratio >= 1 else \
+            ("slower", (1 / ratio, spread and (1 / spread[1], 1 / spread[0])))
+        speed = f"is {shown[0]:.2f}x {way} than {baseline} at equal quality" + (
+            f" ({shown[1][0]:.2f}-{shown[1][1]:.2f}x within the run's noise)" if spread else "")
+    if verdict["bounds"]:
+        speed += (f" ({verdict['bounds']} of {verdict['settings']} ratios only bounds: the baseline's samples "
+                  f"did not reach the sequence's PSNR)")
+    flicker, spread = verdict.get("flicker_ratio"), noise.get("flicker_ratio")
+    if flicker is None:
+        said = "its flicker not measured"
+    elif _within(spread):
+        said = f"its flicker a wash (within the run's noise: {flicker:.2f}x, {spread[0]:.2f}-{spread[1]:.2f}x)"
+    else:
+        said = f"its flicker {flicker:.2f}x the baseline's at equal time" + (
+            f" ({spread[0]:.2f}-{spread[1]:.2f}x)" if spread else "")
+    return f"verdict: the sequence mode {speed}; {said}"
