@@ -237,7 +237,7 @@ def _mesh_name(shape) -> str | None:
 def reference(loaded_scene, name: str, label: str, frame: int, spp: int, res: int, second: bool = False) -> np.ndarray:
     """The frame's reference (``second``: another, independent of the first), cached under the gmcpt cache by the
     scene, the motion's ``label`` (:class:`SceneMotion`), the frame, size and samples."""
-    from gmcpt.evaluation.sequences import REFERENCE_SEEDS
+    from gmcpt.seeds import SEQUENCE_REFERENCE_SEEDS as REFERENCE_SEEDS
     from gmcpt.files import cache_folder
     from gmcpt.render import render_native
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .seeds import EXTRA_SEED_OFFSET
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP
 from .limits import SEED_LIMIT, check_feature_spp, check_seed, check_spp
@@ -28,7 +29,6 @@ from .limits import SEED_LIMIT, check_feature_spp, check_seed, check_spp
 MAX_BUDGET = 64
 
 #: the second pass's sampler seeds differ from the first's
-EXTRA_SEED_OFFSET = 0xADA97
 #: the recipe (docs/experiments.md): a uniform first pass of 5/8 of the budget, extra samples ~ error^0.5, 32 at most
 FIRST_SHARE = 0.625
 MAX_EXTRA = 32

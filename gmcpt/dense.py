@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from .seeds import EVEN_SEED_OFFSET, GUIDE_RAYS_SEED_OFFSET, SPLIT_SEED_OFFSETS, TOP_UP_SEED_OFFSET
 from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
 from .budget import BudgetPlan, adaptive_first_spp, adaptive_pays, error_concentration, even_fill, reads_guide_aliasing
 from .costs import frame_costs
@@ -26,10 +27,6 @@ from .large_model import CLEAN_GUIDE_SEED_OFFSET, large_model_rays, read_denoise
 from .limits import SEED_LIMIT
 from .render import SampleSums, render_native, render_native_guided
 
-TOP_UP_SEED_OFFSET = 0x70B0F  # the samples after the bulk (and a sparse frame's probe pixels after the choice)
-EVEN_SEED_OFFSET = 0xE7E4  # the dense way's blue-noise spread of the samples left over
-SPLIT_SEED_OFFSETS = (0x5B1, 0x5B2)  # the second quarter and the half of a frame that reads the denoiser
-GUIDE_RAYS_SEED_OFFSET = 0x6D1F  # the guide rays a frame adds to its render's first hits
 
 
 def guides_from_render(trace, plan: BudgetPlan, wants_edges: bool):

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import time
 
+from .seeds import CLEAN_GUIDE_SEED_OFFSET
 from .budget import BudgetPlan, adaptive_first_spp, adaptive_pays, denoiser_proxy, large_model_pays
 from .costs import completion_seconds
 from .denoise import CLEAN_GUIDE_RAYS, denoise_oidn
 
-CLEAN_GUIDE_SEED_OFFSET = 0xC1EA  # the guide rays a dense frame adds up to 16
 
 
 def extra_seconds(pixels: int, rays: int, ray_seconds: float) -> float:

@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from .seeds import MASK_STREAM, THRESHOLD_MAP_SEED
 from .errors import GmcptError
 
 PATTERNS = ("random", "stratified", "blue_noise", "adaptive", "two_pass")
@@ -62,7 +63,7 @@ def check_pattern(pattern: str) -> str:
 def mask_rng(seed: int) -> np.random.Generator:
     """The random generator of a density-driven mask; both passes of ``two_pass`` draw with it (the same
     threshold map). The seed sequence's trailing 0 keeps the first passes of earlier versions."""
-    return np.random.default_rng([int(seed), 0x6D61736B, 0])  # 'mask'
+    return np.random.default_rng([int(seed), MASK_STREAM, 0])
 
 
 def make_mask(height: int, width: int, rate: float, pattern: str = "random",
@@ -82,7 +83,7 @@ def make_mask(height: int, width: int, rate: float, pattern: str = "random",
     check_pattern(pattern)
     n_pixels = height * width
     count = sample_count(rate, n_pixels)
-    rng = np.random.default_rng([int(seed), 0x6D61736B])  # 'mask'
+    rng = np.random.default_rng([int(seed), MASK_STREAM])
     if pattern in FEATURE_PATTERNS:
         if density is None or density.shape != (height, width):
             raise GmcptError(f"the {pattern!r} mask needs an ({height}, {width}) sampling density")
@@ -141,7 +142,7 @@ THRESHOLD_TILE = 128
 @functools.lru_cache(maxsize=1)
 def _threshold_tile() -> np.ndarray:
     """(T, T) thresholds in (0, 1), uniformly distributed, blue-noise arranged (made once per process)."""
-    highpassed = _highpassed_noise(THRESHOLD_TILE, THRESHOLD_TILE, np.random.default_rng(0x7B1E), 0.25)
+    highpassed = _highpassed_noise(THRESHOLD_TILE, THRESHOLD_TILE, np.random.default_rng(THRESHOLD_MAP_SEED), 0.25)
     ranks = np.empty(highpassed.size, np.float64)
     ranks[np.argsort(highpassed.ravel(), kind="stable")] = np.arange(highpassed.size)
     return ((ranks + 0.5) / ranks.size).reshape(highpassed.shape).astype(np.float32)

@@ -19,9 +19,8 @@ from typing import Callable
 from . import interrupts
 from .command import Parser, mitsuba_command, stamped_say
 from .errors import GmcptError
+from .seeds import REFERENCE_FIRST_SEED as DEFAULT_SEED
 
-#: the evaluation's reference seed, so that a reference made here is the one it caches
-DEFAULT_SEED = 1_000_003
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -35,13 +35,13 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from .seeds import FEATURE_SEED_OFFSET
 from .frame import DEFAULT_FEATURE_SPP
 from .guided_path import FEATURE_PLANES, first_hit_features
 from .held import scene_state
 from .limits import SEED_LIMIT
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
-FEATURE_SEED_OFFSET = 0x5EED_F00D
 # samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
 SCATTER_MODE = dr.ReduceMode.Local
 # the features need UVs (textured albedo) and the shading frame, no surface derivatives

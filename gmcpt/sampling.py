@@ -21,6 +21,8 @@ from typing import Callable
 import mitsuba as mi
 import numpy as np
 
+from .seeds import (FIRST_PASS_SEED_OFFSET, GUIDE_HALF_SEED_OFFSET, GUIDE_TOP_UP_SEED_OFFSET, PROBE_SEED_OFFSET,
+                    SECOND_PASS_SEED_OFFSET)
 from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share,
                      guide_aliasing, guide_spp, needs_probe, plan_budget, probes_for_placement, reads_guide_aliasing,
                      relative_variance, sparse_pays)
@@ -38,11 +40,6 @@ from .render import (MAX_LANES, FeatureMeans, SampleSums, _sensor_film_size, fea
                      warm_native)
 from .scene import scene_sensor
 
-SECOND_PASS_SEED_OFFSET = 0x2BA55  # the second radiance pass of ``two_pass`` draws other samples
-PROBE_SEED_OFFSET = 0x9B0BE  # the probe's placement
-FIRST_PASS_SEED_OFFSET = 0xF1257  # the sparse way's first pass beside the probe (same seed: same lanes' samples)
-GUIDE_TOP_UP_SEED_OFFSET = 0x6D1E  # the sparse way's feature rays beside the guides'
-GUIDE_HALF_SEED_OFFSET = 0x6A1F  # the second half of a guide pass that reads the guides' aliasing
 
 Say = Callable[[str], None]
 

@@ -34,8 +34,9 @@ from .frame import DEFAULT_FEATURE_SPP, SparseFrame
 from .limits import SEED_LIMIT, check_seconds, check_seed
 from .masks import DEFAULT_RATE
 from .guided_path import first_hit_features
-from .render import (FEATURE_SEED_OFFSET, FeatureMeans, FrozenKernel, SampleSums, _camera_key, _primary_rays,
+from .render import (FeatureMeans, FrozenKernel, SampleSums, _camera_key, _primary_rays,
                      _seeded_sampler, _sensor_film_size, pixel_means, render_native)
+from .seeds import FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_TOP_UP_SEED_OFFSET, stream
 from .reprojection import JitFrame, gather_history, jit_frame
 from .scene import path_integrator, scene_sensor
 from .temporal import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, cubic_sample, fit_projection,
@@ -45,8 +46,6 @@ from .temporal import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreeme
 #: dB on a pan; 16 frames another +0.1 for twice the reprojection time; docs/experiments.md).
 HISTORY_FRAMES = 8
 HISTORY_DECAY = 0.9
-#: A frame's sampler seeds: ``seed + index * FRAME_SEED_STEP`` (a frame draws samples of its own).
-FRAME_SEED_STEP = 0x9E37
 #: History counts are levelled up to this many times the budget: pixels with less (disocclusions, the edge a pan
 #: uncovers) get fresh samples first, the others an even share (levelling up to 4x lost 0.5-1 dB on a still
 #: camera: the noise OIDN sees grows uneven).
@@ -331,7 +330,7 @@ class SequenceRenderer:
         if level:
             sums.add_native(render_native(scene, sensor, integrator, level, seed), level)
         if (counts > level).any():
-            sums.trace_counts(scene, sensor, integrator, counts - level, (seed + 1) % SEED_LIMIT)
+            sums.trace_counts(scene, sensor, integrator, counts - level, stream(seed, SEQUENCE_TOP_UP_SEED_OFFSET))
         total, count = sums.total, sums.finite  # NaN/Inf samples left out
         timings["render_s"] = time.perf_counter() - start
 

@@ -137,3 +137,19 @@ def test_the_library_never_imports_its_mitsuba_plugin():
     wrong = {(module, target) for module, targets in graph.items() if module.split(".")[0] == "gmcpt"
              for target in targets if target.split(".")[0] == "mitsuba_plugins"}
     assert not wrong
+
+
+def test_seed_constants_live_in_the_seeds_module():
+    """A random stream's offset or seed is a named constant of ``gmcpt.seeds``: a module-level ``..._SEED...``
+    assignment or a large literal beside a seed elsewhere would be a stream nobody can see next to the others."""
+    import re
+
+    found = []
+    for path in sorted((ROOT / "gmcpt").rglob("*.py")):
+        if path.name == "seeds.py":
+            continue
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            code = line.split("#")[0]
+            if re.match(r"(?![A-Z_]*LIMIT)[A-Z_]*SEEDS?(_[A-Z]+)*\s*=", code) or re.search(r"seed\w*\s*\+\s*(0x[0-9A-Fa-f]+|\d{2,})", code):
+                found.append(f"{path.relative_to(ROOT)}:{number}: {line.strip()}")
+    assert not found, "\n".join(found)

@@ -53,12 +53,10 @@ import numpy as np
 
 from ..files import atomic_output
 from ..frame import DEFAULT_FEATURE_SPP
+from ..seeds import DATASET_REFERENCE_SEED as REFERENCE_SEED, SEEDS_PER_SPLIT, SPLIT_SEED_BASE
 
 DATASET_VERSION = 3
 FEATURE_KEYS = ("albedo", "normal", "depth", "visibility", "coverage")
-SPLIT_SEED_BASE = {"train": 0, "val": 1_000_000, "test": 2_000_000}
-SEEDS_PER_SPLIT = 1_000_000
-REFERENCE_SEED = 0x4000_0000
 ARRAY_KEYS = ("reference", "radiance", "mask", "variance", "albedo", "normal", "depth", "visibility",
               "full_radiance", "full_variance", "coverage")
 #: Arrays of files older than version 3 (which added ``coverage``).

@@ -28,7 +28,8 @@ from ..command import Parser
 from ..errors import GmcptError
 from ..exr import atomic_output, check_writable
 from . import checkpoint
-from .config import CONFIGS, SECOND_REFERENCE_SEED
+from ..seeds import SECOND_REFERENCE_SEED
+from .config import CONFIGS
 from .scenes import evaluation_scenes
 
 ROOT = Path(__file__).resolve().parents[2]

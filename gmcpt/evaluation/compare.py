@@ -55,6 +55,7 @@ import numpy as np
 
 from ..command import Parser, mitsuba_command, stamped_say
 from ..errors import GmcptError
+from ..seeds import COMPARE_FRAME_STEP, SEQUENCE_REFERENCE_SEEDS
 from .compare_report import DEFAULT_BUDGETS, MAX_BUDGET, MIN_BUDGET, REFERENCE_SPP
 
 JSON, PLOT, IMAGES, MOVIE = "compare.json", "psnr_vs_time.png", "images.png", "compare.mp4"
@@ -267,15 +268,15 @@ def _frame_truth(args, animation, frames: range, size: tuple[int, int], say):
     from ..progress import Progress
     from ..sequence import geometry
     from .reference import cache_dir, cached_reference, reference_key
-    from .sequences import REFERENCE_SEEDS, Truth
+    from .sequences import Truth
     from .stability import FrameGeometry
 
     half, figures = max(1, args.reference_spp // 2), ([], [], [])
     with Progress(len(frames), "references", unit="frame", say=say, quiet=args.quiet) as bar:
         for frame in frames:
             animation.at(frame)
-            for found, first_seed in zip(figures, REFERENCE_SEEDS):
-                seed = first_seed + 97 * frame  # each pass of a reference takes the next seed
+            for found, first_seed in zip(figures, SEQUENCE_REFERENCE_SEEDS):
+                seed = first_seed + COMPARE_FRAME_STEP * frame  # each pass of a reference takes the next seed
                 key = reference_key(args.scene, size, half, seed, {"frame": str(frame)})
                 found.append(cached_reference(key, lambda: animation.scene, half, seed, label=scene_name(args.scene)))
             figures[2].append(FrameGeometry(*geometry(animation.scene, animation.scene.sensors()[0])))

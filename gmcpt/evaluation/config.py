@@ -83,8 +83,6 @@ FULL = EvalConfig(name="full", procedural=6, patch_sizes=(4, 5, 6, 7, 8, 9), pat
                   budget_spp=(1, 2, 4, 8, 16, 32), timing_resolutions=(128, 256, 512), repeats=3)
 CONFIGS = {config.name: config for config in (QUICK, FULL)}
 
-#: Second reference seed: an independent reference whose distance to the first is the reference's noise level.
-SECOND_REFERENCE_SEED = 2_000_003
 
 
 @dataclass(frozen=True)

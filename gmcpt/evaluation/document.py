@@ -1,6 +1,7 @@
 """``docs/results.md`` and the README's results section, assembled from an evaluation run's record."""
 from __future__ import annotations
 
+from ..seeds import BASELINE_SEED_OFFSET
 from . import report
 from .glance import LIMITS_END, LIMITS_START, default_placement, glance_section, glance_table, readme_limits
 from .plots import GROUPS_PLOT
@@ -49,7 +50,7 @@ def placement_section(run: dict) -> list[str]:
         "the budget), dense where the traced means are noisy or the feature buffers busy with edges "
         "(`gmcpt/budget.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline."
         + (f" Both baselines and `{default_placement(c)}` are the means of {c['placement_seeds']} seeds ({c['seed']} "
-           f"to {c['seed'] + c['placement_seeds'] - 1}; baselines at seed + 17), the other masks one seed: one "
+           f"to {c['seed'] + c['placement_seeds'] - 1}; baselines at seed + {BASELINE_SEED_OFFSET}), the other masks one seed: one "
            "seed's PSNR moves by 0.1-0.4 dB a scene." if c.get("placement_seeds", 1) > 1 else ""),
         "",
         placement_table(run),

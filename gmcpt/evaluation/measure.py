@@ -25,9 +25,10 @@ import numpy as np
 
 from ..denoise import denoise_oidn
 from ..metrics import all_metrics
+from ..seeds import BASELINE_SEED_OFFSET, RUN_SEED_STEP, SECOND_REFERENCE_SEED
 from .baselines import render_full
 from ..budget import SPARSE_SPP
-from .config import DEFAULT_VARIANT, SECOND_REFERENCE_SEED, VARIANTS, EvalConfig, Variant, patch_variant
+from .config import DEFAULT_VARIANT, VARIANTS, EvalConfig, Variant, patch_variant
 
 Say = Callable[[str], None]
 #: where the full-resolution check caches its reference (ignored by git: a 1920x1080 EXR is 20 MB)
@@ -163,8 +164,8 @@ def quality(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
                 loaded.images[variant.label] = image
         if rate == config.grid_rate:
             samples = max(1, round(rate * config.spp))
-            noisy = render_full(loaded.scene, loaded.integrator, samples, config.seed + 17)
-            guides = baseline_guides(loaded, samples, config.seed + 17)
+            noisy = render_full(loaded.scene, loaded.integrator, samples, config.seed + BASELINE_SEED_OFFSET)
+            guides = baseline_guides(loaded, samples, config.seed + BASELINE_SEED_OFFSET)
             loaded.images[f"path {samples} spp + OIDN"] = denoise_oidn(noisy, guides["albedo"], guides["normal"],
                                                                         baseline_guide_rays(samples))
     return rows
@@ -308,8 +309,6 @@ def _in_rounds(settings: list[_Setting], repeats: int, reference: np.ndarray,
                 done(setting, result)
 
 
-#: the seeds of a contender's timed runs: ``seed + RUN_SEED_STEP * run``
-RUN_SEED_STEP = 1000
 
 
 def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict | None = None) -> list[dict]:
@@ -415,15 +414,15 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     seeds = [config.seed + offset for offset in range(max(1, config.placement_seeds))]
     for rate in config.rates:
         samples = max(1, round(rate * config.spp))
-        guides = baseline_guides(loaded, samples, config.seed + 17)
+        guides = baseline_guides(loaded, samples, config.seed + BASELINE_SEED_OFFSET)
         albedo, normal = guides["albedo"], guides["normal"]
-        runs = [all_metrics(denoise_oidn(render_full(loaded.scene, loaded.integrator, samples, seed + 17), albedo,
+        runs = [all_metrics(denoise_oidn(render_full(loaded.scene, loaded.integrator, samples, seed + BASELINE_SEED_OFFSET), albedo,
                                          normal, baseline_guide_rays(samples)), loaded.reference) for seed in seeds]
         rows.append({"scene": loaded.name, "rate": rate, "variant": "path+oidn", "samples_per_pixel": samples,
                      "seeds": len(seeds), **_mean_metrics(runs)})
         runs, spent = [], 0
         for seed in seeds:
-            image, info, _ = adaptive_oidn(loaded, rate * config.spp, seed + 17, guides)
+            image, info, _ = adaptive_oidn(loaded, rate * config.spp, seed + BASELINE_SEED_OFFSET, guides)
             runs.append(all_metrics(image, loaded.reference))
             spent = info["path_samples"] / image.shape[0] / image.shape[1]
         rows.append({"scene": loaded.name, "rate": rate, "variant": "adaptive+oidn", "samples_per_pixel": spent,

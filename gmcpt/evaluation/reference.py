@@ -22,6 +22,7 @@ import numpy as np
 
 from ..exr import atomic_output, read_rgb_exr, write_exr
 from ..files import cache_folder
+from ..seeds import REFERENCE_FIRST_SEED
 
 
 def cache_dir() -> Path:
@@ -46,7 +47,7 @@ def reference_key(scene_path: str | Path, resolution: int | tuple[int, int], spp
 
 
 def render_reference(scene_path: str | Path, resolution: int | tuple[int, int] = 256, spp: int = 4096,
-                     seed: int = 1_000_003, parameters: dict | None = None, pass_spp: int = 256,
+                     seed: int = REFERENCE_FIRST_SEED, parameters: dict | None = None, pass_spp: int = 256,
                      progress: Callable[[str], None] | None = None, without: tuple[str, ...] = (),
                      folder: Path | None = None) -> np.ndarray:
     """Return a cached (H, W, 3) reference of a scene file, rendering it on a miss.

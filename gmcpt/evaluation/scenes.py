@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import BadValue
+from ..seeds import REFERENCE_FIRST_SEED
 
 ROOT = Path(__file__).resolve().parents[2]
 #: the shared scenes beside the checkout (``$GMCPT_SHARED_SCENES`` overrides); a fresh clone has none,
@@ -100,7 +101,7 @@ class ProceduralScene:
 
         return build_scene(self.seed, resolution, self.exposure(resolution), spp)
 
-    def reference(self, resolution: int = 256, spp: int = 4096, seed: int = 1_000_003, pass_spp: int = 256,
+    def reference(self, resolution: int = 256, spp: int = 4096, seed: int = REFERENCE_FIRST_SEED, pass_spp: int = 256,
                   progress=None):
         from .reference import cached_reference
 

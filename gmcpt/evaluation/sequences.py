@@ -146,8 +146,6 @@ def glance_line(sequences: dict) -> str:
 
 #: Mitsuba's ``aov`` integrator for OIDN's guides, as a Mitsuba user would render them.
 AOV_GUIDES = {"type": "aov", "aovs": "a:albedo,n:sh_normal"}
-#: The two independent references of a frame (sampler seeds): flicker is read against both (see stability).
-REFERENCE_SEEDS = (7_000_000, 8_000_000)
 
 
 def denoised_with_aov_guides(scene, aov, noisy: np.ndarray, spp: int, seed: int) -> np.ndarray:

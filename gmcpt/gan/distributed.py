@@ -26,6 +26,8 @@ from typing import Mapping
 
 import torch
 
+from ..seeds import TRAINING_STREAM
+
 
 @dataclass(frozen=True)
 class Ranks:
@@ -90,7 +92,7 @@ def shard(items: list, ranks: Ranks) -> list:
 
 def seed_sequence(seed: int, ranks: Ranks) -> list[int]:
     """Seed of the batch sampler: the one-process run's, with the rank appended when distributed."""
-    return [seed, 0x7EA1] + ([ranks.rank] if ranks.distributed else [])
+    return [seed, TRAINING_STREAM] + ([ranks.rank] if ranks.distributed else [])
 
 
 def wrap(module: torch.nn.Module, ranks: Ranks) -> torch.nn.Module:

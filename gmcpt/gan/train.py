@@ -35,6 +35,7 @@ import torch
 
 from ..domain import WorkingDomain
 from ..files import atomic_output
+from ..seeds import TRAINING_RANK_STEP
 from .losses import (FixedFeatureExtractor, LossWeights, critic_loss, gradient_penalty, hybrid_loss, l2_loss,
                      wasserstein_distance)
 from . import distributed
@@ -224,7 +225,7 @@ class Trainer:
         self.critic = Critic(config.generator.feature_channels, config.critic).to(self.device)
         self.model = distributed.wrap(self.generator, ranks)  # the generator as the training step calls it
         if ranks.distributed:  # same initial weights on every rank, then each rank's own random stream
-            torch.manual_seed(cfg.seed + 7919 * ranks.rank)
+            torch.manual_seed(cfg.seed + TRAINING_RANK_STEP * ranks.rank)
         self.extractor = FixedFeatureExtractor().to(self.device)
         self.opt_g = torch.optim.Adam(self.generator.parameters(), lr=cfg.lr_g, betas=(0.9, 0.99))
         self.opt_d = torch.optim.Adam(self.critic.parameters(), lr=cfg.lr_d, betas=(0.5, 0.9))
