@@ -219,3 +219,11 @@ def test_the_guided_fill_on_cuda_matches_the_cpu():
     for image, mask, aux, filled in zip(values.numpy(), masks.numpy(), features.numpy(), on_gpu.cpu().numpy()):
         alone = guided_fill(np.moveaxis(image, 0, -1), mask, np.moveaxis(aux, 0, -1), keep_samples=False)
         np.testing.assert_allclose(np.moveaxis(filled, 0, -1), alone, atol=1e-5)
+
+
+def test_complete_defaults_to_the_default_method():
+    from gmcpt.completion import DEFAULT_METHOD
+
+    frame = synthetic_frame(40, 48)[0]
+    assert np.array_equal(complete(frame).image, complete(frame, DEFAULT_METHOD).image)
+    assert not np.array_equal(complete(frame).image, complete(frame, "interp").image)

@@ -84,7 +84,7 @@ def get_method(name: str) -> Method:
     return _REGISTRY[name]
 
 
-def complete(frame: SparseFrame, method: str = "interp", tile: int | None = None, **options) -> Completion:
+def complete(frame: SparseFrame, method: str = DEFAULT_METHOD, tile: int | None = None, **options) -> Completion:
     """Run completion ``method`` on ``frame`` and return the completed image.
 
     ``tile``: complete frames larger than ``tile`` x ``tile`` pixels in overlapping tiles of at most that
