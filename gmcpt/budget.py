@@ -65,48 +65,43 @@ PROBE_SHARE = 0.01
 GUIDE_SPP_RANGE = (4, 16)
 #: Below this mean albedo difference between the two halves of a 4-ray guide pass (2 rays each), a frame below
 #: budget 4 takes guides of one ray a pixel: such guides barely alias, and 3 more rays buy OIDN less than their
-#: time buys in samples. At 256x256 the veach lamp reads 0.0021 and gains 0.03 dB from 4 rays at budget 1,
-#: proc-2000000 0.0014 and 0.1 dB; the Cornell box 0.0043 and 0.3 dB, the other scenes 0.0046-0.047
-#: (docs/experiments.md).
+#: time buys in samples (the scenes' readings and gains: docs/experiments.md).
 GUIDE_ALIASING_BELOW = 0.003
 #: Below budget 16 a dense frame takes 16-ray guides as clean, which runs OIDN's large model, where the scene's
-#: :func:`denoiser_proxy` reads at least this: the scenes that read 1.15 or more gained 0.61-1.26 doublings of
-#: samples from it at budgets 4 and 8, the others -0.14 to 0.80 (``benchmarks/denoiser_gain.py``).
+#: :func:`denoiser_proxy` reads at least this: the scenes above it gained from it, the others not always
+#: (``benchmarks/denoiser_gain.py``, docs/experiments.md).
 LARGE_MODEL_PROXY_ABOVE = 1.15
-#: ... and where its extra seconds are under this share of the dense frame's: at the least of those gains it
-#: then still buys more than the time would in samples.
+#: ... and where its extra seconds are under this share of the dense frame's: then even its least gain buys more
+#: than the time would in samples.
 LARGE_MODEL_SHARE_BELOW = 0.5
 #: Above this :func:`relative_variance` the frame is traced dense (set in docs/experiments.md).
 DENSE_ABOVE = 0.15
 #: Above this :func:`edge_share` too, at 256x256 (docs/experiments.md); at other sizes :func:`edges_above`.
 EDGES_ABOVE = 0.25
 #: The edge share of a scene falls as its frame grows, as (side / 256) ** -EDGE_FALLOFF with the side the square
-#: root of the pixels: sponza 0.32 / 0.23 / 0.19 and the still life 0.13 / 0.11 / 0.08 at 256x256 / 960x540 /
-#: 1920x1080. The fill's difficulty falls less: at 1920x1080 the sparse way still lost on sponza.
+#: root of the pixels (fitted on two scenes at three sizes: docs/experiments.md).
 EDGE_FALLOFF = 0.38
-#: dB a dense frame gains after OIDN when its samples double (cornell-box, 3.2 -> 10 samples a pixel: 2.0-2.3).
+#: dB a dense frame gains after OIDN when its samples double (measured on the Cornell box: docs/experiments.md).
 DENSE_GAIN_PER_DOUBLING = 2.0
-#: dB the sparse way is expected to gain over a dense frame at the same samples where the signals choose it:
-#: the mean over the 4 synthetic evaluation scenes at 3.2, 4.8 and 8 samples a pixel (0.0-2.8; docs/experiments.md).
+#: dB the sparse way is expected to gain over a dense frame at the same samples where the signals choose it: the
+#: mean over the synthetic evaluation scenes (docs/experiments.md).
 SPARSE_GAIN = 1.4
 #: From this budget a dense frame of a quiet scene (its probe's :func:`relative_variance` at most
-#: :data:`DENSE_ABOVE`, as the sparse way needs too) may place part of its samples adaptively: there first passes
-#: of 2-4 spp read where the error is, and adaptive placement gained 0.6-1.2 dB on the concentrated ones; on the
-#: noisy real interiors it gained 0.2 dB at most below budget 8 and lost up to 0.4. At 2 (1 spp) the reading did
-#: not tell the scenes that gain from those that lose up to 2 dB (docs/experiments.md).
+#: :data:`DENSE_ABOVE`, as the sparse way needs too) may place part of its samples adaptively: first passes of
+#: 2-4 spp read where the error is; below it the reading did not tell the scenes that gain from those that lose
+#: (docs/experiments.md).
 ADAPTIVE_FROM_BUDGET = 4
-#: From this budget a dense frame of any scene may (the probe's reading aside): at 8 and 16 the concentrated
-#: real interiors gained up to 0.55 dB.
+#: From this budget a dense frame of any scene may (the probe's reading aside): the concentrated real interiors
+#: gained there (docs/experiments.md).
 ADAPTIVE_NOISY_FROM_BUDGET = 8
 #: The share of the first pass's display error held by its noisiest :data:`TOP_SHARE` of pixels above which
-#: adaptive placement pays: the evaluation scenes that gained read 0.187 and up, those that did not 0.168 and
-#: below (the dining room, 0.23-0.24, gains little but loses nothing); docs/experiments.md.
+#: adaptive placement pays: it parts the evaluation scenes that gained from those that did not
+#: (docs/experiments.md).
 ADAPTIVE_ABOVE = 0.18
 #: dB adaptive placement gains a dense frame of budget 8 at the threshold, and more per unit of concentration
-#: above it: the least-squares line through the six evaluation scenes at or above the threshold (the Cornell
-#: box 0.26: 0.74 dB, still life 0.19: 0.60, breakfast room 0.23: 0.48, dining room 0.23: 0.03, proc-2000000
-#: 0.29: 1.30, proc-2000001 0.20: 0.24; first passes of 5 spp, 3 seeds). :data:`SPARSE_GAIN` is over even
-#: samples, so where the dense frame would be adaptive the sparse way must beat this too.
+#: above it: the least-squares line through the evaluation scenes at or above the threshold (docs/experiments.md).
+#: :data:`SPARSE_GAIN` is over even samples, so where the dense frame would be adaptive the sparse way must beat
+#: this too.
 ADAPTIVE_GAIN = (0.14, 7.9)
 TOP_SHARE = 0.05
 #: The largest budget, as the largest spp of a masked render.

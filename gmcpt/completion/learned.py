@@ -92,10 +92,8 @@ def complete_gan_pawnnm(frame: SparseFrame, *, domain: WorkingDomain = WorkingDo
                         params=None) -> Completion:
     """GAN pre-completion, then PAWNNM low-rank refinement (``params``, default :data:`GAN_PAWNNM_PARAMS`).
 
-    The output is the low-rank stage's, as in the paper. Mixing the GAN output back in
-    (``b * gan + (1 - b) * low-rank``) was measured with an earlier gan-cpu and 11 iterations and
-    lost on every bundled scene but the still life (cornell-box at rate 0.3: b = 0 33.67 dB,
-    0.25 33.14, 0.5 31.62; breakfast-room-open 25.38 / 24.21 / 22.93), so there is no such option.
+    The output is the low-rank stage's, as in the paper: mixing the GAN output back in lost on every
+    bundled scene but the still life, so there is no such option (docs/experiments.md).
     """
     from .matrix import LOW_RANK_DOMAIN, refine_low_rank
 
