@@ -1,9 +1,14 @@
 """The generator's network on OpenVINO: the same output as PyTorch, converted once, rebuilt when damaged,
-run without torch once converted, and PyTorch when the runtime is missing."""
+run without torch once converted, and PyTorch when the runtime is missing; its compiled network cached on disk:
+written once and read back, the same image, rebuilt when damaged, and no error where it cannot be written."""
+import hashlib
 import importlib.util
+import json
 import os
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -38,9 +43,11 @@ def converted(tmp_path_factory):
 
 
 @pytest.fixture
-def cache(converted, fresh, monkeypatch):
-    monkeypatch.setenv("GMCPT_CACHE", str(converted))
-    return converted
+def cache(converted, fresh, monkeypatch, tmp_path):
+    """A copy of the module's cache folder, this test's own to damage or add compiled networks to."""
+    own = shutil.copytree(converted, tmp_path / "cache")
+    monkeypatch.setenv("GMCPT_CACHE", str(own))
+    return own
 
 
 def counting_exports(monkeypatch) -> list:
@@ -109,14 +116,121 @@ def test_the_runtime_setting(fresh, monkeypatch):
 
 @needs_openvino
 def test_a_converted_network_completes_a_frame_without_torch(cache):
-    """A process whose network is on disk runs the generator, OpenVINO alone: torch is never imported (6-7 s)."""
+    """A process whose network is on disk runs the generator, OpenVINO alone: torch is never imported (6-7 s),
+    nor OpenVINO's conversion tools."""
     script = (f"import sys; sys.path.insert(0, {str(ROOT / 'tests')!r})\n"
               "from conftest import synthetic_frame\n"
               "from gmcpt.completion import complete\n"
               "result = complete(synthetic_frame(40, 48)[0], 'gan')\n"
               "assert result.image.std() > 0 and 'load_weights_s' in result.timings\n"
-              "print('torch' in sys.modules)")
+              "print('torch' in sys.modules, 'openvino.tools.ovc' in sys.modules)")
     env = {**os.environ, "GMCPT_CACHE": str(cache)}
     result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=300)
     assert result.returncode == 0, result.stderr
-    assert result.stdout.split() == ["False"]
+    assert result.stdout.split() == ["False", "False"]
+
+
+def counting_compiles(monkeypatch) -> list:
+    """The converted networks compiled from their IR (not read back compiled) while the test runs."""
+    calls = []
+    real = runtime._compiled
+    monkeypatch.setattr(runtime, "_compiled", lambda *args: (calls.append(args), real(*args))[1])
+    return calls
+
+
+def compiled_entry() -> Path:
+    return runtime.compiled_path(runtime.model_path(weights_path()),
+                                 {"INFERENCE_PRECISION_HINT": "f32", "PERFORMANCE_HINT": "LATENCY",
+                                  "INFERENCE_NUM_THREADS": 1})
+
+
+@needs_openvino
+def test_the_compiled_network_is_cached_once_and_read_back(cache, monkeypatch):
+    compiles, exports = counting_compiles(monkeypatch), counting_exports(monkeypatch)
+    runtime.compile_network(weights_path(), "float32", 1)
+    entry = compiled_entry()
+    written = entry.stat().st_mtime_ns
+    runtime.compile_network(weights_path(), "float32", 1)
+    assert len(compiles) == 1 and exports == [] and entry.stat().st_mtime_ns == written
+    assert entry.read_bytes().startswith(runtime.COMPILED_FORMAT)
+
+
+@needs_openvino
+def test_the_image_is_the_same_with_and_without_the_cached_compiled_network(cache, monkeypatch):
+    from gmcpt.completion import complete
+
+    compiles = counting_compiles(monkeypatch)
+    frame, _ = synthetic_frame(40, 56)
+    images = []
+    for _ in range(2):  # compiled, then read back in a new lookup
+        runtime._cached_network.cache_clear()
+        images.append(complete(frame, "gan_oidn").image)
+    assert len(compiles) == 1 and np.array_equal(images[0], images[1]) and float(images[0].std()) > 0
+
+
+@needs_openvino
+def test_a_new_compiled_network_removes_those_of_older_conversions_only(cache):
+    entry = compiled_entry()
+    entry.parent.mkdir(parents=True)
+    older = entry.with_name(f"{weights_path().stem}-{'0' * 16}-{'0' * 8}-ov1-{'0' * 12}.blob")  # weights replaced
+    other_settings = entry.with_name(entry.stem.rsplit("-", 1)[0] + f"-{'1' * 12}.blob")
+    other_weights = entry.with_name(f"g-{'0' * 16}-{'0' * 8}-ov1-{'0' * 12}.blob")
+    for path in (older, other_settings, other_weights):
+        path.write_bytes(b"")
+    runtime.compile_network(weights_path(), "float32", 1)
+    assert entry.is_file() and not older.exists() and other_settings.exists() and other_weights.exists()
+
+
+def damaged(data: bytes, how: str) -> bytes:
+    """A compiled entry spoilt as a disk, a killed writer or another program might spoil it."""
+    header = data.split(b"\n", 2)[1]
+    if how == "flipped":
+        return data[:-100] + bytes([data[-100] ^ 1]) + data[-99:]
+    if how == "refused":  # a sound record of a payload OpenVINO does not read
+        record = {**json.loads(header), "sha256": hashlib.sha256(b"junk").hexdigest()}
+        return runtime.COMPILED_FORMAT + json.dumps(record).encode() + b"\n" + b"junk"
+    return {"truncated": data[: len(data) // 2], "garbage": b"not a network", "empty": b""}[how]
+
+
+@needs_openvino
+@pytest.mark.parametrize("how", ["truncated", "flipped", "refused", "garbage", "empty"])
+def test_a_damaged_compiled_network_is_compiled_again_silently(cache, monkeypatch, capfd, how):
+    runtime.compile_network(weights_path(), "float32", 1)
+    entry = compiled_entry()
+    sound = entry.read_bytes()
+    entry.write_bytes(damaged(sound, how))
+    compiles = counting_compiles(monkeypatch)
+    network = runtime.compile_network(weights_path(), "float32", 1)
+    output, _ = precomplete(load_generator()[0], synthetic_frame(32, 32)[0], network=network)
+    assert len(compiles) == 1 and np.isfinite(output).all()
+    assert runtime.read_compiled(runtime.openvino_module().Core(), entry, {}) is not None
+    assert capfd.readouterr().err == ""
+
+
+@needs_openvino
+def test_a_compiled_folder_that_cannot_be_made_caches_nothing_and_says_nothing(cache, capfd):
+    (cache / "generators" / "compiled").write_text("a file where the folder would be")
+    assert runtime.cpu_network(weights_path(), "float32", 1) is not None
+    assert capfd.readouterr().err == ""
+
+
+@needs_openvino
+def test_a_cache_that_cannot_be_written_still_completes(converted, fresh, monkeypatch, tmp_path, capfd):
+    """No folder can be made under ``$GMCPT_CACHE``: the network is converted into a temporary folder (here the
+    module's conversion copied, not converted again) and the frame completes on OpenVINO, with no message."""
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    monkeypatch.setenv("GMCPT_CACHE", str(blocker / "cache"))
+    written = []
+
+    def copy_conversion(generator, path):
+        for file in (converted / "generators").glob("*"):
+            shutil.copy(file, path.with_suffix(file.suffix))
+        written.append(path)
+
+    monkeypatch.setattr(export, "export", copy_conversion)
+    from gmcpt.completion import complete
+
+    result = complete(synthetic_frame(40, 48)[0], "gan_oidn")
+    assert np.isfinite(result.image).all() and len(written) == 1 and not written[0].exists()
+    assert runtime.cpu_network(weights_path(), "float32", 1) is not None and capfd.readouterr().err == ""
