@@ -24,8 +24,7 @@ from .names import DEFAULT_WEIGHTS, checked_weights, retrain_hint, sha256, weigh
 FORMAT = 1
 
 #: Precision of the stored floating-point tensors: half the file of float32, and the same results to
-#: 0.01 dB (the gan-cpu weights of 2026-11-23 rounded to float16: mean PSNR of ``gan`` and ``gan_pawnnm``
-#: on the 5 evaluation scenes at rates 0.2/0.3/0.4 unchanged at 33.03/33.38/33.68 and 33.96/34.47/34.93).
+#: 0.01 dB (docs/experiments.md).
 STORED_DTYPE = torch.float16
 
 _cache: dict[tuple[str, float], tuple[Generator, dict]] = {}
