@@ -60,6 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="one frame per value of scene parameter $NAME; several sweeps multiply (default: none)")
     parser.add_argument("--history", type=int, metavar="N", help="a sequence: the frames in order, each reusing "
                         "the samples of the N frames before it, then OIDN; spends --budget (default: none)")
+    parser.add_argument("--chunk", type=int, metavar="N", help="a sequence on Ray: N consecutive frames a task, "
+                        "each task first rendering the --history frames before its own unwritten (default: the "
+                        "frames over the workers, at least 2 x --history)")
     parser.add_argument("--threads", type=int, default=1,
                         help="CPU threads of one frame: torch's everywhere, Dr.Jit's and the Ray task's CPUs on Ray")
     parser.add_argument("--ray", metavar="ADDRESS", help="run frames as Ray tasks: local (start a cluster here), "
@@ -259,11 +262,11 @@ def batch(args, say=lambda message: None, committed: Callable[[], None] | None =
     started = time.perf_counter()
     jobs = _validate_batch(args)
     if args.history is not None:
-        from . import sequence_batch
+        from . import sequence_batch, sequence_ray
 
         say(f"{len(jobs)} frames as a sequence, each reusing up to {args.history} earlier frames")
         with Progress(len(jobs), "sequence", unit="frame", say=say, quiet=args.quiet) as bar:
-            rows = sequence_batch.run(args, jobs, say, bar)
+            rows = (sequence_batch.run if args.ray is None else sequence_ray.run)(args, jobs, say, bar)
         return _summary(args, jobs, rows, started, committed)
     rows = {}
     for job in jobs:

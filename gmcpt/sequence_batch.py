@@ -4,7 +4,8 @@ of the N frames before it (:mod:`gmcpt.sequence`).
 Each frame is written as ``DIR/NAME.exr`` (R, G, B), ``.png`` and ``.json`` (parameters, versions, the frame's
 history figures and stage timings), then the history to ``DIR/.sequence-state.npz``. A stopped sequence
 resumes after the newest frame of that state, with the images an uninterrupted run gives; a frame whose
-outputs were written but not its state is rendered again, to the same image.
+outputs were written but not its state is rendered again, to the same image. With ``--ray`` the frames go in
+chunks, one Ray task each (:mod:`gmcpt.sequence_ray`), with these files and records and no state file.
 """
 from __future__ import annotations
 
@@ -24,9 +25,11 @@ def check(args) -> None:
     """One line for a sequence the options cannot make."""
     if not args.frames:
         raise GmcptError("--history reuses earlier frames: give --frames A:B")
-    if args.ray is not None or args.sweep or len(args.scenes) != 1:
-        raise GmcptError("--history renders one scene's frames in order in this process: no --ray, --sweep "
-                         "or second scene")
+    if args.sweep or len(args.scenes) != 1:
+        raise GmcptError("--history renders one scene's frames in order: no --sweep or second scene")
+    from .sequence_ray import check as check_chunks
+
+    check_chunks(args)
     given = [f"--{name}" for name in UNUSED if getattr(args, name) is not None]
     if given:
         raise GmcptError(f"--history spends --budget on every pixel, then OIDN: drop {', '.join(given)}")
@@ -47,7 +50,45 @@ def _state_path(args) -> Path:
     return Path(args.out) / STATE
 
 
-def _write_frame(job: dict, image: np.ndarray, record: dict) -> None:
+def load_frame(args, job: dict) -> tuple:
+    """(scene, its ``$`` parameters, the frame's index) of ``job``: what every sequence path loads a frame from."""
+    from .scene import load_scene
+
+    parameters = dict(define.split("=", 1) for define in job["options"]["defines"])
+    scene = load_scene(job["scene"], tuple(args.res) if args.res else None, parameters)
+    return scene, parameters, int(parameters["frame"])
+
+
+def render_frame(args, renderer, job: dict, scene, parameters: dict) -> tuple[np.ndarray, dict]:
+    """``job``'s frame as ``renderer``'s next: (image, its JSON record). One record for the one-process and the Ray
+    paths, so a frame's files do not say where it was rendered; a failure names the frame on its one line."""
+    from .outputs import library_versions
+    from .render_cli import check_nonfinite
+
+    frame = int(parameters["frame"])
+    try:
+        image, info, timings = renderer.render(scene, frame)
+        check_nonfinite(info["nonfinite_samples"], args.allow_nonfinite)
+    except GmcptError as error:  # the frame's name on the one line: the frames before it are written
+        raise GmcptError(f"frame {frame} ({job['name']}): {error}") from None
+    settings = renderer.settings
+    record = {"scene": job["scene"], "output": str(Path(job["out"]).resolve()),
+              "parameters": {"sequence": True, "budget": settings.budget, "seed": info["seed"],
+                             "history": settings.history, "decay": settings.decay,
+                             "resolution": [image.shape[1], image.shape[0]], "scene_parameters": parameters},
+              "versions": library_versions(), **{k: v for k, v in info.items() if k != "seed"},
+              "timings": timings, "batch": {"key": job["key"], "name": job["name"]}}
+    return image, record
+
+
+def frame_row(job: dict, status: str, seconds: float = 0.0, timings: dict | None = None) -> dict:
+    """``job``'s row of the batch summary."""
+    row = {"name": job["name"], "output": job["out"], "status": status, "seconds": round(seconds, 3)}
+    return row if timings is None else {**row, "timings": timings}
+
+
+def write_frame(job: dict, image: np.ndarray, record: dict) -> None:
+    """``job``'s EXR (R, G, B; the record's parameters in its header), PNG and JSON record, all or none."""
     from .exr import write_exr, write_png
     from .files import json_text, write_together
     from .outputs import sidecar_paths
@@ -71,18 +112,12 @@ def _save_state(args, renderer) -> None:
 
 def run(args, jobs: list[dict], say, bar) -> dict:
     """Render ``jobs`` (one scene's frames, in order) as a sequence; returns the summary rows by name."""
-    from .outputs import library_versions
-    from .scene import load_scene
     from .sequence import SequenceRenderer
-
-    from .render_cli import check_nonfinite
 
     rows, renderer, newest = {}, None, -1
     for job in jobs:
-        parameters = dict(define.split("=", 1) for define in job["options"]["defines"])
-        frame = int(parameters["frame"])
         start = time.perf_counter()
-        scene = load_scene(job["scene"], tuple(args.res) if args.res else None, parameters)
+        scene, parameters, frame = load_frame(args, job)
         if renderer is None:
             renderer = SequenceRenderer(_settings(args, scene))
             if _state_path(args).exists():
@@ -92,25 +127,13 @@ def run(args, jobs: list[dict], say, bar) -> dict:
                     raise GmcptError(f"cannot read {_state_path(args)}: {error}; delete it to start again") from None
                 newest = max((past.index for past in renderer.past), default=-1)
         if frame <= newest:
-            rows[job["name"]] = {"name": job["name"], "output": job["out"], "status": "skipped", "seconds": 0.0}
+            rows[job["name"]] = frame_row(job, "skipped")
             continue
         say(f"frame {frame}: {renderer.settings.budget:g} samples a pixel, {len(renderer.past)} past frames")
-        try:
-            image, info, timings = renderer.render(scene, frame)
-            check_nonfinite(info["nonfinite_samples"], args.allow_nonfinite)
-        except GmcptError as error:  # the frame's name on the one line: the frames before it are written
-            raise GmcptError(f"frame {frame} ({job['name']}): {error}") from None
-        record = {"scene": job["scene"], "output": str(Path(job["out"]).resolve()),
-                  "parameters": {"sequence": True, "budget": renderer.settings.budget, "seed": info["seed"],
-                                 "history": renderer.settings.history, "decay": renderer.settings.decay,
-                                 "resolution": [image.shape[1], image.shape[0]], "scene_parameters": parameters},
-                  "versions": library_versions(), **{k: v for k, v in info.items() if k != "seed"},
-                  "timings": timings, "batch": {"key": job["key"], "name": job["name"]}}
-        _write_frame(job, image, record)
+        image, record = render_frame(args, renderer, job, scene, parameters)
+        write_frame(job, image, record)
         _save_state(args, renderer)
         seconds = time.perf_counter() - start
-        rows[job["name"]] = {"name": job["name"], "output": job["out"], "status": "rendered",
-                             "seconds": round(seconds, 3), "timings": timings}
+        rows[job["name"]] = frame_row(job, "rendered", seconds, record["timings"])
         bar.update(note=f"{job['name']} {seconds:.1f}s")
     return rows
-

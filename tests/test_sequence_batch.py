@@ -27,7 +27,7 @@ def test_a_stopped_sequence_resumes_with_the_images_of_an_uninterrupted_run(tmp_
 
 
 @pytest.mark.parametrize("options, message", [((), "give --frames"), (("--frames", "0:2", "--rate", "0.3"), "drop --rate"),
-                                              (("--frames", "0:2", "--ray", "local"), "no --ray")])
+                                              (("--frames", "0:2", "--chunk", "3"), "give --ray")])
 def test_a_sequence_the_options_cannot_make_gets_one_line(tmp_path, options, message):
     result = gmcpt("batch", CORNELL, *options, *SEQUENCE, "--out", tmp_path / "out", check=False)
     assert result.returncode == 2 and result.stderr.strip().count("\n") == 0 and message in result.stderr
