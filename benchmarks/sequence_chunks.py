@@ -25,8 +25,6 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-#: the two references' seeds (each frame adds its index): far from any seed a sequence draws
-REFERENCE_SEEDS = (7_000_000, 8_000_000)
 
 
 def batch(args, seed: int, out: Path, ray: bool) -> None:
@@ -54,13 +52,14 @@ def truth(args) -> tuple[list, list, list]:
     from gmcpt.evaluation.stability import FrameGeometry
     from gmcpt.render import render_native
     from gmcpt.scene import load_scene, path_integrator
+    from gmcpt.seeds import SEQUENCE_REFERENCE_SEEDS
     from gmcpt.sequence import geometry
 
     firsts, seconds, geometries = [], [], []
     for frame in range(args.frames):
         scene = load_scene(args.scene, (args.res, args.res), {"frame": str(frame)})
         sensor, integrator = scene.sensors()[0], path_integrator(scene)
-        for seed, into in zip(REFERENCE_SEEDS, (firsts, seconds)):
+        for seed, into in zip(SEQUENCE_REFERENCE_SEEDS, (firsts, seconds)):
             into.append(render_native(scene, sensor, integrator, args.reference_spp, seed + frame,
                                       any_size=True).reshape(args.res, args.res, 3))
         geometries.append(FrameGeometry(*geometry(scene, sensor)))

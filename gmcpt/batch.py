@@ -33,12 +33,11 @@ from typing import Callable
 
 from . import interrupts
 from .command import Parser, mitsuba_command, stamped_say, start_mitsuba
+from .batch_records import CRASH_ONCE, crash_once, finished_record  # noqa: F401 (CRASH_ONCE: tests)
 from .errors import GmcptError
 from .render_cli import add_render_options, run, validate
 
 SUMMARY = "batch-summary.json"
-#: Test hook: the first task that creates this file (a path) kills its own process, once per batch.
-CRASH_ONCE = "GMCPT_TEST_CRASH_ONCE"
 
 
 def _render_dests() -> list[str]:
@@ -59,7 +58,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--sweep", action="append", default=[], metavar="NAME=V1,V2,...",
                         help="one frame per value of scene parameter $NAME; several sweeps multiply (default: none)")
     parser.add_argument("--history", type=int, metavar="N", help="a sequence: the frames in order, each reusing "
-                        "the samples of the N frames before it, then OIDN; spends --budget (default: none)")
+                        "the samples of the N frames before it, then OIDN; spends --budget or --time a frame; 0: "
+                        "independent frames, as are those of --sweep, of several scenes or with a single-frame "
+                        "option such as --rate or --spp (default: 8)")
     parser.add_argument("--chunk", type=int, metavar="N", help="a sequence on Ray: N consecutive frames a task, "
                         "each task first rendering the --history frames before its own unwritten (default: the "
                         "frames over the workers, at least 2 x --history)")
@@ -115,12 +116,12 @@ def request_key(scene: Path, options: dict) -> str:
 
 def plan(args) -> list[dict]:
     """One job (a dict; it travels to Ray workers) per scene and sweep point, in order."""
-    from .scene import check_scene_file
+    from .scene import check_animated, check_scene_file
 
     options = {dest: getattr(args, dest) for dest in _render_dests()}
     jobs, seen = [], {}
     for scene in args.scenes:
-        path = check_scene_file(scene)
+        path = check_animated(scene) if args.frames else check_scene_file(scene)
         for point in sweep_points(args.sweep, args.frames):
             name = frame_name(scene_name(path), point)
             if name in seen or name == Path(SUMMARY).stem:
@@ -139,41 +140,10 @@ def job_args(job: dict) -> argparse.Namespace:
     return argparse.Namespace(scene=job["scene"], out=job["out"], reference=None, quiet=True, **job["options"])
 
 
-def finished_record(job: dict) -> dict | None:
-    """The JSON record of ``job``'s frame if its three files are there and match the request, else None.
-
-    The EXR's header must hold the record's parameters: a set mixed from two runs does not pass.
-    """
-    import OpenEXR
-
-    from .outputs import sidecar_paths
-
-    exr, png, record_path = sidecar_paths(job["out"])
-    try:
-        record = json.loads(record_path.read_text())
-        if record.get("batch", {}).get("key") != job["key"] or png.stat().st_size == 0:
-            return None
-        with OpenEXR.File(str(exr), header_only=True) as file:
-            stored = file.header().get("gmcpt")
-    except Exception:  # missing, unreadable or foreign files: render again
-        return None
-    return record if stored == json.dumps(record.get("parameters", {})) else None
-
-
 def _row(job: dict, record: dict, status: str, seconds: float) -> dict:
     return {"name": job["name"], "scene": job["scene"], "output": job["out"], "status": status,
             "seconds": round(seconds, 3), "timings": record.get("timings", {}), "host": os.uname().nodename,
             "pid": os.getpid()}
-
-
-def _crash_once() -> None:
-    marker = os.environ.get(CRASH_ONCE)
-    if marker:
-        try:
-            os.close(os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
-        except FileExistsError:
-            return
-        os._exit(70)
 
 
 def render_job(job: dict) -> dict:
@@ -193,7 +163,7 @@ def render_job(job: dict) -> dict:
     record = finished_record(job)  # a retried task whose first run got as far as writing
     if record is not None:
         return _row(job, record, "found", time.perf_counter() - start)
-    _crash_once()
+    crash_once()
     record = run(job_args(job), extra={"batch": {"key": job["key"], "name": job["name"]}})
     return _row(job, record, "rendered", time.perf_counter() - start)
 
@@ -224,9 +194,17 @@ def _validate_batch(args) -> list[dict]:
         from .video import check_fps, check_video_path
         check_video_path(args.video, "--video")
         check_fps(args.fps, "--fps")
+    from .sequence_batch import check, default_history
+    from .sequence_ray import check as check_chunks
+
+    args.history = default_history(args)
+    if args.history == 0:
+        args.history = None  # independent frames
+    if args.history is None and getattr(args, "chunk", None) is not None:
+        raise GmcptError("--chunk splits a sequence into Ray tasks; independent frames are a task each: drop it")
     if args.history is not None:
-        from .sequence_batch import check
         check(args)
+        check_chunks(args)
     jobs = plan(args)
     if args.ray is not None:
         check_reachable(check_address(args.ray))
@@ -268,6 +246,12 @@ def batch(args, say=lambda message: None, committed: Callable[[], None] | None =
         with Progress(len(jobs), "sequence", unit="frame", say=say, quiet=args.quiet) as bar:
             rows = (sequence_batch.run if args.ray is None else sequence_ray.run)(args, jobs, say, bar)
         return _summary(args, jobs, rows, started, committed)
+    if args.frames:
+        from .sequence_batch import single_frame_options
+
+        given = single_frame_options(args)
+        say("independent frames" + (f": {', '.join(given)} is for single frames (a sequence spends --budget or "
+                                    f"--time)" if given else ""))
     rows = {}
     for job in jobs:
         record = finished_record(job)

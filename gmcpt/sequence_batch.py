@@ -17,8 +17,24 @@ import numpy as np
 from .errors import GmcptError
 
 STATE = ".sequence-state.npz"
-#: the render options a sequence frame has no use for: it spends a budget on every pixel, then OIDN
-UNUSED = ("rate", "spp", "time", "mask", "method", "weights", "tile")
+#: the render options a sequence frame has no use for: it spends a budget (or a time) on every pixel, then OIDN
+UNUSED = ("rate", "spp", "mask", "method", "weights", "tile")
+
+
+def default_history(args) -> int | None:
+    """``--history`` when not given: :data:`~gmcpt.sequence.HISTORY_FRAMES` for the frames of one scene (``--frames``,
+    no ``--sweep``) without single-frame options (:data:`UNUSED`), else none (independent frames)."""
+    from .sequence import HISTORY_FRAMES
+
+    if args.history is not None:
+        return args.history
+    sequence = args.frames and not args.sweep and len(args.scenes) == 1
+    return HISTORY_FRAMES if sequence and not single_frame_options(args) else None
+
+
+def single_frame_options(args) -> list[str]:
+    """The options given that a sequence frame has no use for (:data:`UNUSED`), as typed."""
+    return [f"--{name}" for name in UNUSED if getattr(args, name) is not None]
 
 
 def check(args) -> None:
@@ -27,12 +43,10 @@ def check(args) -> None:
         raise GmcptError("--history reuses earlier frames: give --frames A:B")
     if args.sweep or len(args.scenes) != 1:
         raise GmcptError("--history renders one scene's frames in order: no --sweep or second scene")
-    from .sequence_ray import check as check_chunks
-
-    check_chunks(args)
-    given = [f"--{name}" for name in UNUSED if getattr(args, name) is not None]
+    given = single_frame_options(args)
     if given:
-        raise GmcptError(f"--history spends --budget on every pixel, then OIDN: drop {', '.join(given)}")
+        raise GmcptError(f"--history spends --budget (or --time) on every pixel, then OIDN: drop {', '.join(given)}, "
+                         f"or give --history 0 for independent frames")
     from .sequence import SequenceSettings
 
     SequenceSettings(history=args.history)  # its one rule of the history's length
@@ -40,10 +54,10 @@ def check(args) -> None:
 
 def _settings(args, scene):
     from .scene import scene_sensor
-    from .sequence import SequenceSettings
+    from .sequence import SequenceSettings, sequence_budget
 
-    budget = args.budget if args.budget is not None else 0.3 * scene_sensor(scene).sampler().sample_count()
-    return SequenceSettings(budget=budget, seed=args.seed or 0, history=args.history)
+    return SequenceSettings(budget=sequence_budget(args.budget, scene_sensor(scene)), seed=args.seed or 0,
+                            history=args.history, time=args.time or 0.0)
 
 
 def _state_path(args) -> Path:
@@ -74,7 +88,7 @@ def render_frame(args, renderer, job: dict, scene, parameters: dict) -> tuple[np
     settings = renderer.settings
     record = {"scene": job["scene"], "output": str(Path(job["out"]).resolve()),
               "parameters": {"sequence": True, "budget": settings.budget, "seed": info["seed"],
-                             "history": settings.history, "decay": settings.decay,
+                             "history": settings.history, "decay": settings.decay, "time": settings.time or None,
                              "resolution": [image.shape[1], image.shape[0]], "scene_parameters": parameters},
               "versions": library_versions(), **{k: v for k, v in info.items() if k != "seed"},
               "timings": timings, "batch": {"key": job["key"], "name": job["name"]}}
@@ -125,11 +139,14 @@ def run(args, jobs: list[dict], say, bar) -> dict:
                     renderer.restore(dict(np.load(_state_path(args))))
                 except (OSError, ValueError, KeyError) as error:
                     raise GmcptError(f"cannot read {_state_path(args)}: {error}; delete it to start again") from None
+                except GmcptError as error:  # another budget, seed or history: its frames would not match
+                    raise GmcptError(f"{_state_path(args)}: {error}: delete it, or give another --out") from None
                 newest = max((past.index for past in renderer.past), default=-1)
         if frame <= newest:
             rows[job["name"]] = frame_row(job, "skipped")
             continue
-        say(f"frame {frame}: {renderer.settings.budget:g} samples a pixel, {len(renderer.past)} past frames")
+        say(f"frame {frame}: " + (f"{renderer.settings.time:g} s" if renderer.settings.time else
+                                  f"{renderer.settings.budget:g} samples a pixel") + f", {len(renderer.past)} past frames")
         image, record = render_frame(args, renderer, job, scene, parameters)
         write_frame(job, image, record)
         _save_state(args, renderer)

@@ -10,7 +10,7 @@ would change all at once, where inside a chunk each frame shares most of its sam
 are cross-faded into the next chunk's renders of them, its warm-up's last frames, rising towards the next chunk:
 the change is spread over those frames, and the driver writes them when both halves are in.
 
-Resuming is per frame, through the frames' records (:func:`gmcpt.batch.finished_record`, made with the same
+Resuming is per frame, through the frames' records (:func:`gmcpt.batch_records.finished_record`, made with the same
 history): the state file ``.sequence-state.npz`` belongs to the one-process path. A task renders from ``N`` frames
 before the first frame it still owes (a stopped batch, or a task Ray runs again after its worker died) to the last.
 """
@@ -95,7 +95,7 @@ def weight(tail: list, job: dict) -> float:
 
 def finished(job: dict, history: int) -> bool:
     """True if ``job``'s frame is written, for the same request, as a sequence frame of this ``history``."""
-    from .batch import finished_record
+    from .batch_records import finished_record
 
     record = finished_record(job)
     parameters = record.get("parameters", {}) if record is not None else {}
@@ -116,7 +116,7 @@ def render_chunk(task: dict) -> dict:
     ``task["handed"]`` names (its tail's and its lead's, for the driver to cross-fade). Returns ``{"rows": the
     summary rows of the frames written or found written (by an earlier run of this task), "handed": {name:
     (role: "tail" or "lead", (image, record, seconds))}}``."""
-    from .batch import _crash_once
+    from .batch_records import crash_once
     from .command import start_mitsuba
     from .sequence import SequenceRenderer
     from .sequence_batch import _settings, frame_row, load_frame, render_frame, write_frame
@@ -141,7 +141,7 @@ def render_chunk(task: dict) -> dict:
         elif owes[position]:
             write_frame(job, image, record)
             result["rows"].append(frame_row(job, "rendered", time.perf_counter() - started, record["timings"]))
-            _crash_once()  # test hook: a worker lost with part of its chunk written
+            crash_once()  # test hook: a worker lost with part of its chunk written
     return result
 
 

@@ -36,8 +36,49 @@ def test_a_sequence_the_options_cannot_make_gets_one_line(tmp_path, options, mes
 
 def test_a_frame_that_fails_is_one_line_naming_it(tmp_path):
     scene = tmp_path / "flat.xml"
-    scene.write_text(CORNELL.read_text().replace('<sensor type="perspective">', '<sensor type="orthographic">')
+    scene.write_text(CORNELL.read_text().replace('<sensor type="perspective" id="camera">', '<sensor type="orthographic">')
                      .replace('<float name="fov" value="39.3"/>', "").replace('<string name="fov_axis" value="x"/>', ""))
     result = gmcpt("batch", scene, "--frames", "0:2", *SEQUENCE, "--out", tmp_path / "out", check=False)
     assert result.returncode == 2 and result.stderr.strip().count("\n") == 0, result.stderr
     assert "frame 0 (flat_frame-0000)" in result.stderr and "pinhole" in result.stderr
+
+
+def test_frames_of_one_scene_are_a_sequence_unless_history_is_0(tmp_path):
+    gmcpt("batch", CORNELL, "--frames", "0:2", "--res", "16", "16", "--budget", "1", "-q", "--out", tmp_path / "seq")
+    record = json.loads((tmp_path / "seq" / "cornell-box_frame-0001.json").read_text())
+    assert record["parameters"]["sequence"] and record["parameters"]["history"] == 8 and record["history_frames"] == 1
+    gmcpt("batch", CORNELL, "--frames", "0:2", "--res", "16", "16", "--budget", "1", "--history", "0", "-q",
+          "--out", tmp_path / "alone")
+    record = json.loads((tmp_path / "alone" / "cornell-box_frame-0001.json").read_text())
+    assert "sequence" not in record["parameters"] and "budget_choice" in record
+    result = gmcpt("batch", CORNELL, "--frames", "0:2", "--res", "16", "16", "--rate", "0.5", "--out", tmp_path / "rate")
+    assert "independent frames: --rate is for single frames" in result.stderr
+
+
+def test_a_timed_sequence_records_its_time_and_each_frame_its_budget(tmp_path):
+    gmcpt("batch", CORNELL, "--frames", "0:3", "--res", "16", "16", "--time", "0.3", "-q", "--out", tmp_path / "t")
+    records = [json.loads((tmp_path / "t" / f"cornell-box_frame-000{frame}.json").read_text()) for frame in range(3)]
+    assert all(record["parameters"]["time"] == 0.3 for record in records)
+    assert records[0]["budget"] == records[0]["parameters"]["budget"] != records[2]["budget"]
+
+
+@pytest.mark.parametrize("change, options, message", [
+    (None, ("--frames", "0:2", "--sweep", "seed=0,1", "--history", "2"), "no --sweep"),
+    (None, ("--frames", "0:2", "--history", "0", "--chunk", "2", "--ray", "local"), "independent frames are a task"),
+    ('<rotate y="1" angle="$frame"/>', ("--frames", "0:2"), "nothing in it reads $frame")])
+def test_frames_the_scene_or_options_cannot_animate_get_one_line(tmp_path, change, options, message):
+    scene = CORNELL
+    if change:
+        scene = tmp_path / "still.xml"
+        scene.write_text(CORNELL.read_text().replace(change, "").replace('<default name="frame" value="0"/>', ""))
+    result = gmcpt("batch", scene, *options, "--res", "16", "16", "--out", tmp_path / "out", check=False)
+    assert result.returncode == 2 and result.stderr.strip().count("\n") == 0 and message in result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_sequence_state_of_other_settings_is_one_line(tmp_path):
+    gmcpt("batch", CORNELL, "--frames", "0:1", "--res", "16", "16", "--budget", "1", "-q", "--out", tmp_path / "s")
+    result = gmcpt("batch", CORNELL, "--frames", "0:2", "--res", "16", "16", "--budget", "2", "-q",
+                   "--out", tmp_path / "s", check=False)
+    assert result.returncode == 2 and result.stderr.strip().count("\n") == 0
+    assert "other settings" in result.stderr and "delete it" in result.stderr
