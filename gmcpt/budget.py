@@ -17,14 +17,15 @@ the default's at rate ``budget / SPARSE_SPP`` x :data:`SPARSE_SPP` spp. A probe'
 Before the choice the frame traces only what both ways need: guides (albedo, normal, depth, at about the
 budget's samples a pixel, :func:`guide_spp`, without shadow rays) and, where the choice waits for it
 (:func:`needs_probe`), a probe, :data:`PROBE_SHARE` of the pixels at :data:`PROBE_SPP` spread as blue noise.
-A probe's reading serves the scene's next frames at the same size (:mod:`gmcpt.costs`). A dense frame then costs what Mitsuba's own render at the
-same samples plus an albedo/normal pass plus OIDN costs: its bulk is ``mi.render`` itself, the probe's samples
+Every reading is this frame's own: none is carried to the next frames, so that the same arguments and cost model
+give the same image whatever came before (:mod:`gmcpt.costs`). A dense frame then costs what Mitsuba's own render at
+the same samples plus an albedo/normal pass plus OIDN costs: its bulk is ``mi.render`` itself, the probe's samples
 are left out of it so that no pixel has more than ``ceil(budget)`` samples (OIDN expects even noise), and the
 samples left over go one each to blue-noise pixels. A sparse frame tops the guides up to the full feature
 pass (shadow rays included) and the probe's pixels up to :data:`SPARSE_SPP`, as part of its first pass.
 Two signals choose dense, and so does time (:func:`sparse_pays`): the sparse way's extra work (the rest of
-the feature pass, the placement, the generator; :mod:`gmcpt.costs`) must cost less than the samples a dense
-frame would buy with it are worth:
+the feature pass, the placement, the generator), priced by the machine's cost model (:class:`gmcpt.costs.CostModel`,
+never by this process's timings), must cost less than the samples a dense frame would buy with it are worth:
 
 - :func:`relative_variance`: the median, over the probe's pixels, of the variance of a pixel's mean over
   its squared brightness, scaled to a 16-spp mean. The synthetic evaluation scenes read 0.007-0.057, the real
@@ -63,10 +64,6 @@ PROBE_SPP = 4
 PROBE_SHARE = 0.01
 #: Fewest and most primary rays a pixel of the guide pass: the edge signal was set on passes of 4 to 16.
 GUIDE_SPP_RANGE = (4, 16)
-#: Below this mean albedo difference between the two halves of a 4-ray guide pass (2 rays each), a frame below
-#: budget 4 takes guides of one ray a pixel: such guides barely alias, and 3 more rays buy OIDN less than their
-#: time buys in samples (the scenes' readings and gains: docs/experiments.md).
-GUIDE_ALIASING_BELOW = 0.003
 #: Below budget 16 a dense frame takes 16-ray guides as clean, which runs OIDN's large model, where the scene's
 #: :func:`denoiser_proxy` reads at least this: the scenes above it gained from it, the others not always
 #: (``benchmarks/denoiser_gain.py``, docs/experiments.md).
@@ -98,11 +95,6 @@ ADAPTIVE_NOISY_FROM_BUDGET = 8
 #: adaptive placement pays: it parts the evaluation scenes that gained from those that did not
 #: (docs/experiments.md).
 ADAPTIVE_ABOVE = 0.18
-#: dB adaptive placement gains a dense frame of budget 8 at the threshold, and more per unit of concentration
-#: above it: the least-squares line through the evaluation scenes at or above the threshold (docs/experiments.md).
-#: :data:`SPARSE_GAIN` is over even samples, so where the dense frame would be adaptive the sparse way must beat
-#: this too.
-ADAPTIVE_GAIN = (0.14, 7.9)
 TOP_SHARE = 0.05
 #: The largest budget, as the largest spp of a masked render.
 MAX_BUDGET = 4096
@@ -194,29 +186,19 @@ def edge_share(features: dict) -> float:
     return float(binned_edges(features["albedo"], features["normal"], features["depth"], features["visibility"]).mean())
 
 
-def sparse_pays(extra_seconds: float, seconds_per_spp: float, budget: float,
-                concentration: float | None = None) -> bool:
+def sparse_pays(extra_seconds: float, seconds_per_spp: float, budget: float) -> bool:
     """True when the sparse way's expected gain at equal samples (:data:`SPARSE_GAIN`) beats what a dense frame
     of ``budget`` samples a pixel would gain from the ``extra_seconds`` the sparse way costs on top of it, spent
-    on more samples at ``seconds_per_spp`` for one sample a pixel (:data:`DENSE_GAIN_PER_DOUBLING`), and from
-    adaptive placement (:func:`adaptive_gain`) where the budget allows it and the scene's error reads
-    ``concentration``. The seconds buy samples at the path tracer's pace, not the whole frame's: a frame's fixed
-    costs (guides, OIDN) do not grow with its samples, and on a cheap scene the extra 0.06 s buy 16 samples a
-    pixel."""
+    on more samples at ``seconds_per_spp`` for one sample a pixel (:data:`DENSE_GAIN_PER_DOUBLING`); both from the
+    cost model (:class:`gmcpt.costs.CostModel`), so the answer is the same wherever the frame runs. The seconds buy
+    samples at the path tracer's pace, not the whole frame's: a frame's fixed costs (guides, OIDN) do not grow with
+    its samples, and on a cheap scene the extra seconds buy many samples a pixel.
+
+    What adaptive placement would gain the dense frame is not weighed: the error's concentration is read from a
+    dense frame's first pass, after the choice, and a reading of earlier frames would make the choice depend on
+    them (docs/experiments.md, 2026-12-01)."""
     more = max(extra_seconds, 0.0) / max(seconds_per_spp, 1e-12)
-    # the sparse way runs only where the probe reads the scene quiet, where a dense frame is adaptive from 4
-    adaptive = adaptive_gain(concentration) if budget >= ADAPTIVE_FROM_BUDGET else 0.0
-    return SPARSE_GAIN > DENSE_GAIN_PER_DOUBLING * math.log2(1 + more / budget) + adaptive
-
-
-def adaptive_gain(concentration: float | None) -> float:
-    """dB a dense frame is expected to gain from adaptive placement at an error ``concentration``
-    (:func:`error_concentration`; None: not read): none below :data:`ADAPTIVE_ABOVE`, else :data:`ADAPTIVE_GAIN`'s
-    line."""
-    if concentration is None or not adaptive_pays(concentration):
-        return 0.0
-    at_threshold, slope = ADAPTIVE_GAIN
-    return at_threshold + slope * (concentration - ADAPTIVE_ABOVE)
+    return SPARSE_GAIN > DENSE_GAIN_PER_DOUBLING * math.log2(1 + more / budget)
 
 
 def edges_above(pixels: int) -> float:
@@ -235,30 +217,20 @@ def choose(plan: BudgetPlan, statistic: float, edges: float, pays: bool = True) 
     return DENSE if wanted and plan.dense_after_probe else SPARSE
 
 
-def needs_probe(plan: BudgetPlan, edges: float, pays: bool, reading: float | None) -> bool:
-    """True when the choice waits for a probe: the plan has a choice, and neither the feature ``edges``, time
-    (``pays``) nor an earlier probe's ``reading`` of the scene that still serves
-    (:attr:`gmcpt.costs.FrameCosts.probe`) choose dense on their own. A dense frame without a probe
-    is Mitsuba's render at the whole budget, in one launch; a sparse frame always probes, as the probe's pixels
-    are part of its first pass (the same seed gives the same sparse frame)."""
-    return not plan.dense_only and choose(plan, reading or 0.0, edges, pays) == SPARSE
+def needs_probe(plan: BudgetPlan, edges: float, pays: bool) -> bool:
+    """True when the choice waits for a probe: the plan has a choice, and neither the feature ``edges`` nor time
+    (``pays``) choose dense on their own. A dense frame without a probe is Mitsuba's render at the whole budget,
+    in one launch; a sparse frame always probes, as the probe's pixels are part of its first pass (the same seed
+    gives the same sparse frame)."""
+    return not plan.dense_only and choose(plan, 0.0, edges, pays) == SPARSE
 
 
-def guide_spp(budget: float, feature_spp: int, aliasing: float | None = None) -> int:
+def guide_spp(budget: float, feature_spp: int) -> int:
     """Primary rays a pixel of a budget's guide pass: about the budget, within :data:`GUIDE_SPP_RANGE` and at most
-    ``feature_spp`` (what a baseline's renderer gathers over its own samples); one below the range where the
-    scene's guides barely alias (:func:`guide_aliasing` below :data:`GUIDE_ALIASING_BELOW`). From 16 OIDN takes
-    them as clean (:data:`gmcpt.denoise.CLEAN_GUIDE_RAYS`), as it does a baseline's."""
+    ``feature_spp`` (what a baseline's renderer gathers over its own samples). From 16 OIDN takes them as clean
+    (:data:`gmcpt.denoise.CLEAN_GUIDE_RAYS`), as it does a baseline's."""
     low, high = GUIDE_SPP_RANGE
-    if budget < low and aliasing is not None and aliasing < GUIDE_ALIASING_BELOW:
-        return 1
     return max(1, min(feature_spp, high, max(low, int(round(budget)))))
-
-
-def reads_guide_aliasing(budget: float, feature_spp: int) -> bool:
-    """Whether a frame of ``budget`` without a remembered reading traces its guides in two halves to read
-    :func:`guide_aliasing`: below :data:`GUIDE_SPP_RANGE`, where the reading chooses the rays."""
-    return budget < GUIDE_SPP_RANGE[0] and guide_spp(budget, feature_spp) == GUIDE_SPP_RANGE[0]
 
 
 def denoiser_proxy(quarter: np.ndarray, half: np.ndarray, clean_half: np.ndarray) -> float:
@@ -277,12 +249,6 @@ def large_model_pays(proxy: float, extra_seconds: float, frame_seconds: float) -
     """Whether a dense frame of ``frame_seconds`` takes OIDN's large model for ``extra_seconds`` more, after the
     scene's :func:`denoiser_proxy` (:data:`LARGE_MODEL_PROXY_ABOVE`, :data:`LARGE_MODEL_SHARE_BELOW`)."""
     return proxy >= LARGE_MODEL_PROXY_ABOVE and extra_seconds < LARGE_MODEL_SHARE_BELOW * frame_seconds
-
-
-def guide_aliasing(first_albedo: list, second_albedo: list) -> float:
-    """The mean absolute difference of two guide passes' per-pixel albedo (flat planes, 3 each): how much a
-    pixel's guides still change with its rays."""
-    return float(np.mean([np.abs(one - other).mean() for one, other in zip(first_albedo, second_albedo)]))
 
 
 def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:
@@ -318,18 +284,18 @@ def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:
 def adaptive_first_spp(budget: float, noise: float | None = None) -> int:
     """Samples of every pixel in a dense frame's first pass when the rest may be placed adaptively
     (:data:`~gmcpt.adaptive.FIRST_SHARE` of the budget), 0 where it may not (no first pass): below
-    :data:`ADAPTIVE_FROM_BUDGET`, and below :data:`ADAPTIVE_NOISY_FROM_BUDGET` unless the scene's last probe read
-    its ``noise`` (:func:`relative_variance`; None: never read) at most :data:`DENSE_ABOVE`."""
+    :data:`ADAPTIVE_FROM_BUDGET`, and below :data:`ADAPTIVE_NOISY_FROM_BUDGET` unless the frame's probe read
+    its ``noise`` (:func:`relative_variance`; None: no probe) at most :data:`DENSE_ABOVE`."""
     quiet = noise is not None and noise <= DENSE_ABOVE
     return max(1, int(FIRST_SHARE * budget)) if budget >= (ADAPTIVE_FROM_BUDGET if quiet
                                                             else ADAPTIVE_NOISY_FROM_BUDGET) else 0
 
 
-def probes_for_placement(budget: float, noise: float | None) -> bool:
-    """True when a frame of ``budget`` probes for :func:`adaptive_first_spp` alone: its scene was never probed
-    (``noise`` None) and a reading would change the frame's first pass. Once a scene: the reading
-    stays (far from the threshold, the synthetic scenes 0.004-0.053, the real interiors 0.23-0.27)."""
-    return noise is None and adaptive_first_spp(budget, 0.0) != adaptive_first_spp(budget, None)
+def probes_for_placement(budget: float) -> bool:
+    """True when a frame of ``budget`` probes for :func:`adaptive_first_spp` alone, whatever its choice: the probe's
+    reading would change a dense frame's first pass. Every such frame probes, as a reading serves only its own
+    frame."""
+    return adaptive_first_spp(budget, 0.0) != adaptive_first_spp(budget, None)
 
 
 def error_concentration(error: np.ndarray) -> float:

@@ -1,137 +1,242 @@
-"""What a frame costs on this machine, learnt as a process renders: the budget chooser weighs time with it.
+"""What a frame's parts cost on a machine: the explicit model a budget's chooser weighs time with.
 
-Per scene and frame size, :class:`FrameCosts` keeps the seconds one sample a pixel of path tracing takes,
-the seconds the sparse way adds to a dense frame (the rest of the feature pass, the placement, the generator),
-and what the last probe read of the scene's noise, the last dense frame of its error's concentration and the last
-guide pass of its aliasing, so that the next frames can skip the probe, a dense frame's second launch where its
-samples stay even, and guide rays that buy nothing.
-Before a scene's first frame it knows no pace, and that frame goes dense (:mod:`gmcpt.sampling`); until a
-sparse frame has run, the sparse way's extra work is a per-pixel guess (:data:`SPARSE_EXTRA_SECONDS_PER_PIXEL`).
+A frame's choice (:mod:`gmcpt.budget`, :mod:`gmcpt.sampling`) is a function of its arguments, what the frame itself
+reads (its probe's noise, its guides' edges) and a :class:`CostModel`, never of timings taken while a process
+renders: timings differ between machines, runs and the frames before, so an image chosen from them could not be
+made again. The same arguments and the same model give the same image, on any machine, after any frames.
+
+The model is per machine, not per scene: a scene's pace could enter only as a reading of the frame itself, and the
+frame's own timings are no more repeatable than a process's. By default it is measured once on a machine
+(:func:`measure_costs`, Mitsuba's own Cornell box) and stored under the cache folder (:func:`machine_costs`);
+``gmcpt render --costs FILE`` gives another, such as the one a render's JSON sidecar recorded (:func:`read_costs`
+reads a costs file and a sidecar alike). A time budget (``--time``) spends wall time and sizes its passes by their
+measured pace; the model only gives its first estimate of OIDN's seconds.
 """
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import json
+import math
+import os
+import platform
+import sys
+import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Callable
 
-import numpy as np
+from .errors import GmcptError
+from .files import cache_folder, json_text
 
-from .denoise import CLEAN_GUIDE_RAYS, denoise_oidn
-from .held import scene_state
-
-#: The sparse way's extra seconds a pixel before the process has seen a sparse frame: the rest of the feature
-#: pass, the placement and the generator took 1.6 us a pixel on the bundled scenes at 256x256 (2 cores).
-SPARSE_EXTRA_SECONDS_PER_PIXEL = 1.6e-6
-#: Frames a reading of the scene serves before the frame reads again (a camera that moves may change it): the
-#: probe's readings sit far from their threshold, 0.007-0.057 on the synthetic scenes and 0.23-0.26 on the real ones.
-#: A frame that reads again costs up to 12% more (the probe or first pass adds launches); spread over 32 frames
-#: that is under 0.5% a frame, where 8 cost 1.5% and put a reading frame among most settings' timed runs
-#: (docs/experiments.md).
-READ_AGAIN_AFTER = 32
-
-
-@dataclass
-class Reading:
-    """The last reading of one of a scene's signals, which serves the next :data:`READ_AGAIN_AFTER` frames."""
-
-    value: float | None = None
-    frames: int = 0  # frames since it was read
-
-    def remembered(self) -> float | None:
-        """The reading while it serves, else None."""
-        return self.value if self.frames < READ_AGAIN_AFTER else None
-
-    def learn(self, value: float | None) -> None:
-        """Count a frame, and keep ``value`` when the frame read the signal (not None)."""
-        if value is not None:
-            self.value, self.frames = value, 0
-        self.frames += 1
+#: What a costs file says it is; a sidecar is read by its ``costs`` entry alone.
+COSTS_FORMAT = "gmcpt-costs 1"
+#: The side of the square frame the model is measured at: the evaluation's size, where a pass's launch is a small
+#: part of its pixels' work.
+MEASURE_SIDE = 256
+#: Timed runs of each part, after one untimed run that compiles or loads it; the fastest counts.
+MEASURE_RUNS = 3
+#: Samples a pixel of the timed path tracing, and primary rays a pixel of the timed guide pass (a budget of 4's).
+MEASURE_SPP = 4
 
 
-@dataclass
-class FrameCosts:
-    """Seconds of one frame's parts on one scene at one size (the last measured, or None), and the readings of
-    the scene's signals that let its next frames skip a pass."""
+@dataclass(frozen=True)
+class CostModel:
+    """Seconds of a frame's parts on one machine, per pixel (and per sample or ray where they grow with them).
 
-    pixels: int
-    seconds_per_spp: float | None = None  # path tracing, one sample for every pixel
-    sparse_extra_seconds: float | None = None  # what the sparse way adds to a dense frame's work
-    guide_ray_seconds: float | None = None  # a guide pass (no shadow rays), per ray a pixel, its launch included
-    probe: Reading = field(default_factory=Reading)  # relative variance (gmcpt.budget.relative_variance)
-    concentrations: dict = field(default_factory=dict)  # first-pass spp -> Reading (budget.error_concentration)
-    aliasing: Reading = field(default_factory=Reading)  # of the guides' albedo (budget.guide_aliasing)
-    denoisers: dict = field(default_factory=dict)  # budget -> Reading (budget.denoiser_proxy)
+    Attributes
+    ----------
+    path : one path sample of one pixel (Mitsuba's render of every pixel).
+    guide_ray : one primary ray of one pixel in the guide pass (albedo, normal, depth; no shadow ray).
+    sparse_extra : what the sparse way adds to a dense frame a pixel: the feature pass's shadow rays and the rays the
+        guides lack, the placement of the samples, the generator.
+    denoise : OIDN's usual model, a pixel.
+    denoise_large : OIDN's large model (guides taken as clean), a pixel.
+    """
 
-    def concentration(self, first_spp: int) -> Reading:
-        """The reading of a dense frame's error concentration after a first pass of ``first_spp`` samples a pixel:
-        one a first pass, as the share grows with its samples (the still life 0.19 after 5, 0.21 after 10), so a
-        budget-8 frame's reading chose even placement for budget-16 frames, which gain 0.4 dB from adaptive."""
-        return self.concentrations.setdefault(first_spp, Reading())
+    path: float
+    guide_ray: float
+    sparse_extra: float
+    denoise: float
+    denoise_large: float
 
-    def denoiser(self, budget: int) -> Reading:
-        """The reading of what OIDN's large model buys a dense frame of ``budget`` samples a pixel: one a budget, as
-        it moves with the samples (the still life 1.20 at 4, 1.00 at 8)."""
-        return self.denoisers.setdefault(budget, Reading())
+    def __post_init__(self):
+        for name, value in self.record().items():
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) \
+                    or value <= 0:
+                raise GmcptError(f"the cost model's {name} must be a positive number of seconds, got {value!r}")
 
-    def extra_seconds(self) -> float:
-        return (self.sparse_extra_seconds if self.sparse_extra_seconds is not None
-                else SPARSE_EXTRA_SECONDS_PER_PIXEL * self.pixels)
+    def record(self) -> dict:
+        """The model as a sidecar and a costs file hold it (``costs``)."""
+        return asdict(self)
 
-    # the fewest seconds seen: a scene's first frame in a process compiles kernels and loads the generator
-    def learn_path(self, seconds_per_spp: float) -> None:
-        self.seconds_per_spp = min(seconds_per_spp, self.seconds_per_spp or np.inf)
+    def completion_seconds(self, pixels: int, large: bool = False) -> float:
+        """OIDN's seconds on ``pixels`` pixels: its usual model, or with ``large`` its large one."""
+        return pixels * (self.denoise_large if large else self.denoise)
 
-    def learn_guide_ray(self, seconds_per_ray: float) -> None:
-        self.guide_ray_seconds = min(seconds_per_ray, self.guide_ray_seconds or np.inf)
+    def dense_seconds(self, pixels: int, budget: float, guide_rays: int) -> float:
+        """A dense frame's seconds: ``budget`` samples and ``guide_rays`` guide rays a pixel, then OIDN."""
+        return pixels * (budget * self.path + guide_rays * self.guide_ray + self.denoise)
 
-    def learn_extra(self, seconds: float) -> None:
-        self.sparse_extra_seconds = min(seconds, self.sparse_extra_seconds or np.inf)
-
-
-#: OIDN's seconds a pixel before the process has run it (2 cores: about 0.06 s at 256x256 and 1.9 s at 1920x1080 on
-#: one machine, 0.11 s at 256x256 on a slower one), and its large model's over its usual model's before that has run
-#: (2.3 there: 0.13 against 0.055 s at 256x256, 4.0 against 1.8 s at 1920x1080).
-DENOISE_SECONDS_PER_PIXEL = 1.0e-6
-LARGE_MODEL_TIME_RATIO = 2.3
-
-#: The fewest seconds a pixel each of OIDN's models has taken in this process (None: not measured yet): what a
-#: time budget keeps back for the completion, and what a budget's chooser counts in a dense frame. A model's first
-#: run in a process loads it (2 s against 0.11 at 256x256) and is not counted.
-_denoise_pace = {"usual": None, "large": None}
-_denoise_runs = {"usual": 0, "large": 0}
+    def large_model_seconds(self, pixels: int, guide_rays: int, clean_rays: int) -> float:
+        """What OIDN's large model adds to a dense frame whose guides have ``guide_rays`` rays: its time over the
+        usual model's, and the guide rays up to ``clean_rays``."""
+        return pixels * (self.denoise_large - self.denoise + max(clean_rays - guide_rays, 0) * self.guide_ray)
 
 
-def completion_seconds(pixels: int, large: bool = False) -> float:
-    """Seconds the denoiser is expected to take on a frame of ``pixels`` pixels: its usual model, or with ``large``
-    its large model (OIDN over clean guides, :func:`gmcpt.denoise.takes_clean_guides`)."""
-    usual = _denoise_pace["usual"] or DENOISE_SECONDS_PER_PIXEL
-    if large:
-        return pixels * (_denoise_pace["large"] or LARGE_MODEL_TIME_RATIO * usual)
-    return pixels * usual
+def read_costs(path: str | os.PathLike, name: str = "--costs") -> CostModel:
+    """The :class:`CostModel` in ``path``: a costs file (:func:`machine_costs` writes them) or a render's JSON
+    sidecar, whose ``costs`` entry is the model that render used. A one-line :class:`GmcptError` naming ``name``
+    where the file holds none."""
+    try:
+        return _model(json.loads(Path(path).read_text()))
+    except (OSError, ValueError, GmcptError) as error:
+        raise GmcptError(f"{name} {path}: {_reason(error)}") from None
 
 
-def record_denoise(seconds: float, pixels: int, large: bool = False) -> None:
-    """Learn from a denoiser run of ``seconds`` on ``pixels`` pixels (its large model's with ``large``), but its
-    first in the process."""
-    key = "large" if large else "usual"
-    _denoise_runs[key] += 1
-    if _denoise_runs[key] > 1:
-        _denoise_pace[key] = min(seconds / max(pixels, 1), _denoise_pace[key] or np.inf)
+def _model(data) -> CostModel:
+    """The model in a costs file's or a sidecar's parsed JSON, else a :class:`GmcptError` saying why not."""
+    costs = data.get("costs") if isinstance(data, dict) else None
+    if not isinstance(costs, dict):
+        raise GmcptError("no cost model in it (a 'costs' entry, as a render's JSON has with --budget or --time)")
+    names = [field.name for field in fields(CostModel)]
+    if set(costs) != set(names):
+        given = ", ".join(sorted(costs)) or "none"
+        raise GmcptError(f"its cost model needs exactly {', '.join(names)}; it has {given}")
+    return CostModel(**costs)
 
 
-def measure_denoiser(size: int = 64) -> None:
-    """Time OIDN's two models on a ``size`` x ``size`` image where this process has not (each run twice: the first
-    loads the model). A time budget's first frame in a process keeps the completion's seconds back from these, not
-    from :data:`DENOISE_SECONDS_PER_PIXEL`, a guess that was a quarter of OIDN's pace on a slower machine (a 10-s
-    budget spent 11 s); a small image's pace is the higher, so the estimate errs short."""
-    image = np.full((size, size, 3), 0.5, np.float32)
-    for large in (False, True):
-        while _denoise_pace["large" if large else "usual"] is None:
-            start = time.perf_counter()
-            denoise_oidn(image, image, image, CLEAN_GUIDE_RAYS if large else 0)
-            record_denoise(time.perf_counter() - start, size * size, large)
+def _reason(error: BaseException) -> str:
+    if isinstance(error, json.JSONDecodeError):
+        return f"not JSON ({error.msg}, line {error.lineno})"
+    return getattr(error, "strerror", None) or " ".join(str(error).split())
 
 
-def frame_costs(scene, pixels: int) -> FrameCosts:
-    """The costs of ``scene`` at ``pixels`` pixels learnt so far in this process (kept in its
-    :func:`~gmcpt.held.scene_state`, let go with the scene)."""
-    return scene_state(scene).setdefault("costs", {}).setdefault(pixels, FrameCosts(pixels))
+def machine() -> str:
+    """This machine as its model's file names it: the Mitsuba variant, the CPU's model and the threads there are."""
+    import mitsuba as mi
+
+    cpu = platform.processor() or platform.machine()
+    with contextlib.suppress(OSError):
+        with open("/proc/cpuinfo") as cpuinfo:
+            cpu = next((line.split(":", 1)[1].strip() for line in cpuinfo if line.startswith("model name")), cpu)
+    threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return f"{mi.variant()}, {cpu}, {threads} threads"
+
+
+def machine_costs_path() -> Path:
+    """Where this machine's measured model is stored: one file a machine (:func:`machine`), so that a cache
+    folder shared by several machines keeps each one's."""
+    return cache_folder("costs") / f"{hashlib.sha256(machine().encode()).hexdigest()[:16]}.json"
+
+
+def machine_costs(say: Callable[[str], None] = lambda message: None) -> CostModel:
+    """This machine's :class:`CostModel`: the stored one, else measured now (:func:`measure_costs`) and stored. A
+    stored file that holds no model is measured again, with a one-line note on stderr."""
+    path = machine_costs_path()
+    try:
+        return _model(json.loads(path.read_text()))
+    except FileNotFoundError:
+        pass
+    except (OSError, ValueError, GmcptError) as error:
+        print(f"note: {path}: {_reason(error)}; measuring this machine's cost model again", file=sys.stderr)
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+    say(f"measuring this machine's cost model, once (stored in {path})")
+    start = time.perf_counter()
+    model = measure_costs()
+    _store(path, json_text({"format": COSTS_FORMAT, "costs": model.record(), "machine": machine(),
+                            "measured": {"seconds": round(time.perf_counter() - start, 1),
+                                         "on": f"Mitsuba's Cornell box at {MEASURE_SIDE}x{MEASURE_SIDE}",
+                                         "date": time.strftime("%Y-%m-%d")}}))
+    try:  # another process may have stored its measurement first: every process then weighs with that one
+        return _model(json.loads(path.read_text()))
+    except (OSError, ValueError, GmcptError):
+        return model
+
+
+def _store(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` unless a file is there already, whole or not at all (a temporary beside it, linked
+    into place): a process reading the model never sees half of one, and two processes that measured at once both
+    weigh with the first one stored. A folder that cannot be written is a one-line note: the next process measures."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, staged = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".json", dir=path.parent)
+    except OSError as error:
+        print(f"note: cannot store the cost model in {path.parent}: {_reason(error)}", file=sys.stderr)
+        return
+    try:
+        with os.fdopen(handle, "w") as file:
+            file.write(text)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(staged, 0o666 & ~umask)  # mkstemp makes 0600; a plain file's mode, as gmcpt.files gives
+        with contextlib.suppress(FileExistsError):
+            os.link(staged, path)
+    finally:
+        os.unlink(staged)
+
+
+def measure_costs(side: int = MEASURE_SIDE) -> CostModel:
+    """Time a frame's parts on Mitsuba's own Cornell box at ``side`` x ``side`` (box filter, as the bundled scenes):
+    path tracing at :data:`MEASURE_SPP`, a guide pass of as many rays, the feature pass a sparse frame adds, its
+    placement and the default completion's generator, and OIDN's two models; each the fastest of
+    :data:`MEASURE_RUNS` runs after one that compiles or loads it."""
+    import mitsuba as mi
+    import numpy as np
+
+    from .completion import DEFAULT_METHOD, complete
+    from .denoise import CLEAN_GUIDE_RAYS, denoise_oidn
+    from .frame import DEFAULT_FEATURE_SPP, SparseFrame
+    from .masks import DEFAULT_RATE, make_mask
+    from .render import feature_means, render_native
+
+    description = mi.cornell_box()
+    description["sensor"]["film"].update(width=side, height=side, rfilter={"type": "box"})
+    scene = mi.load_dict(description)
+    sensor, integrator, pixels = scene.sensors()[0], scene.integrator(), side * side
+    path = _fastest(lambda: render_native(scene, sensor, integrator, MEASURE_SPP, 0, any_size=True))
+    guide = _fastest(lambda: feature_means(scene, sensor, MEASURE_SPP, 0, visibility=False))
+    top_up = _fastest(lambda: feature_means(scene, sensor, DEFAULT_FEATURE_SPP - MEASURE_SPP, 0))
+    image = render_native(scene, sensor, integrator, MEASURE_SPP, 0, any_size=True).reshape(side, side, 3)
+    features = feature_means(scene, sensor, DEFAULT_FEATURE_SPP, 0).buffers()
+    mask = make_mask(side, side, DEFAULT_RATE, "random", 0)
+    frame = SparseFrame(radiance=np.where(mask[..., None], image, 0).astype(np.float32), mask=mask,
+                        variance=np.zeros(mask.shape, np.float32), spp=16, **features)
+    placement = _fastest(lambda: _place(frame))
+    generator = _fastest(lambda: complete(frame, DEFAULT_METHOD).timings.get("pre_completion_s", 0.0), timed=False)
+    albedo, normal = features["albedo"], features["normal"]
+    denoise = _fastest(lambda: denoise_oidn(image, albedo, normal, MEASURE_SPP))
+    large = _fastest(lambda: denoise_oidn(image, albedo, normal, CLEAN_GUIDE_RAYS))
+    return CostModel(path=path / (MEASURE_SPP * pixels), guide_ray=guide / (MEASURE_SPP * pixels),
+                     sparse_extra=(top_up + placement + generator) / pixels, denoise=denoise / pixels,
+                     denoise_large=large / pixels)
+
+
+def _place(frame) -> None:
+    """Place a sparse frame's two passes as :mod:`gmcpt.sampling` does: by the feature edges, then by where the first
+    pass's samples disagree (timed, not used)."""
+    import numpy as np
+
+    from .masks import mask_rng, sample_by_density, second_pass_mask
+    from .placement import error_density, feature_density, first_pass_count
+
+    density = feature_density(frame.albedo, frame.normal, frame.depth, frame.visibility, frame.coverage)
+    count = int(frame.mask.sum())
+    first = sample_by_density(density, first_pass_count(count), mask_rng(0))
+    errors = error_density(np.where(first[..., None], frame.radiance, 0), frame.variance, first, frame.albedo,
+                           frame.coverage, density)
+    second_pass_mask(errors, count - int(first.sum()), first, 0)
+
+
+def _fastest(work: Callable, timed: bool = True) -> float:
+    """The fewest seconds of :data:`MEASURE_RUNS` runs of ``work`` after one untimed run; with ``timed`` False,
+    ``work`` returns its own seconds (a completion's generator, without its other stages)."""
+    work()
+    seconds = []
+    for _ in range(MEASURE_RUNS):
+        start = time.perf_counter()
+        result = work()
+        seconds.append(time.perf_counter() - start if timed else float(result))
+    return min(seconds)

@@ -19,8 +19,7 @@ import numpy as np
 
 from .seeds import EVEN_SEED_OFFSET, GUIDE_RAYS_SEED_OFFSET, SPLIT_SEED_OFFSETS, TOP_UP_SEED_OFFSET
 from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
-from .budget import BudgetPlan, adaptive_first_spp, adaptive_pays, error_concentration, even_fill, reads_guide_aliasing
-from .costs import frame_costs
+from .budget import BudgetPlan, adaptive_first_spp, adaptive_pays, error_concentration, even_fill
 from .denoise import CLEAN_GUIDE_RAYS
 from .guided_path import twin_of
 from .large_model import CLEAN_GUIDE_SEED_OFFSET, large_model_rays, read_denoiser
@@ -29,17 +28,10 @@ from .render import SampleSums, render_native, render_native_guided
 
 
 
-def guides_from_render(trace, plan: BudgetPlan, wants_edges: bool):
-    """Whether a frame takes its guides from its render's first hits: a twin of its integrator exists, no edges are
-    read before the render, no guide pass must read the scene's aliasing, and below 16 rays the pace of a guide ray
-    is known (the large model's price needs it). Sets the frame's twin (:func:`takes_twin`)."""
-    costs = frame_costs(trace.scene, plan.pixels)
-    if wants_edges or (reads_guide_aliasing(plan.budget, trace.settings.feature_spp)
-                       and costs.aliasing.remembered() is None):
-        return False
-    if costs.guide_ray_seconds is None and plan.budget < CLEAN_GUIDE_RAYS:
-        return False
-    return takes_twin(trace)
+def guides_from_render(trace, wants_edges: bool) -> bool:
+    """Whether a frame takes its guides from its render's first hits: no edges are read before the render, and a twin
+    of its integrator exists (then set as the frame's, :func:`takes_twin`)."""
+    return not wants_edges and takes_twin(trace)
 
 
 def takes_twin(trace) -> bool:
@@ -49,25 +41,21 @@ def takes_twin(trace) -> bool:
     return trace.twin is not None
 
 
-def dense_frame(trace, plan: BudgetPlan, probe: np.ndarray, guides, planned_rays: int, frame_seconds: float | None):
+def dense_frame(trace, plan: BudgetPlan, probe: np.ndarray, guides, planned_rays: int, noise: float | None):
     """Trace the dense way (:func:`trace_dense`) and return its guides (:class:`~gmcpt.render.FeatureMeans`):
     ``guides`` from a guide pass, or None for the render's own first hits topped up to ``planned_rays``; up to 16
-    rays where OIDN's large model pays (:func:`gmcpt.large_model.large_model_rays`)."""
-    costs = frame_costs(trace.scene, plan.pixels)
-    if guides is not None:
-        ray_seconds = trace.timings.get("features_s", 0.0) / guides.spp
-    else:
-        ray_seconds = costs.guide_ray_seconds
-    rays, price = large_model_rays(trace, plan, costs, planned_rays, ray_seconds, frame_seconds)
+    rays where OIDN's large model pays (:func:`gmcpt.large_model.large_model_rays`). ``noise``: the frame's probe
+    reading (None: no probe)."""
+    rays, price = large_model_rays(trace, plan, planned_rays, noise)
     if guides is not None:
         guides = topped_up(trace, guides, rays, CLEAN_GUIDE_SEED_OFFSET)
-    images = trace_dense(trace, plan, probe, split=price is not None)
+    images = trace_dense(trace, plan, probe, noise, split=price is not None)
     trace.info["guides"] = "pass" if guides is not None else "render"
     if guides is None:
         guides = topped_up(trace, trace.native_guides, rays, GUIDE_RAYS_SEED_OFFSET)
     if images is not None:
         clean = topped_up(trace, guides, CLEAN_GUIDE_RAYS, CLEAN_GUIDE_SEED_OFFSET)
-        guides = read_denoiser(trace, plan, costs, (guides, clean), images, price)
+        guides = read_denoiser(trace, (guides, clean), images, price)
     return guides
 
 
@@ -78,32 +66,25 @@ def topped_up(trace, guides, rays: int, seed_offset: int):
     return guides.merged(trace.features(rays - guides.spp, seed_offset, visibility=False))
 
 
-def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, split: bool = False) -> tuple | None:
+def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, noise: float | None = None,
+                split: bool = False) -> tuple | None:
     """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
     render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
     that no pixel has more than ``ceil(budget)``. Where :func:`~gmcpt.budget.adaptive_first_spp` allows it (from
     budget 4 on a scene whose probe read it quiet, from 8 on any) the bulk is two renders, and where the first
     finds the error concentrated (:func:`~gmcpt.budget.adaptive_pays`) the second is adaptive path tracing's
-    placement instead (:func:`_adaptive_rest`). A recent frame's reading of
-    the scene after a first pass of as many samples that says even (:meth:`gmcpt.costs.FrameCosts.concentration`)
-    keeps the one launch. With ``split``, an even launch of 2 samples a pixel or more is traced in three instead
-    (:func:`_split_native`); returns (the first quarter's image, the half's), else None."""
+    placement instead (:func:`_adaptive_rest`); ``noise`` is the frame's probe reading (None: no probe), and every
+    such frame reads its own concentration. With ``split``, an even launch of 2 samples a pixel or more is traced
+    in three instead (:func:`_split_native`); returns (the first quarter's image, the half's), else None."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
     if trace.sums.samples:
         trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
     trace.first_pass_pixels = int(probe.sum())
-    costs = frame_costs(trace.scene, plan.pixels)
-    # the scene's last probe, of this frame or an earlier one: its noise is a property of the scene
-    current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget, costs.probe.value)
-    reading = costs.concentration(first) if first else None
-    if reading is not None and reading.remembered() is not None and not adaptive_pays(reading.remembered()):
-        trace.info.update(error_concentration=reading.remembered(), dense_placement="even")
-        reading.learn(None)
-        first = 0
+    current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget, noise)
     if first:
         native_pass(trace, first, seed)
-        if _adaptive_rest(trace, left - first * plan.pixels, first, seed):
+        if _adaptive_rest(trace, left - first * plan.pixels, seed):
             trace.traced[:] = True
             return None
         # the second launch draws other samples than the first
@@ -125,7 +106,7 @@ def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, split: bool = False)
 
 def native_pass(trace, spp: int, seed: int, any_size: bool = False, note: str = "") -> np.ndarray | None:
     """Mitsuba's own render of every pixel at ``spp`` (none at 0) into the frame's sums, through the frame's twin
-    where it has one (its first hits join ``trace.native_guides``); its pace is learnt. ``any_size``: through the
+    where it has one (its first hits join ``trace.native_guides``). ``any_size``: through the
     frozen kernel at any spp (:func:`~gmcpt.render.render_native`); ``note`` ends the progress line. Returns the
     image, flat (N, 3)."""
     if not spp:
@@ -139,7 +120,6 @@ def native_pass(trace, spp: int, seed: int, any_size: bool = False, note: str = 
         image = render_native(trace.scene, trace.sensor, trace.integrator, spp, seed, any_size)
     trace.sums.add_native(image, spp)
     trace.timed("render_s", start)
-    frame_costs(trace.scene, trace.sums.size).learn_path((time.perf_counter() - start) / spp)
     return image
 
 
@@ -154,15 +134,14 @@ def _split_native(trace, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return image(images[0]), image((images[0] + images[1]) / 2)
 
 
-def _adaptive_rest(trace, samples: int, first_spp: int, seed: int) -> bool:
-    """After a dense frame's first pass (``first_spp`` a pixel), ``samples`` more where the displayed image is noisiest, as
+def _adaptive_rest(trace, samples: int, seed: int) -> bool:
+    """After a dense frame's first pass, ``samples`` more where the displayed image is noisiest, as
     :func:`gmcpt.adaptive.render_adaptive` places them, if its error is concentrated enough to pay
     (:func:`~gmcpt.budget.adaptive_pays`). Returns whether it traced them; ``info`` records the reading."""
     start = time.perf_counter()
     mean, _ = trace.sums.estimate()
     error = display_error(mean.reshape(*trace.shape, 3))
     concentration = error_concentration(error)
-    frame_costs(trace.scene, trace.sums.size).concentration(first_spp).learn(concentration)
     adaptive = adaptive_pays(concentration)
     trace.info.update(error_concentration=concentration, dense_placement="adaptive" if adaptive else "even")
     if adaptive:

@@ -1,8 +1,9 @@
 """State kept per Mitsuba scene for as long as someone else holds the scene: the frozen kernels' recordings
-(:mod:`gmcpt.render`) and what the process learnt of its costs and noise (:mod:`gmcpt.costs`).
+(:mod:`gmcpt.render`) and the integrators' guided twins (:mod:`gmcpt.guided_path`). Nothing here changes what a
+frame chooses or draws: a frame's choice reads the frame alone (:mod:`gmcpt.costs`).
 
 Keyed by the scene's ``id``, so the registry holds the scene itself: no other scene can take its id, and with it
-its recordings or readings, while they live (a ``mi.Scene`` takes no weak reference). One registry for all of it,
+its recordings or twins, while they live (a ``mi.Scene`` takes no weak reference). One registry for all of it,
 as two that each held the scene would each see the other's reference and never let go (an evaluation run kept
 every scene it had loaded, and each Dr.Jit virtual call traced the shapes and BSDFs of all of them).
 """

@@ -31,10 +31,13 @@ def add_render_options(parser: argparse.ArgumentParser) -> argparse.ArgumentPars
     parser.add_argument("--spp", type=int, help="samples per traced pixel (default: the scene's sampler)")
     parser.add_argument("--budget", type=float, metavar="B", help="mean path samples a pixel instead of --rate and "
                         "--spp: each frame's first pass chooses between B/16 of the pixels at 16 spp and all of "
-                        "them (default: the scene's, else 0.3 x the scene's spp if no rate, spp or other mask is set)")
+                        "them; without a rate, an spp or another mask (default: the scene's, else 0.3 x the scene's spp)")
     parser.add_argument("--time", type=float, metavar="S", help="seconds of wall time for the frame and its "
                         "completion, instead of --rate, --spp and --budget: every pixel traced, in passes sized to "
                         "fill S (default: the scene's, else none)")
+    parser.add_argument("--costs", metavar="FILE", help="the cost model a budget's choice weighs time with: a costs "
+                        "file or a render's JSON, whose model it replays; the same options and model give the same "
+                        "image on any machine (default: the scene's, else this machine's, measured once and stored)")
     parser.add_argument("--seed", type=int, help="seed of the mask and the samplers (default: the scene's, else 0)")
     parser.add_argument("--mask", help="sample placement: two_pass, adaptive, random, stratified, blue_noise "
                         "(default: the scene's, else two_pass)")
@@ -69,6 +72,7 @@ def validate(args) -> None:
     """Every check on the command line's own values, before any work (the scene's are checked once loaded)."""
     from .budget import check_budget
     from .completion import check_options
+    from .costs import read_costs
     from .files import check_not_inputs, check_output
     from .gan.names import weights_path
     from .limits import check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
@@ -87,6 +91,8 @@ def validate(args) -> None:
         check_budget(args.budget, "--budget")
     if args.time is not None:
         check_seconds(args.time, "--time")
+    if args.costs is not None:
+        read_costs(args.costs)
     check_one_sample_count({name: f"--{name}" for name in ("rate", "spp", "budget", "time")},
                            rate=args.rate, spp=args.spp, budget=args.budget, time=args.time)
     if args.tile is not None:
@@ -175,7 +181,7 @@ def run(args, say=lambda message: None, extra: dict | None = None,
     seconds = args.time if args.time is not None else (0.0 if fixed or args.budget else None)
     integrator = masked_integrator(scene, rate=args.rate, budget=budget, time=seconds, mask=args.mask, seed=args.seed,
                                    feature_spp=args.feature_spp, completion=args.method, weights=args.weights,
-                                   tile=args.tile)
+                                   tile=args.tile, costs=args.costs)
     # every check on the input happens before the first progress line (render_sparse_frame checks the
     # scene's own resolution and spp before its first one)
     size = scene_sensor(scene, path=args.scene).film().crop_size()
@@ -220,8 +226,8 @@ def run(args, say=lambda message: None, extra: dict | None = None,
         "traced_pixels": frame.info["traced_pixels"],
         "path_samples": frame.info["path_samples"],
         **{key: frame.info[key] for key in ("budget_choice", "probe", "relative_variance", "edge_share", "guide_spp",
-                                            "guide_aliasing", "dense_placement", "error_concentration", "denoiser_proxy",
-                                            "time_spent")
+                                            "dense_placement", "error_concentration", "denoiser_proxy", "time_spent",
+                                            "costs")
            if key in frame.info},
         **({"spent_budget": frame.info["budget"]} if settings.time else {}),
         **({"first_pass_pixels": frame.info["first_pass_pixels"]} if settings.pattern == "two_pass" else {}),

@@ -4,10 +4,12 @@
   traces half of them by the feature edges, then the rest where those samples disagree (:mod:`gmcpt.placement`).
 - **a budget** (:func:`_budget_passes`): guides and a probe, then the sparse way (``two_pass`` at rate
   ``budget / SPARSE_SPP``) or the dense one (Mitsuba's own render of every pixel), chosen per frame
-  (:mod:`gmcpt.budget`).
+  (:mod:`gmcpt.budget`) from the settings, what the frame reads and a cost model (:mod:`gmcpt.costs`): the same
+  settings and model give the same frame, whatever ran before it.
 - **a time budget** (:func:`_time_passes`): Mitsuba's own render of every pixel in passes sized by the time the
   passes before took, until the seconds left would not pay for another sample a pixel and the completion after
-  them (in the spirit of Cycles' time limit); the guides from the passes' first hits.
+  them (in the spirit of Cycles' time limit); the guides from the passes' first hits. It spends wall time, so
+  its samples follow the machine's pace: the one strategy whose frame is not the same on every run.
 
 Every strategy traces into one :class:`~gmcpt.render.SampleSums`; :func:`render_sparse_frame` turns it and the
 feature buffers into a :class:`~gmcpt.frame.SparseFrame`.
@@ -21,12 +23,10 @@ from typing import Callable
 import mitsuba as mi
 import numpy as np
 
-from .seeds import (FIRST_PASS_SEED_OFFSET, GUIDE_HALF_SEED_OFFSET, GUIDE_TOP_UP_SEED_OFFSET, PROBE_SEED_OFFSET,
-                    SECOND_PASS_SEED_OFFSET)
-from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share,
-                     guide_aliasing, guide_spp, needs_probe, plan_budget, probes_for_placement, reads_guide_aliasing,
-                     relative_variance, sparse_pays)
-from .costs import completion_seconds, frame_costs, measure_denoiser
+from .seeds import FIRST_PASS_SEED_OFFSET, GUIDE_TOP_UP_SEED_OFFSET, PROBE_SEED_OFFSET, SECOND_PASS_SEED_OFFSET
+from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share, guide_spp,
+                     needs_probe, plan_budget, probes_for_placement, relative_variance, sparse_pays)
+from .costs import CostModel, machine_costs
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
 from .denoise import takes_clean_guides
@@ -47,7 +47,9 @@ Say = Callable[[str], None]
 @dataclass(frozen=True)
 class RenderSettings:
     """What to trace. ``spp=0`` keeps the sensor's sample count. A ``budget`` (mean path samples a pixel, 0: none)
-    replaces ``rate`` and ``spp``: :mod:`gmcpt.budget` chooses them per frame, with the ``two_pass`` mask.
+    replaces ``rate`` and ``spp``: :mod:`gmcpt.budget` chooses them per frame, with the ``two_pass`` mask, weighing
+    time with ``costs`` (None: this machine's stored model, :func:`gmcpt.costs.machine_costs`), as a time budget
+    does for its first estimate of OIDN's seconds.
 
     Checked when made (:mod:`gmcpt.limits`): a bad value raises a one-line :class:`~gmcpt.errors.GmcptError`.
     """
@@ -59,6 +61,7 @@ class RenderSettings:
     feature_spp: int = DEFAULT_FEATURE_SPP
     budget: float = 0.0
     time: float = 0.0  # seconds of wall time for the frame and its completion; 0: none
+    costs: CostModel | None = None
 
     def __post_init__(self):
         check_rate(self.rate)
@@ -101,7 +104,7 @@ class _Trace:
     sums: SampleSums = None
     traced: np.ndarray = None  # flat bool
     started: float = field(default_factory=time.perf_counter)
-    completion_seconds: float = 0.0  # what the completion after the frame is expected to take (gmcpt.costs)
+    costs: CostModel | None = None  # what a budget or a time budget weighs time with (None: a rate weighs none)
     first_pass_pixels: int = 0
     discarded: int = 0  # samples traced and left out of the image (a dense frame's probe)
     info: dict = field(default_factory=dict)
@@ -139,8 +142,6 @@ class _Trace:
         means = feature_means(self.scene, self.sensor, spp, (self.settings.seed + seed_offset) % SEED_LIMIT,
                               visibility)
         self.timed("features_s", start)
-        if not visibility:
-            frame_costs(self.scene, self.sums.size).learn_guide_ray((time.perf_counter() - start) / spp)
         return means
 
 
@@ -197,37 +198,31 @@ def _mask_passes(trace: _Trace, mask: np.ndarray | None, spp: int) -> dict:
 
 def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
     """The passes of a budget (:mod:`gmcpt.budget`): guides, a probe where the choice waits for one
-    (:func:`~gmcpt.budget.needs_probe`), then the sparse way or the dense one (:mod:`gmcpt.dense`; its guides come
-    from its render where the choice did not read them, :func:`~gmcpt.dense.guides_from_render`). Returns the
-    feature buffers."""
-    costs = frame_costs(trace.scene, plan.pixels)
+    (:func:`~gmcpt.budget.needs_probe`) or a dense frame's placement would (:func:`~gmcpt.budget.probes_for_placement`),
+    then the sparse way or the dense one (:mod:`gmcpt.dense`; its guides come from its render where the choice did
+    not read them, :func:`~gmcpt.dense.guides_from_render`). The choice weighs the plan, the frame's cost model
+    (``trace.costs``) and this frame's readings alone. Returns the feature buffers."""
+    model, feature_spp = trace.costs, trace.settings.feature_spp
     probe = np.zeros(plan.pixels, bool)
-    reading, edges, extra_share, pays, probed, for_placement = None, None, None, True, False, False
+    reading, edges, extra_share, pays, for_placement = None, None, None, True, False
     if not plan.dense_only:
-        reading = costs.probe.remembered()
-        # a scene's first frame in a process goes dense: no pace of it is known, and the probe's reads 6-10 times
-        # too slow (its launch compiles, and is small), so that one-frame processes went sparse at 2-3x the time
-        pays = costs.seconds_per_spp is not None
-        if pays:
-            extra_share, pays = _sparse_time(trace, plan, costs, costs.seconds_per_spp)
-        # once a scene, below budget 8, the placement of a dense frame waits for a probe too
-        for_placement = probes_for_placement(plan.budget, costs.probe.value)
-    wants_edges = for_placement or needs_probe(plan, 0.0, pays, reading)  # the edges could choose (0.06 s at 1920x1080)
+        extra_share = model.sparse_extra / model.dense_seconds(1, plan.budget, guide_spp(plan.budget, feature_spp))
+        pays = sparse_pays(model.sparse_extra, model.path, plan.budget)
+        for_placement = probes_for_placement(plan.budget)
+    wants_edges = for_placement or needs_probe(plan, 0.0, pays)  # the edges could choose (0.06 s at 1920x1080)
     guides = features = None
-    if not guides_from_render(trace, plan, wants_edges):
-        guides = _guides(trace, plan.budget)
+    if not guides_from_render(trace, wants_edges):
+        guides = trace.features(guide_spp(plan.budget, feature_spp), visibility=False)
         features = guides.buffers()
     if wants_edges:
         edges = edge_share(features)
-        if for_placement or needs_probe(plan, edges, pays, reading):
+        if for_placement or needs_probe(plan, edges, pays):
             probe = _probe(trace, plan)
-            reading, probed = relative_variance(*trace.sums.estimate(probe), PROBE_SPP), True
-    if not plan.dense_only:
-        costs.probe.learn(reading if probed else None)
+            reading = relative_variance(*trace.sums.estimate(probe), PROBE_SPP)
     choice = choose(plan, reading or 0.0, edges or 0.0, pays)
     trace.info.update({"budget": plan.budget, "budget_choice": choice, "relative_variance": reading,
-                       "probe": "traced" if probed else "remembered" if reading is not None else "none",
-                       "edge_share": edges, "sparse_time_share": extra_share})
+                       "probe": "none" if reading is None else "traced", "edge_share": edges,
+                       "sparse_time_share": extra_share})
     signals = [f"relative variance {reading:.3f}" if reading is not None else "",
                f"edge share {edges:.2f}" if edges is not None else "",
                f"sparse time +{extra_share:.0%}" if extra_share is not None else ""]
@@ -235,44 +230,11 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
                                                          if any(signals) else ""))
     if choice == SPARSE:  # only after the edges were read: with guides from their pass
         trace.info["guide_spp"] = guides.spp
-        features_before = trace.timings["features_s"]
-        features = _sparse_after_probe(trace, plan, guides, probe)
-        costs.learn_path(trace.timings["render_s"] / (trace.sums.samples / plan.pixels))
-        # the generator's seconds join these in gmcpt.pipeline, after the completion
-        trace.info["sparse_extra_s"] = trace.timings["features_s"] - features_before + trace.timings["mask_s"]
-        return features
-    frame_seconds = None if costs.seconds_per_spp is None else _dense_seconds(trace, plan, costs.seconds_per_spp)
-    rays = guides.spp if guides is not None else _guide_rays(trace, plan.budget)
-    frame_guides = dense_frame(trace, plan, probe, guides, rays, frame_seconds)
+        return _sparse_after_probe(trace, plan, guides, probe)
+    rays = guides.spp if guides is not None else guide_spp(plan.budget, feature_spp)
+    frame_guides = dense_frame(trace, plan, probe, guides, rays, reading)
     trace.info["guide_spp"] = frame_guides.spp
     return features if frame_guides is guides else frame_guides.buffers()
-
-
-def _guides(trace: _Trace, budget: float):
-    """The guide pass of a frame of ``budget`` (:func:`_guide_rays`), as :class:`FeatureMeans`. Where its rays depend
-    on the scene's guide aliasing and no recent frame read it (:attr:`gmcpt.costs.FrameCosts.aliasing`), the pass is
-    two halves of other seeds, whose difference is the reading; ``info`` records it (``guide_aliasing``)."""
-    reading = frame_costs(trace.scene, trace.sums.size).aliasing
-    if reads_guide_aliasing(budget, trace.settings.feature_spp) and reading.remembered() is None:
-        rays = guide_spp(budget, trace.settings.feature_spp)
-        first = trace.features(rays // 2, visibility=False)
-        second = trace.features(rays - rays // 2, GUIDE_HALF_SEED_OFFSET, visibility=False)
-        reading.learn(guide_aliasing(first.planes[:3], second.planes[:3]))
-        trace.info["guide_aliasing"] = reading.value
-        return first.merged(second)
-    return trace.features(_guide_rays(trace, budget), visibility=False)
-
-
-def _guide_rays(trace: _Trace, budget: float) -> int:
-    """Primary rays a pixel of a frame's guides (:func:`~gmcpt.budget.guide_spp`), after the scene's remembered
-    aliasing where they depend on it (which this frame then counts as served)."""
-    feature_spp = trace.settings.feature_spp
-    if not reads_guide_aliasing(budget, feature_spp):
-        return guide_spp(budget, feature_spp)
-    reading = frame_costs(trace.scene, trace.sums.size).aliasing
-    trace.info["guide_aliasing"] = reading.remembered()
-    reading.learn(None)
-    return guide_spp(budget, feature_spp, trace.info["guide_aliasing"])
 
 
 def _probe(trace: _Trace, plan: BudgetPlan) -> np.ndarray:
@@ -286,22 +248,6 @@ def _probe(trace: _Trace, plan: BudgetPlan) -> np.ndarray:
     trace.say(f"path tracing: {int(probe.sum())} px x {PROBE_SPP} spp (probe)")
     trace.trace(np.flatnonzero(probe), PROBE_SPP, seed)
     return probe
-
-
-def _sparse_time(trace: _Trace, plan: BudgetPlan, costs, path_seconds: float) -> tuple[float, bool]:
-    """(the sparse way's extra seconds as a share of a dense frame's, whether they pay: :func:`sparse_pays`), with
-    ``path_seconds`` for a sample a pixel."""
-    dense_seconds = _dense_seconds(trace, plan, path_seconds)
-    # the highest of any first pass's readings: a budget whose frames go sparse reads none of its own
-    readings = [reading.remembered() for reading in costs.concentrations.values()]
-    concentration = max((value for value in readings if value is not None), default=None)
-    return costs.extra_seconds() / dense_seconds, sparse_pays(costs.extra_seconds(), path_seconds, plan.budget,
-                                                              concentration)
-
-
-def _dense_seconds(trace: _Trace, plan: BudgetPlan, path_seconds: float) -> float:
-    """What a dense frame of ``plan`` is expected to take in all, ``path_seconds`` a sample a pixel."""
-    return time.perf_counter() - trace.started + plan.budget * path_seconds + trace.completion_seconds
 
 
 def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarray) -> dict:
@@ -330,13 +276,13 @@ def _time_passes(trace: _Trace) -> dict:
     completion is expected to take) pay for at the pace of the passes so far, in powers of two
     (:func:`_next_pass`). All through the frozen kernel, one compiled kernel for every pass size: the first pass's
     pace is its own, its compilation done before it on a few pixels (``mi.render`` compiles a kernel for each spp,
-    inside the frame); OIDN's pace is measured first where the process has not run it. The guides come from the
-    passes' own first hits where the integrator has a twin (:func:`~gmcpt.dense.takes_twin`): as many rays as
-    samples, where a guide pass first would have given a frame of hundreds of samples four. Returns the feature
-    buffers; ``info`` records the samples a pixel spent (``budget``)."""
+    inside the frame); OIDN's seconds are the cost model's (``trace.costs``), measured on this machine beforehand.
+    The guides come from the passes' own first hits where the integrator has a twin
+    (:func:`~gmcpt.dense.takes_twin`): as many rays as samples, where a guide pass first would have given a frame of
+    hundreds of samples four. Returns the feature buffers; ``info`` records the samples a pixel spent
+    (``budget``)."""
     settings, seconds = trace.settings, trace.settings.time
-    guides = None if takes_twin(trace) else _guides(trace, 1)
-    measure_denoiser()
+    guides = None if takes_twin(trace) else trace.features(guide_spp(1, settings.feature_spp), visibility=False)
     warm_native(trace.scene, trace.sensor, trace.twin or trace.integrator, guided=trace.twin is not None)
     spp, index = 1, 0
     while True:
@@ -349,7 +295,7 @@ def _time_passes(trace: _Trace) -> dict:
             break
     spent = int(trace.sums.samples // trace.sums.size)
     if guides is None:  # a frame of fewer samples than guide rays adds the rays it lacks
-        guides = topped_up(trace, trace.native_guides, _guide_rays(trace, spent), GUIDE_RAYS_SEED_OFFSET)
+        guides = topped_up(trace, trace.native_guides, guide_spp(spent, settings.feature_spp), GUIDE_RAYS_SEED_OFFSET)
     trace.traced[:] = True
     trace.info.update({"time_budget": seconds, "budget": float(spent), "budget_choice": DENSE,
                        "guide_spp": guides.spp, "guides": "pass" if trace.twin is None else "render",
@@ -365,7 +311,7 @@ def _next_pass(trace: _Trace, seconds: float, pace: float) -> tuple[int, float]:
     pixels = trace.sums.size
     samples, most = trace.sums.samples // pixels, max(1, MAX_LANES // pixels)
     for large in (False, True):
-        left = seconds - (time.perf_counter() - trace.started) - completion_seconds(pixels, large)
+        left = seconds - (time.perf_counter() - trace.started) - trace.costs.completion_seconds(pixels, large)
         # the nearest whole sample, not the last one that fits: a short budget then ends within half a sample
         # of its seconds, where it fell up to one sample short (5 samples in 0.5 s: 11% under)
         spp = _pass_size(min(int(left / pace + 0.5), most))
@@ -412,7 +358,10 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     plan = plan_budget(settings.budget, height * width) if settings.budget and mask is None else None
     spp = SPARSE_SPP if plan is not None else check_spp(settings.spp or sensor.sampler().sample_count())
     trace = _Trace(scene, sensor, integrator, settings, say, {"features_s": 0.0, "mask_s": 0.0, "render_s": 0.0},
-                   (height, width), completion_seconds=completion_seconds(height * width))
+                   (height, width))
+    if (settings.time or plan is not None) and mask is None:  # the strategies that weigh time
+        trace.costs = settings.costs if settings.costs is not None else machine_costs(say)
+        trace.info["costs"] = trace.costs.record()
     if settings.time and mask is None:
         features = _time_passes(trace)
     elif plan is not None:

@@ -20,8 +20,6 @@ PROBE_SEED_OFFSET = 0x9B0BE
 FIRST_PASS_SEED_OFFSET = 0xF1257
 #: the sparse way's feature rays beside the guides'
 GUIDE_TOP_UP_SEED_OFFSET = 0x6D1E
-#: the second half of a guide pass that reads the guides' aliasing
-GUIDE_HALF_SEED_OFFSET = 0x6A1F
 #: the samples after the bulk (and a sparse frame's probe pixels after the choice)
 TOP_UP_SEED_OFFSET = 0x70B0F
 #: the dense way's blue-noise spread of the samples left over

@@ -5,6 +5,7 @@ import mitsuba as mi
 
 from gmcpt.completion import DEFAULT_METHOD, check_options
 from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
+from gmcpt.costs import read_costs
 from gmcpt.errors import GmcptError
 from gmcpt.exr import channel_names, pack
 from gmcpt.film import fill_film
@@ -42,6 +43,11 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - Seconds of wall time for the frame and its completion, instead of ``rate``, ``budget`` and the
          sampler's spp: guides, then Mitsuba's own render of every pixel in passes sized by the pace of the
          passes before, OIDN's time kept back; 0: none. (Default: 0)
+     * - costs
+       - |string|
+       - A JSON file holding the cost model a budget's choice weighs time with (a render's JSON sidecar holds the
+         one it used): the same settings and model give the same image on any machine; relative to the working
+         folder. (Default: this machine's, measured once and stored, see ``gmcpt.costs``)
      * - mask
        - |string|
        - Sample placement: ``two_pass`` (half the budget where the feature buffers have edges, the rest
@@ -73,7 +79,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
          spends ``budget`` (or ``time``) on every pixel, reuses the samples of up to ``history`` frames before
          it where they still hold, then OIDN (see ``gmcpt.sequence``); ``mi.render``'s ``seed``, when given,
          is the frame's number. Another scene, another film size or ``reset()`` starts over. ``rate``,
-         ``mask``, ``completion`` and ``weights`` are single-frame options, refused here. (Default: 0)
+         ``mask``, ``completion``, ``weights`` and ``costs`` are single-frame options, refused here. (Default: 0)
      * - tile
        - |int|
        - Largest side of the tiles a larger frame is completed in (overlapping, blended), so memory stays
@@ -121,6 +127,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         self.completion = props.get("completion", DEFAULT_METHOD)
         self.weights = props.get("weights", "") or None
         self.tile = check_tile(props.get("tile", DEFAULT_TILE))
+        self.costs = props.get("costs", "") or None
+        self.cost_model = read_costs(self.costs, "costs") if self.costs else None  # a bad file fails at load time
         check_options(self.completion, self.weights)  # fail at load time on an unknown name, a bad weights file
         self.settings()  # and on a bad budget or time, or a budget beside a mask other than two_pass (RenderSettings)
         nested = [props[name] for name in props.keys() if isinstance(props[name], mi.Integrator)]
@@ -139,7 +147,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         self.history = int(props.get("history", 0))
         self.loop = None
         if self.history:
-            given = [name for name in ("rate", "mask", "completion", "weights") if name in props]
+            given = [name for name in ("rate", "mask", "completion", "weights", "costs") if name in props]
             if given:
                 raise GmcptError(f"masked_path with history spends its budget on every pixel, then OIDN: drop "
                                  f"{', '.join(given)}")
@@ -151,7 +159,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         return {"rate": self.rate, "budget": self.budget, "time": self.time or None, "mask": self.mask_pattern,
                 "seed": self.seed,
                 "feature_spp": self.feature_spp,
-                "completion": self.completion, "weights": self.weights, "tile": self.tile}
+                "completion": self.completion, "weights": self.weights, "tile": self.tile, "costs": self.costs}
 
     def completion_options(self) -> dict:
         """Keyword options for :func:`gmcpt.completion.complete` beside the method name."""
@@ -170,7 +178,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
             budget = max(1.0, DEFAULT_RATE * sensor.sampler().sample_count())
         return RenderSettings(rate=DEFAULT_RATE if self.rate is None else self.rate, pattern=self.mask_pattern,
                               seed=self.seed + int(seed), spp=int(spp), feature_spp=self.feature_spp, budget=budget,
-                              time=self.time)
+                              time=self.time, costs=self.cost_model)
 
     def render_frame(self, scene: mi.Scene, sensor: mi.Sensor | None = None, seed: int = 0, spp: int = 0,
                      progress=None, check=None) -> Rendered:
@@ -217,7 +225,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
         return (f"MaskedPathIntegrator[rate={self.rate}, budget={self.budget}, time={self.time}, "
                 f"mask={self.mask_pattern!r}, seed={self.seed}, "
                 f"feature_spp={self.feature_spp}, completion={self.completion!r}, weights={self.weights!r}, "
-                f"history={self.history},\n"
+                f"costs={self.costs!r}, history={self.history},\n"
                 f"  integrator={self.integrator}]")
 
 

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from budget_helpers import SIZE, record_launches, render_budget as _render
+from budget_helpers import SIZE, fixed_costs, record_launches, render_budget as _render
 from conftest import CORNELL, run_cli
 
 
@@ -78,22 +78,6 @@ def test_the_sparse_way_pays_when_its_extra_time_is_worth_less_than_its_gain():
     assert sparse_pays(0.06, 0.03, 8.0) and not sparse_pays(0.06, 0.004, 8.0)  # a cheap scene's samples come cheap
 
 
-def test_the_sparse_way_must_beat_adaptive_placement_where_a_dense_frame_would_use_it():
-    from gmcpt.budget import (ADAPTIVE_ABOVE, ADAPTIVE_FROM_BUDGET, DENSE_GAIN_PER_DOUBLING, SPARSE_GAIN,
-                              adaptive_gain, sparse_pays)
-
-    concentrated = ADAPTIVE_ABOVE + 0.05
-    assert adaptive_gain(None) == adaptive_gain(ADAPTIVE_ABOVE - 0.01) == 0.0
-    assert 0 < adaptive_gain(ADAPTIVE_ABOVE) < adaptive_gain(concentrated)
-    # extra seconds worth half the adaptive gain less than the sparse gain: pays against even samples only
-    more = 2 ** ((SPARSE_GAIN - adaptive_gain(concentrated) / 2) / DENSE_GAIN_PER_DOUBLING) - 1
-    budget = ADAPTIVE_FROM_BUDGET
-    assert sparse_pays(more * budget * 0.01, 0.01, budget)
-    assert not sparse_pays(more * budget * 0.01, 0.01, budget, concentrated)
-    low = ADAPTIVE_FROM_BUDGET / 2  # below it a dense frame is never adaptive
-    assert sparse_pays(more * low * 0.01, 0.01, low, concentrated)
-
-
 def test_edge_share_counts_the_frame_near_feature_edges():
     from gmcpt.budget import edge_share
 
@@ -135,7 +119,6 @@ def cornell(mi):
 def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way):
     from gmcpt import budget, sampling
     from gmcpt.budget import SPARSE_SPP, plan_budget
-    from gmcpt.costs import frame_costs
 
     monkeypatch.setattr(budget, "DENSE_ABOVE", threshold)
     monkeypatch.setattr(budget, "EDGES_ABOVE", threshold)
@@ -143,7 +126,6 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
     monkeypatch.setattr(sampling, "probes_for_placement", lambda *args: False)  # the placement's own probe: below
     pixels = SIZE[0] * SIZE[1]
-    frame_costs(cornell, pixels).learn_path(1e-3)  # a pace known: a scene's first frame goes dense (below)
     frame = _render(cornell, 4.8)
     plan = plan_budget(4.8, pixels)
     assert frame.info["budget_choice"] == way
@@ -163,38 +145,52 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     assert not np.array_equal(frame.radiance, _render(cornell, 4.8, seed=1).radiance)
 
 
-def test_a_scenes_first_frame_goes_dense_unprobed_and_the_next_may_go_sparse(mi, monkeypatch):
-    """Before a process knows a scene's pace it cannot price the sparse way: the first frame is dense, with no probe,
-    where every signal would choose sparse; its render teaches the pace, and the next frame goes sparse."""
+def test_the_choice_follows_the_cost_model_from_a_scenes_first_frame(mi, monkeypatch):
+    """Time is priced by the cost model alone: where the signals would choose sparse, a model whose sparse way is
+    cheap goes sparse in a scene's first frame, and one whose sparse way is dear goes dense without a probe."""
     from gmcpt import budget, sampling
     from gmcpt.scene import load_scene
 
-    for name in ("DENSE_ABOVE", "EDGES_ABOVE", "SPARSE_GAIN"):
-        monkeypatch.setattr(budget, name, math.inf)  # every signal chooses sparse
+    for name in ("DENSE_ABOVE", "EDGES_ABOVE"):
+        monkeypatch.setattr(budget, name, math.inf)  # the signals choose sparse
     monkeypatch.setattr(sampling, "probes_for_placement", lambda *args: False)
+    cheap, dear = fixed_costs(sparse_extra=1e-9), fixed_costs(sparse_extra=1e-3)
+    sparse = _render(load_scene(CORNELL, resolution=SIZE), 4.8, costs=cheap)
+    assert (sparse.info["budget_choice"], sparse.info["probe"]) == ("sparse", "traced")
+    assert sparse.info["costs"] == cheap.record() and 0 < sparse.info["sparse_time_share"] < 1e-3
+    dense = _render(load_scene(CORNELL, resolution=SIZE), 4.8, costs=dear)
+    assert (dense.info["budget_choice"], dense.info["probe"]) == ("dense", "none")
+    assert dense.mask.all() and dense.info["path_samples"] == round(4.8 * SIZE[0] * SIZE[1])
+
+
+def test_a_frame_is_the_same_whatever_frames_came_before(mi):
+    """Nothing a frame reads is kept for the next: a frame after others of the same scene, at other budgets and
+    seeds, is the frame a fresh scene gives, its readings included."""
+    from gmcpt.scene import load_scene
+
     scene = load_scene(CORNELL, resolution=SIZE)
-    first, second = _render(scene, 4.8), _render(scene, 4.8)
-    assert (first.info["budget_choice"], first.info["probe"], first.info["sparse_time_share"]) == ("dense", "none", None)
-    assert first.mask.all() and first.info["path_samples"] == round(4.8 * SIZE[0] * SIZE[1])
-    assert second.info["budget_choice"] == "sparse" and second.info["sparse_time_share"] > 0
+    first = _render(scene, 4.8)
+    for budget, seed in ((2.0, 1), (8.0, 2), (5.0, 3)):
+        _render(scene, budget, seed)
+    again, fresh = _render(scene, 4.8), _render(load_scene(CORNELL, resolution=SIZE), 4.8)
+    for frame in (again, fresh):
+        np.testing.assert_array_equal(frame.radiance, first.radiance)
+        assert frame.info == first.info
 
 
-def test_a_probe_that_reads_dense_serves_the_next_frames(mi, monkeypatch):
+def test_every_frame_reads_its_own_probe(mi, monkeypatch):
     from gmcpt import budget
-    from gmcpt.costs import READ_AGAIN_AFTER
     from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "DENSE_ABOVE", 1e-12)  # the probe reads dense, nothing else does
     monkeypatch.setattr(budget, "EDGES_ABOVE", math.inf)
     monkeypatch.setattr(budget, "SPARSE_GAIN", math.inf)
-    scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: the probe's reading is kept per scene
-    probes = [_render(scene, 4.0).info["probe"] for _ in range(READ_AGAIN_AFTER + 1)]
-    assert probes == ["traced"] + ["remembered"] * (READ_AGAIN_AFTER - 1) + ["traced"]
-    frame = _render(scene, 4.0)  # the whole budget in Mitsuba's own render, as even as it gets
+    scene = load_scene(CORNELL, resolution=SIZE)
+    frames = [_render(scene, 4.0) for _ in range(3)]
+    assert [frame.info["probe"] for frame in frames] == ["traced"] * 3
+    frame = frames[-1]  # the whole budget in Mitsuba's own render, as even as it gets
     assert frame.info["budget_choice"] == "dense" and frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1]
     assert frame.info["relative_variance"] is not None and frame.mask.all()
-    other = load_scene(CORNELL, resolution=SIZE)
-    assert _render(other, 4.0).info["probe"] == "traced"  # another scene reads for itself
 
 
 def test_a_dense_frame_at_an_integral_budget_is_mitsubas_render_of_its_seed(mi, monkeypatch):
@@ -242,12 +238,12 @@ def test_the_integrator_renders_a_budget(mi, cornell):
         integrator.render(cornell, spp=8)
 
 
-def test_cli_records_the_guide_aliasing_a_low_budget_frame_reads(tmp_path):
+def test_cli_a_low_budget_frame_takes_guides_of_4_rays(tmp_path):
     out = tmp_path / "low.exr"
     result = run_cli(CORNELL, "--res", *SIZE, "--budget", "2", "--method", "interp", "--out", out, "-q")
     assert result.returncode == 0, result.stderr
     record = json.loads(out.with_suffix(".json").read_text())
-    assert record["guide_aliasing"] > 0 and record["guide_spp"] == 4  # the first frame reads, with 4 rays
+    assert record["guide_spp"] == 4 and "guide_aliasing" not in record
 
 
 def test_cli_budget_records_its_choice_and_refuses_a_rate_beside_it(tmp_path):
@@ -320,7 +316,6 @@ def test_error_concentration_is_the_share_of_the_noisiest_pixels():
 @pytest.mark.parametrize("threshold,placement", [(0.0, "adaptive"), (math.inf, "even")])
 def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monkeypatch, threshold, placement):
     from gmcpt import budget
-    from gmcpt.costs import READ_AGAIN_AFTER
     from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", threshold)
@@ -333,99 +328,65 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
     assert frame.info["budget_choice"] == "dense" and frame.info["dense_placement"] == placement
     assert frame.info["path_samples"] == round(10.5 * pixels) and frame.mask.all()  # the total exact
     assert launches == ([6] if placement == "adaptive" else [6, 4])  # 5/8 of the budget first, then the rest
-    again = _render(load_scene(CORNELL, resolution=SIZE), 10.5)  # same seed and readings, same frame
+    launches.clear()
+    again = _render(scene, 10.5)  # every frame reads its own concentration: the same seed, the same frame
     np.testing.assert_array_equal(frame.radiance, again.radiance)
-    launches.clear()
-    for _ in range(READ_AGAIN_AFTER - 1):
-        _render(scene, 10.5)
-    # an even reading keeps the next frames in one launch (the whole level), until it is read again
-    assert launches == ([6] * (READ_AGAIN_AFTER - 1) if placement == "adaptive" else [10] * (READ_AGAIN_AFTER - 1))
-    launches.clear()
-    _render(scene, 10.5)
     assert launches == ([6] if placement == "adaptive" else [6, 4])
 
 
-@pytest.mark.parametrize("noise,launches", [(0.01, [3]), (1.0, [5])])
+@pytest.mark.parametrize("noise,launches", [(0.01, [3]), (1.0, [4])])  # the probe's samples are left out
 def test_below_budget_8_only_a_quiet_scene_places_its_rest_where_the_error_is(mi, monkeypatch, noise, launches):
-    from gmcpt import budget
-    from gmcpt.costs import frame_costs
+    """Every frame below budget 8 probes for its placement, dense or not: its own probe says whether it is quiet."""
+    from gmcpt import budget, sampling
     from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", 0.0)  # any concentration pays
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)
-    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense without a probe: the scene's earlier reading decides
-    scene = load_scene(CORNELL, resolution=SIZE)
-    frame_costs(scene, SIZE[0] * SIZE[1]).probe.learn(noise)
-    traced = record_launches(monkeypatch)
-    frame = _render(scene, 5.0)
-    assert traced == launches and frame.info["path_samples"] == 5 * SIZE[0] * SIZE[1]
-    assert frame.info.get("dense_placement") == ("adaptive" if noise < budget.DENSE_ABOVE else None)
-
-
-def test_a_scene_never_probed_probes_once_for_the_placement_below_budget_8(mi, monkeypatch):
-    from gmcpt import budget
-    from gmcpt.scene import load_scene
-
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense by the edges: no probe for the choice
-    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)
+    monkeypatch.setattr(sampling, "relative_variance", lambda *args: noise)  # what the probe reads
+    quiet = noise <= budget.DENSE_ABOVE
     scene = load_scene(CORNELL, resolution=SIZE)
-    frames = [_render(scene, 5.0) for _ in range(2)]
-    assert [frame.info["probe"] for frame in frames] == ["traced", "remembered"]
-    assert frames[0].info["relative_variance"] is not None and frames[0].info["budget_choice"] == "dense"
-    assert frames[0].info["path_samples"] == frames[1].info["path_samples"] == 5 * SIZE[0] * SIZE[1]
-    assert _render(load_scene(CORNELL, resolution=SIZE), 8.0).info["probe"] == "none"  # from 8: no need
+    traced = record_launches(monkeypatch)
+    for _ in range(2):
+        traced.clear()
+        frame = _render(scene, 5.0)
+        assert traced == launches and frame.info["path_samples"] == 5 * SIZE[0] * SIZE[1]
+        assert frame.info["probe"] == "traced" and frame.info["budget_choice"] == "dense"
+        assert frame.info.get("dense_placement") == ("adaptive" if quiet else None)
+    assert _render(scene, 8.0).info["probe"] == "none"  # from 8 the placement needs no probe
 
 
-def test_an_even_reading_serves_only_frames_of_its_first_pass(mi, monkeypatch):
-    """The error's concentration grows with the first pass's samples: a budget-8 frame's reading does not keep a
-    budget-16 frame in one launch."""
+def test_every_frame_reads_its_own_concentration(mi, monkeypatch):
+    """The error's concentration grows with the first pass's samples, and a frame weighs none but its own: every
+    frame from budget 8 traces its first pass, then the rest."""
     from gmcpt import budget
     from gmcpt.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", math.inf)  # every reading says even
-    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense
     scene = load_scene(CORNELL, resolution=SIZE)
     launches = record_launches(monkeypatch)
     for frame_budget in (8, 16, 8, 16):
         _render(scene, frame_budget)
-    assert launches == [5, 3, 10, 6, 8, 16]  # each budget reads once, then keeps the one launch
+    assert launches == [5, 3, 10, 6] * 2
 
 
-@pytest.mark.parametrize("aliasing,budget,rays", [(None, 1, 4), (0.001, 1, 1), (0.001, 3.4, 1), (0.01, 1, 4),
-                                                  (0.001, 4, 4), (0.001, 6.4, 6)])
-def test_guides_below_budget_4_take_one_ray_where_they_barely_alias(aliasing, budget, rays):
-    from gmcpt.budget import guide_spp
-
-    assert guide_spp(budget, 16, aliasing) == rays
-
-
-@pytest.mark.parametrize("threshold,rays", [(math.inf, 1), (0.0, 4)])
-def test_a_guide_pass_in_two_halves_reads_the_aliasing_that_later_frames_choose_their_rays_by(mi, monkeypatch,
-                                                                                              threshold, rays):
+def test_a_low_budgets_guides_are_4_rays_in_every_frame(mi, monkeypatch):
+    """Below budget 4 the guides take 4 rays: a dense frame whose choice read no edges, the render's own first hits
+    and a pass of the rays they lack."""
     from gmcpt import budget, render, sampling
-    from gmcpt.costs import READ_AGAIN_AFTER
     from gmcpt.scene import load_scene
 
-    monkeypatch.setattr(budget, "GUIDE_ALIASING_BELOW", threshold)
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense: no feature top-up
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its guides go to 16 rays
     scene = load_scene(CORNELL, resolution=SIZE)
     passes = []
     means = render.feature_means
     monkeypatch.setattr(sampling, "feature_means", lambda *args: passes.append(args[2]) or means(*args))
-    frame = _render(scene, 1)
-    assert passes == [2, 2] and frame.info["guide_spp"] == 4 and frame.info["guide_aliasing"] > 0
-    passes.clear()
-    for _ in range(READ_AGAIN_AFTER - 1):  # the render's own two first hits, and a pass of the rays they lack
-        assert _render(scene, 2).info["guide_spp"] == max(rays, 2)
-    assert passes == ([rays - 2] * (READ_AGAIN_AFTER - 1) if rays > 2 else [])
-    passes.clear()
-    _render(scene, 1)
-    assert passes == [2, 2]  # read again
-    passes.clear()
-    _render(scene, 6)  # its rays do not depend on the reading (a pass: the scene was never probed, its edges are read)
-    assert passes == [6]
+    for _ in range(2):
+        passes.clear()
+        assert _render(scene, 2).info["guide_spp"] == 4 and passes == [2]
 
 
 @pytest.mark.parametrize("budget,feature_spp,rays", [(1, 16, 4), (3.9, 16, 4), (6.4, 16, 6), (64, 16, 16),

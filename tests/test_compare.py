@@ -50,15 +50,18 @@ ANIMATED_BOX = BOX.replace('<scene version="3.0.0">', '<scene version="3.0.0"><d
 
 
 def _environment(tmp_path):
-    """A cache of the test's own for the references; the generator's conversions stay the user's (each is 10-17 s
-    of a process that would import torch for it, and not what these tests check)."""
+    """A cache of the test's own for the references; the generator's conversions and the machine's cost model stay
+    the user's (a conversion is 10-17 s of a process that would import torch for it, a measurement 5-15 s, and
+    neither is what these tests check)."""
+    from gmcpt.costs import machine_costs_path
     from gmcpt.gan import runtime
 
-    generators, cache = runtime.cache_dir(), tmp_path / "cache"
-    if not (cache / "generators").exists():
-        generators.mkdir(parents=True, exist_ok=True)
-        cache.mkdir(exist_ok=True)
-        (cache / "generators").symlink_to(generators, target_is_directory=True)
+    cache = tmp_path / "cache"
+    for shared in (runtime.cache_dir(), machine_costs_path().parent):
+        if not (cache / shared.name).exists():
+            shared.mkdir(parents=True, exist_ok=True)
+            cache.mkdir(exist_ok=True)
+            (cache / shared.name).symlink_to(shared, target_is_directory=True)
     return {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
             "PYTHONPATH": str(ROOT), "PYTHONWARNINGS": "ignore", "GMCPT_CACHE": str(cache)}
 

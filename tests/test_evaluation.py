@@ -78,9 +78,13 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
 
     from gmcpt.gan import runtime
 
+    from gmcpt import costs
+
     generators = runtime.cache_dir()  # the generator's conversion stays the user's: a conversion is 10 s, not tested here
+    stored = costs.machine_costs_path()  # and so does the machine's cost model: a measurement is 5-15 s
     monkeypatch.setenv("GMCPT_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr(runtime, "cache_dir", lambda: generators)
+    monkeypatch.setattr(costs, "machine_costs_path", lambda: stored)
     monkeypatch.setattr(measure, "FULL_REFERENCES", tmp_path / "full")
     config = EvalConfig(name="test", procedural=1, resolution=32, reference_spp=32, rates=(0.3, 0.5),
                         variants=("interp", "nnm", "pawnnm"), patch_sizes=(5, 7), path_spp=(1, 2),

@@ -106,11 +106,10 @@ def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, 
 def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
     """A scene loaded again (a batch does it for every frame) gets its own recording: replaying another
     scene's read that scene's freed objects. A scene nobody else holds is let go at the next call, with
-    everything the process kept of it (its costs too)."""
+    everything the process kept of it."""
     import gc
 
     from gmcpt import held, render
-    from gmcpt.costs import frame_costs
     from gmcpt.scene import load_scene
 
     kernel = render.FrozenKernel(render._pixel_sums)
@@ -123,7 +122,6 @@ def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
         [render.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
     kernel(first, arguments(first, 1))
     recording = held.scene_state(first)["recordings"][kernel]
-    frame_costs(first, 24 * 20).probe.learn(0.5)
     second = load_scene(CORNELL, resolution=(24, 20))
     sums = kernel(second, arguments(second, 2))
     assert held.scene_state(second)["recordings"][kernel] is not recording

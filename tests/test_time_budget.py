@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 
+from budget_helpers import fixed_costs
 from conftest import CORNELL, run_cli
 
 SIZE = (40, 32)
@@ -16,13 +17,13 @@ def cornell(mi):
     return load_scene(CORNELL, resolution=SIZE)
 
 
-def _render(scene, seconds):
+def _render(scene, seconds, costs=None):
     from gmcpt.pipeline import render_and_complete
     from gmcpt.sampling import RenderSettings
 
     integrator = scene.integrator()
-    return render_and_complete(scene, getattr(integrator, "integrator", integrator), RenderSettings(time=seconds),
-                               "interp")
+    return render_and_complete(scene, getattr(integrator, "integrator", integrator),
+                               RenderSettings(time=seconds, costs=costs or fixed_costs()), "interp")
 
 
 def test_more_seconds_buy_more_samples_every_pixel_alike(cornell):
@@ -56,9 +57,9 @@ def test_a_time_budgets_next_pass_is_the_nearest_whole_sample(monkeypatch, sampl
 
     from gmcpt import sampling
 
-    monkeypatch.setattr(sampling, "completion_seconds", lambda pixels, large=False: 0.0)
     monkeypatch.setattr(sampling.time, "perf_counter", lambda: 10.0)
-    trace = SimpleNamespace(sums=SimpleNamespace(size=100, samples=100), started=10.0, twin=None)
+    trace = SimpleNamespace(sums=SimpleNamespace(size=100, samples=100), started=10.0, twin=None,
+                            costs=fixed_costs(denoise=1e-15, denoise_large=1e-15))
     assert sampling._next_pass(trace, samples_left * 0.05, 0.05) == (expected, pytest.approx(samples_left * 0.05))
 
 
@@ -72,7 +73,7 @@ def test_a_time_budgets_guides_come_from_its_samples_first_hits(mi, cornell):
     assert info["guides"] == "render" and info["guide_spp"] == info["budget"] >= 4
     direct = mi.load_dict({"type": "direct"})
     for _ in range(2):  # the first compiles its kernels
-        info = render_and_complete(cornell, direct, RenderSettings(time=0.3), "interp").frame.info
+        info = render_and_complete(cornell, direct, RenderSettings(time=0.3, costs=fixed_costs()), "interp").frame.info
     assert info["guides"] == "pass" and info["guide_spp"] < info["budget"]
 
 
@@ -124,18 +125,10 @@ def test_cli_records_the_time_and_the_samples_it_spent(tmp_path):
     assert "weights" not in record["parameters"] and record["parameters"]["device"] == "cpu"
 
 
-def test_oidns_pace_is_measured_where_the_process_has_not_run_it(monkeypatch):
-    """A time budget keeps the completion's seconds back: from OIDN's own pace on this machine, each model's first
-    (loading) run left out, not from a guess."""
-    from gmcpt import costs
-
-    monkeypatch.setattr(costs, "_denoise_pace", {"usual": None, "large": None})
-    monkeypatch.setattr(costs, "_denoise_runs", {"usual": 0, "large": 0})
-    runs = []
-    monkeypatch.setattr(costs, "denoise_oidn", lambda image, *guides: runs.append(guides[-1]) or image)
-    costs.measure_denoiser(16)
-    assert runs == [0, 0, 16, 16]  # each model twice: the first run loads it
-    usual, large = costs.completion_seconds(100), costs.completion_seconds(100, large=True)
-    assert 0 < usual and 0 < large and costs._denoise_pace["usual"] * 100 == usual
-    costs.measure_denoiser(16)
-    assert len(runs) == 4  # measured once a process
+def test_a_time_budget_keeps_back_the_cost_models_seconds_for_oidn(cornell):
+    """The completion's seconds, kept back from the passes, are the cost model's estimate of OIDN on this machine: a
+    model whose OIDN takes the whole budget leaves one sample a pixel, and the sidecar's model says so."""
+    slow = fixed_costs(denoise=10.0 / (SIZE[0] * SIZE[1]), denoise_large=20.0 / (SIZE[0] * SIZE[1]))
+    rendered = _render(cornell, 1.0, slow)
+    assert rendered.frame.info["time_short"] and rendered.frame.info["budget"] == 1
+    assert rendered.frame.info["costs"] == slow.record()
