@@ -27,7 +27,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .budget import check_budget, even_fill, guide_spp
+from .budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from .denoise import denoise_oidn
 from .errors import GmcptError
 from .frame import DEFAULT_FEATURE_SPP, SparseFrame
@@ -94,7 +94,7 @@ class SequenceSettings:
 
 
 #: The fewest and most samples a pixel a timed frame spends (below the fewest the frame is late; a warning says so).
-TIMED_BUDGETS = (0.25, 64.0)
+TIMED_BUDGETS = (0.25, float(MAX_BUDGET))
 
 
 @dataclass
@@ -328,7 +328,8 @@ class SequenceRenderer:
         start = time.perf_counter()
         sums, level = SampleSums(pixels), int(counts.min())
         if level:
-            sums.add_native(render_native(scene, sensor, integrator, level, seed), level)
+            # a timed sequence's level changes every frame: the frozen kernel serves any, where mi.render compiles
+            sums.add_native(render_native(scene, sensor, integrator, level, seed, any_size=bool(settings.time)), level)
         if (counts > level).any():
             sums.trace_counts(scene, sensor, integrator, counts - level, stream(seed, SEQUENCE_TOP_UP_SEED_OFFSET))
         total, count = sums.total, sums.finite  # NaN/Inf samples left out
