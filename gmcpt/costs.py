@@ -35,8 +35,8 @@ COSTS_FORMAT = "gmcpt-costs 1"
 #: The side of the square frame the model is measured at: the evaluation's size, where a pass's launch is a small
 #: part of its pixels' work.
 MEASURE_SIDE = 256
-#: Timed runs of each part, after one untimed run that compiles or loads it; the fastest counts.
-MEASURE_RUNS = 3
+#: Timed rounds of every part, after one untimed round that compiles and loads them; the fastest of each counts.
+MEASURE_RUNS = 5
 #: Samples a pixel of the timed path tracing, and primary rays a pixel of the timed guide pass (a budget of 4's).
 MEASURE_SPP = 4
 
@@ -181,8 +181,7 @@ def _store(path: Path, text: str) -> None:
 def measure_costs(side: int = MEASURE_SIDE) -> CostModel:
     """Time a frame's parts on Mitsuba's own Cornell box at ``side`` x ``side`` (box filter, as the bundled scenes):
     path tracing at :data:`MEASURE_SPP`, a guide pass of as many rays, the feature pass a sparse frame adds, its
-    placement and the default completion's generator, and OIDN's two models; each the fastest of
-    :data:`MEASURE_RUNS` runs after one that compiles or loads it."""
+    placement and the default completion's generator, and OIDN's two models (:func:`_fastest`)."""
     import mitsuba as mi
     import numpy as np
 
@@ -196,22 +195,24 @@ def measure_costs(side: int = MEASURE_SIDE) -> CostModel:
     description["sensor"]["film"].update(width=side, height=side, rfilter={"type": "box"})
     scene = mi.load_dict(description)
     sensor, integrator, pixels = scene.sensors()[0], scene.integrator(), side * side
-    path = _fastest(lambda: render_native(scene, sensor, integrator, MEASURE_SPP, 0, any_size=True))
-    guide = _fastest(lambda: feature_means(scene, sensor, MEASURE_SPP, 0, visibility=False))
-    top_up = _fastest(lambda: feature_means(scene, sensor, DEFAULT_FEATURE_SPP - MEASURE_SPP, 0))
     image = render_native(scene, sensor, integrator, MEASURE_SPP, 0, any_size=True).reshape(side, side, 3)
     features = feature_means(scene, sensor, DEFAULT_FEATURE_SPP, 0).buffers()
     mask = make_mask(side, side, DEFAULT_RATE, "random", 0)
     frame = SparseFrame(radiance=np.where(mask[..., None], image, 0).astype(np.float32), mask=mask,
                         variance=np.zeros(mask.shape, np.float32), spp=16, **features)
-    placement = _fastest(lambda: _place(frame))
-    generator = _fastest(lambda: complete(frame, DEFAULT_METHOD).timings.get("pre_completion_s", 0.0), timed=False)
     albedo, normal = features["albedo"], features["normal"]
-    denoise = _fastest(lambda: denoise_oidn(image, albedo, normal, MEASURE_SPP))
-    large = _fastest(lambda: denoise_oidn(image, albedo, normal, CLEAN_GUIDE_RAYS))
-    return CostModel(path=path / (MEASURE_SPP * pixels), guide_ray=guide / (MEASURE_SPP * pixels),
-                     sparse_extra=(top_up + placement + generator) / pixels, denoise=denoise / pixels,
-                     denoise_large=large / pixels)
+    seconds = _fastest({
+        "path": lambda: render_native(scene, sensor, integrator, MEASURE_SPP, 0, any_size=True),
+        "guide": lambda: feature_means(scene, sensor, MEASURE_SPP, 0, visibility=False),
+        "top_up": lambda: feature_means(scene, sensor, DEFAULT_FEATURE_SPP - MEASURE_SPP, 0),
+        "placement": lambda: _place(frame),
+        "denoise": lambda: denoise_oidn(image, albedo, normal, MEASURE_SPP),
+        "large": lambda: denoise_oidn(image, albedo, normal, CLEAN_GUIDE_RAYS)},
+        generator=lambda: complete(frame, DEFAULT_METHOD).timings.get("pre_completion_s", 0.0))
+    extra = seconds["top_up"] + seconds["placement"] + seconds["generator"]
+    return CostModel(path=seconds["path"] / (MEASURE_SPP * pixels), guide_ray=seconds["guide"] / (MEASURE_SPP * pixels),
+                     sparse_extra=extra / pixels, denoise=seconds["denoise"] / pixels,
+                     denoise_large=seconds["large"] / pixels)
 
 
 def _place(frame) -> None:
@@ -230,13 +231,19 @@ def _place(frame) -> None:
     second_pass_mask(errors, count - int(first.sum()), first, 0)
 
 
-def _fastest(work: Callable, timed: bool = True) -> float:
-    """The fewest seconds of :data:`MEASURE_RUNS` runs of ``work`` after one untimed run; with ``timed`` False,
-    ``work`` returns its own seconds (a completion's generator, without its other stages)."""
-    work()
-    seconds = []
+def _fastest(works: dict, **reporting) -> dict:
+    """The fewest seconds of each of ``works`` (name -> a call) over :data:`MEASURE_RUNS` rounds, after one untimed
+    round that compiles and loads; each of ``reporting`` (name -> a call) returns its own seconds (a completion's
+    generator, without its other stages). Every round runs every part, so that a load that comes and goes on the
+    machine weighs on all of them alike: the chooser reads their ratios."""
+    calls = {**works, **reporting}
+    for call in calls.values():
+        call()
+    seconds = {name: math.inf for name in calls}
     for _ in range(MEASURE_RUNS):
-        start = time.perf_counter()
-        result = work()
-        seconds.append(time.perf_counter() - start if timed else float(result))
-    return min(seconds)
+        for name, call in calls.items():
+            start = time.perf_counter()
+            result = call()
+            took = float(result) if name in reporting else time.perf_counter() - start
+            seconds[name] = min(seconds[name], took)
+    return seconds
