@@ -96,16 +96,15 @@ def test_an_adaptive_dense_frame_tops_its_first_launchs_guides_up(mi, monkeypatc
 
 
 def test_guides_from_the_render_are_topped_up_to_the_rays_the_budget_asks(mi, monkeypatch):
-    """Budget 1 wants 4 rays (where the scene's guides alias): the render brings one, a pass the other three."""
-    from gmcpt import budget, render, sampling
+    """Budget 1 wants 4 rays: the render brings one, a pass the other three, from a scene's first frame on."""
+    from gmcpt import render, sampling
     from gmcpt.scene import load_scene
 
-    monkeypatch.setattr(budget, "GUIDE_ALIASING_BELOW", 0.0)  # every scene aliases: 4 rays
     passes = []
     means = render.feature_means
     monkeypatch.setattr(sampling, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
     scene = load_scene(CORNELL, resolution=SIZE)
     first, second = render_budget(scene, 1), render_budget(scene, 1)
-    assert passes == [2, 2, 3]  # the first frame reads the aliasing in two halves; the next tops its render up
-    assert first.info["guides"] == "pass" and second.info["guides"] == "render"
+    assert passes == [3, 3]
+    assert first.info["guides"] == second.info["guides"] == "render"
     assert first.info["guide_spp"] == second.info["guide_spp"] == 4
