@@ -103,21 +103,32 @@ class FramePace:
 
     A frame's period runs from the end of the frame before to its own end, so it holds what the caller does between
     frames (loading the next scene, writing the last frame's files) as well as the frame itself. Its seconds split
-    into those that grow with the samples (the path tracing; the median of the last :data:`PACE_FRAMES` frames'
-    seconds a sample) and the rest (the least of theirs: a slow frame, the first compiling its kernels or one in a
-    busy moment, would starve the next of samples)."""
+    into the path tracing and the rest (the least of the last :data:`PACE_FRAMES` frames': a slow frame, the first
+    compiling its kernels or one in a busy moment, would starve the next of samples). The path tracing's seconds
+    are a line in the samples, read from those frames: where their budgets lie apart (a sequence still finding
+    its pace) the line through them, whose launch cost a small budget's seconds a sample would count as samples;
+    else the median seconds a sample."""
 
     ended: float | None = None  # perf_counter() at the end of the last frame
     fixed: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # seconds a frame besides its samples
-    per_sample: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # seconds a sample a pixel
+    traced: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # (budget, seconds tracing it)
 
     def budget(self, seconds: float, first: float) -> float:
         """Samples a pixel for a frame of ``seconds``; ``first`` until a frame has been measured."""
-        if not self.per_sample:
+        if not self.traced:
             return first
-        fixed, per_sample = min(self.fixed), float(np.median(self.per_sample))
+        launch, per_sample = self._tracing()
         low, high = TIMED_BUDGETS
-        return float(np.clip((seconds - fixed) / max(per_sample, 1e-9), low, high))
+        return float(np.clip((seconds - min(self.fixed) - launch) / per_sample, low, high))
+
+    def _tracing(self) -> tuple[float, float]:
+        """(seconds of a launch, seconds a sample a pixel) of the path tracing in the frames so far."""
+        budgets, spent = (np.array(column, np.float64) for column in zip(*self.traced))
+        if budgets.max() >= PACE_SPREAD * budgets.min():
+            per_sample, launch = np.polyfit(budgets, spent, 1)
+            if per_sample > 0:
+                return max(float(launch), 0.0), float(per_sample)
+        return 0.0, max(float(np.median(spent / budgets)), 1e-9)
 
     def record(self, started: float, ended: float, render_s: float, budget: float, seconds: float) -> None:
         """A frame that ran from ``started`` to ``ended`` (perf_counter), ``render_s`` of it tracing ``budget``
@@ -128,11 +139,13 @@ class FramePace:
             period += started - self.ended
         self.ended = ended
         self.fixed.append(period - render_s)
-        self.per_sample.append(render_s / budget)
+        self.traced.append((budget, render_s))
 
 
-#: Frames whose costs :class:`FramePace` averages
+#: Frames whose costs :class:`FramePace` reads
 PACE_FRAMES = 3
+#: Budgets this far apart (the largest over the smallest) tell the path tracing's launch from its samples
+PACE_SPREAD = 2.0
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ from .errors import GmcptError
 
 STATE = ".sequence-state.npz"
 #: the render options a sequence frame has no use for: it spends a budget (or a time) on every pixel, then OIDN
-UNUSED = ("rate", "spp", "mask", "method", "weights", "tile")
+UNUSED = ("rate", "spp", "mask", "method", "weights", "tile", "costs")
 
 
 def default_history(args) -> int | None:

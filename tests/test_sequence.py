@@ -180,6 +180,11 @@ def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():
     assert pace.budget(1.0, first=3.0) == pytest.approx(0.8 / 0.3)
     assert pace.budget(0.01, first=3.0) == 0.25  # the fewest a timed frame spends
 
+    pace, clock = FramePace(), 0.0
+    for budget in (4.0, 20.0):  # a launch of 0.05 s besides 0.01 s a sample: the ramp at the start of a sequence
+        frame(budget, fixed=0.1, per_sample=0.01 + 0.05 / budget)
+    assert pace.budget(1.0, first=3.0) == pytest.approx((1 - 0.1 - 0.05) / 0.01)
+
 
 def test_a_timed_sequence_records_its_time_and_each_frame_its_own_budget(mi):
     scene = _scene()
