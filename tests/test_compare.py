@@ -271,7 +271,9 @@ def test_compare_frames_writes_the_movie_the_table_the_plot_and_the_verdict(tmp_
     again = _compare(tmp_path, "anim.xml", "--frames", "0:4", "--budgets", "1", "--reference-spp", "8", "--out", "b")
     assert again.returncode == 0, again.stderr[-3000:]
     assert len(list((tmp_path / "cache" / "references").glob("*.exr"))) == 2 * 4  # the second run read them
-    assert json.loads((tmp_path / "b" / "compare.json").read_text())["rows"][0]["psnr"] == record["rows"][0]["psnr"]
+    # the same figures: to the last bits only where a kernel was recorded in one run and replayed in the other
+    again_psnr = json.loads((tmp_path / "b" / "compare.json").read_text())["rows"][0]["psnr"]
+    assert again_psnr == pytest.approx(record["rows"][0]["psnr"], rel=1e-6)
 
 
 def _frame_rows(sequence_seconds, flicker=(2.0, 2.0, 2.0)):
