@@ -3,7 +3,7 @@
 
 For each evaluation scene (256x256, cached 4096-spp references) and each budget (mean path samples a
 pixel), uniform path tracing at ``round(budget)`` spp + OIDN beside adaptive path tracing
-(:mod:`gmcpt.adaptive`) at exactly ``budget``, in the shipped form and in the alternatives named by
+(:mod:`gmcpt.sampling.adaptive`) at exactly ``budget``, in the shipped form and in the alternatives named by
 ``--alternatives``; all denoised by OIDN with the same feature pass's albedo and normal. Prints
 PSNR dB per scene and the mean of the real and the synthetic scenes.
 
@@ -22,7 +22,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-#: name -> changes to the shipped :class:`gmcpt.adaptive.AdaptiveSettings`
+#: name -> changes to the shipped :class:`gmcpt.sampling.adaptive.AdaptiveSettings`
 ALTERNATIVES = {
     "shipped": {},
     "first1spp": {"first_share": 0.0},
@@ -45,13 +45,13 @@ def main(argv=None) -> int:
     import gmcpt  # noqa: F401
     import mitsuba as mi
     mi.set_log_level(mi.LogLevel.Error)
-    from gmcpt import adaptive
-    from gmcpt.denoise import denoise_oidn
+    from gmcpt.sampling import adaptive
+    from gmcpt.image.denoise import denoise_oidn
     from gmcpt.evaluation.baselines import render_full
     from gmcpt.evaluation.scenes import evaluation_scenes
-    from gmcpt.metrics import psnr
-    from gmcpt.render import render_features
-    from gmcpt.scene import path_integrator
+    from gmcpt.image.metrics import psnr
+    from gmcpt.render.kernels import render_features
+    from gmcpt.render.scene import path_integrator
 
     scenes = [s for s in evaluation_scenes(args.scenes, args.procedural, print)]
     names = ["path+oidn", "shipped", *args.alternatives]

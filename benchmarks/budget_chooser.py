@@ -2,10 +2,10 @@
 """The budget chooser against its two ways and both baselines, per evaluation scene (256x256, cached references).
 
 For each scene and ``--budgets`` (mean path samples a pixel): the first pass's signal
-(:func:`gmcpt.budget.relative_variance`, :func:`gmcpt.budget.edge_share`), the default (`gan_oidn`) at that budget forced sparse and forced dense,
-what the chooser picks, and path tracing (round(budget) spp) + OIDN and adaptive path tracing + OIDN at the same
-budget (baselines at seed + 17, their guides from round(budget) spp, as the evaluation). Prints PSNR dB per scene, each the mean over ``--seeds``,
-and the means of the real and synthetic groups.
+(:func:`gmcpt.sampling.budget.relative_variance`, :func:`gmcpt.sampling.budget.edge_share`), the default (`gan_oidn`) at
+that budget forced sparse and forced dense, what the chooser picks, and path tracing (round(budget) spp) + OIDN and
+adaptive path tracing + OIDN at the same budget (baselines at seed + 17, their guides from round(budget) spp, as the
+evaluation). Prints PSNR dB per scene, each the mean over ``--seeds``, and the means of the real and synthetic groups.
 
     python benchmarks/budget_chooser.py [--budgets 3.2 4.8 6.4] [--scenes NAME ...] [--procedural 2] [--seeds 0 1 2]
 """
@@ -45,17 +45,17 @@ def main(argv=None) -> int:
     import gmcpt  # noqa: F401
     import mitsuba as mi
     mi.set_log_level(mi.LogLevel.Error)
-    from gmcpt import budget
-    from gmcpt.adaptive import AdaptiveSettings, render_adaptive
+    from gmcpt.sampling import budget
+    from gmcpt.sampling.adaptive import AdaptiveSettings, render_adaptive
     from gmcpt.completion import DEFAULT_METHOD, complete
-    from gmcpt.denoise import denoise_oidn
+    from gmcpt.image.denoise import denoise_oidn
     from gmcpt.evaluation.baselines import render_full
     from gmcpt.evaluation.scenes import evaluation_scenes
-    from gmcpt.metrics import psnr
-    from gmcpt.render import render_features
-    from gmcpt.scene import path_integrator
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
-    from gmcpt.scene import scene_sensor
+    from gmcpt.image.metrics import psnr
+    from gmcpt.render.kernels import render_features
+    from gmcpt.render.scene import path_integrator
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
+    from gmcpt.render.scene import scene_sensor
 
     thresholds = budget.DENSE_ABOVE, budget.EDGES_ABOVE
 

@@ -47,7 +47,7 @@ def measure(frame_path: str, kind: str, method: str) -> dict:
     data = np.load(frame_path)
     frame = SparseFrame(spp=int(data["spp"]), **{name: data[name] for name in PIXEL_BUFFERS})
     if kind == "oidn":
-        from gmcpt.denoise import denoise_oidn
+        from gmcpt.image.denoise import denoise_oidn
 
         start = time.perf_counter()
         denoise_oidn(data["full"], frame.albedo, frame.normal)

@@ -44,8 +44,8 @@ def main() -> int:
     import mitsuba as mi
     from gmcpt.completion import complete
     from gmcpt.evaluation.scenes import by_name
-    from gmcpt.metrics import all_metrics
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.image.metrics import all_metrics
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     mi.set_log_level(mi.LogLevel.Error)
     rows = []

@@ -33,8 +33,8 @@ def render_inputs(scene_path: Path, width: int, height: int, rate: float, spp: i
     import numpy as np
 
     from gmcpt.frame import PIXEL_BUFFERS
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
-    from gmcpt.scene import load_scene, masked_integrator
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
+    from gmcpt.render.scene import load_scene, masked_integrator
 
     scene = load_scene(scene_path, resolution=(width, height))
     integrator = masked_integrator(scene).integrator
@@ -58,7 +58,7 @@ def measure(path: str, what: str, method: str, tile: int | None, repeats: int, w
     data = np.load(path)
     frame = SparseFrame(spp=int(data["spp"]), **{name: data[name] for name in PIXEL_BUFFERS})
     if what == "oidn":
-        from gmcpt.denoise import denoise_oidn
+        from gmcpt.image.denoise import denoise_oidn
         run = lambda: (denoise_oidn(data["full"], frame.albedo, frame.normal), {})  # noqa: E731
     else:
         from gmcpt.completion import complete, get_method

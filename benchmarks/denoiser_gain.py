@@ -43,15 +43,15 @@ def main() -> int:
     import gmcpt  # noqa: F401  (finds LLVM)
     import numpy as np
 
-    from gmcpt.denoise import denoise_oidn
+    from gmcpt.image.denoise import denoise_oidn
     from gmcpt.evaluation.config import QUICK
     from gmcpt.evaluation.measure import FULL_REFERENCES
     from gmcpt.evaluation.reference import cached_only, render_reference
     from gmcpt.evaluation.scenes import by_name, evaluation_scenes
-    from gmcpt.budget import denoiser_proxy
-    from gmcpt.metrics import psnr
-    from gmcpt.render import render_features, render_native
-    from gmcpt.scene import path_integrator
+    from gmcpt.sampling.budget import denoiser_proxy
+    from gmcpt.image.metrics import psnr
+    from gmcpt.render.kernels import render_features, render_native
+    from gmcpt.render.scene import path_integrator
 
     def reference_of(eval_scene):
         with cached_only():

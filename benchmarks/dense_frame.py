@@ -7,8 +7,8 @@ over) then ``gan_oidn`` (OIDN, the generator skipped), on a scene whose budget c
 many spp, then OIDN. Rounds alternate the two after a warm-up round; the table gives each one's fastest round in
 wall time and in CPU time of this process (less disturbed by other programs on a shared machine) and their
 ratios (the budget 5 by default, so both trace the same samples). Where the scene reads that OIDN's large model
-pays (:mod:`gmcpt.large_model`), the product's frame spends more on purpose (16-ray guides, the large model: its
-quality is judged at equal time, in ``make eval``); a second row, ``usual OIDN``, keeps that choice out, so the
+pays (:mod:`gmcpt.sampling.large_model`), the product's frame spends more on purpose (16-ray guides, the large model:
+its quality is judged at equal time, in ``make eval``); a second row, ``usual OIDN``, keeps that choice out, so the
 frame's own work is still compared with the user's.
 
     python benchmarks/dense_frame.py [--scene living-room] [--budget 5] [--sizes 256x256 1920x1080] [--rounds 5]
@@ -45,12 +45,12 @@ def main() -> int:
     import mitsuba as mi
     import numpy as np
 
-    from gmcpt import budget
+    from gmcpt.sampling import budget
     from gmcpt.completion import DEFAULT_METHOD, complete
-    from gmcpt.denoise import denoise_oidn
+    from gmcpt.image.denoise import denoise_oidn
     from gmcpt.evaluation.scenes import by_name
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
-    from gmcpt.scene import path_integrator
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
+    from gmcpt.render.scene import path_integrator
 
     eval_scene = by_name([args.scene])[0]
     if not eval_scene.available():

@@ -36,16 +36,16 @@ def main() -> int:
     import gmcpt  # noqa: F401  (finds LLVM)
     import numpy as np
 
-    from gmcpt import budget
+    from gmcpt.sampling import budget
     from gmcpt.completion import DEFAULT_METHOD, complete
-    from gmcpt.denoise import denoise_oidn
+    from gmcpt.image.denoise import denoise_oidn
     from gmcpt.evaluation.baselines import render_full
     from gmcpt.evaluation.config import QUICK
     from gmcpt.evaluation.reference import cached_only
     from gmcpt.evaluation.scenes import evaluation_scenes
-    from gmcpt.metrics import psnr
-    from gmcpt.scene import path_integrator
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.image.metrics import psnr
+    from gmcpt.render.scene import path_integrator
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     budget.DENSE_ABOVE = budget.EDGES_ABOVE = -1.0  # every frame dense
     print(f"{'scene':<20} {'budget':>6} {'dense frame':>11} {'mi.render':>9} {'at round(B)':>11} {'difference':>10}"

@@ -31,12 +31,12 @@ def main(argv=None) -> int:
     import gmcpt  # noqa: F401
     import mitsuba as mi
     mi.set_log_level(mi.LogLevel.Error)
-    from gmcpt.adaptive import AdaptiveSettings, render_adaptive
+    from gmcpt.sampling.adaptive import AdaptiveSettings, render_adaptive
     from gmcpt.completion import DEFAULT_METHOD, complete
     from gmcpt.evaluation.scenes import evaluation_scenes
-    from gmcpt.metrics import psnr, tonemap
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
-    from gmcpt.scene import path_integrator
+    from gmcpt.image.metrics import psnr, tonemap
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
+    from gmcpt.render.scene import path_integrator
 
     print(f"{'scene':<22} {'':>8} {'traced MSE':>11} {'untraced MSE':>13} {'all MSE':>9} {'untraced share':>15} "
           f"{'PSNR dB':>8}")

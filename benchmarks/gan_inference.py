@@ -29,7 +29,7 @@ def synthetic_frame(size: int, rate: float = 0.2):
     import numpy as np
 
     from gmcpt.frame import SparseFrame
-    from gmcpt.masks import make_mask
+    from gmcpt.sampling.masks import make_mask
 
     rng = np.random.default_rng(0)
     mask = make_mask(size, size, rate, "random", 0)
@@ -49,7 +49,7 @@ def main() -> int:
     args = parser.parse_args()
 
     from gmcpt.completion.learned import gan_precompletion
-    from gmcpt.domain import WorkingDomain
+    from gmcpt.image.domain import WorkingDomain
     from gmcpt.gan.weights import load_generator
 
     start = time.perf_counter()

@@ -9,7 +9,7 @@ left out; references from :mod:`gmcpt.evaluation.reference`'s cache). For each s
 ``random`` mask) and every method completes it; beside them, full-frame path
 tracing with the same number of path samples (``round(rate * spp)`` per
 pixel), denoised with Intel Open Image Denoise (``pyoidn``).
-Metrics: PSNR, SSIM and MSE on tonemapped sRGB (:mod:`gmcpt.metrics`).
+Metrics: PSNR, SSIM and MSE on tonemapped sRGB (:mod:`gmcpt.image.metrics`).
 
     python benchmarks/gan_quality.py [--methods interp gan pawnnm gan_pawnnm] [--json out.json]
 """
@@ -65,10 +65,10 @@ def main() -> int:
     import gmcpt  # noqa: F401
     import mitsuba as mi
     from gmcpt.completion import complete
-    from gmcpt.denoise import denoise_oidn
-    from gmcpt.metrics import all_metrics
-    from gmcpt.render import render_features
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.image.denoise import denoise_oidn
+    from gmcpt.image.metrics import all_metrics
+    from gmcpt.render.kernels import render_features
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     mi.set_log_level(mi.LogLevel.Error)
     rows = []

@@ -6,7 +6,7 @@ inputs, fill, network, output) with the network in PyTorch (``$GMCPT_GENERATOR_R
 OpenVINO, and the network alone on the same inputs and fill (:func:`gmcpt.gan.infer.generate` against the
 compiled network). Prints the medians, the speed-up and the largest difference of the outputs (the network's
 in the working domain / 255, ``generator_fill``'s in the working domain, 0..255-like), both in the
-precision :func:`gmcpt.device.generator_precision` picks here.
+precision :func:`gmcpt.runtime.device.generator_precision` picks here.
 
     python benchmarks/generator_runtime.py [--sizes 256x256 1920x1080] [--repeats 7] [--scene SCENE.xml]
 """
@@ -26,8 +26,8 @@ sys.path.insert(0, str(ROOT))
 
 
 def render(scene_path: str, width: int, height: int):
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
+    from gmcpt.render.scene import load_scene
 
     scene = load_scene(scene_path, (width, height))
     return render_sparse_frame(scene, scene.integrator(), settings=RenderSettings(rate=0.3, spp=16))[0]
@@ -61,8 +61,8 @@ def main() -> int:
     args = parser.parse_args()
 
     from gmcpt.completion.learned import generator_fill
-    from gmcpt.device import generator_precision, generator_threads
-    from gmcpt.domain import WorkingDomain
+    from gmcpt.runtime.device import generator_precision, generator_threads
+    from gmcpt.image.domain import WorkingDomain
     from gmcpt.gan.infer import exposed, generate, network_inputs, prepare, target_exposure
     from gmcpt.gan.runtime import cpu_network
     from gmcpt.gan.weights import load_generator

@@ -35,8 +35,9 @@ sys.path.insert(0, str(ROOT))
 
 def simulated_mask(full, pattern: str, rate: float, seed: int) -> np.ndarray:
     """The mask the renderer would draw for ``pattern``, its passes read from the full render ``full``."""
-    from gmcpt.masks import FEATURE_PATTERNS, make_mask, mask_rng, sample_by_density, sample_count, second_pass_mask
-    from gmcpt.placement import FIRST_PASS_SHARE, error_density, feature_density
+    from gmcpt.sampling.masks import (FEATURE_PATTERNS, make_mask, mask_rng, sample_by_density, sample_count,
+                                      second_pass_mask)
+    from gmcpt.sampling.placement import FIRST_PASS_SHARE, error_density, feature_density
 
     height, width = full.shape
     if pattern not in FEATURE_PATTERNS:
@@ -67,9 +68,9 @@ def predictors(full, reference, method: str, seed: int, say) -> dict:
     from scipy.stats import spearmanr
 
     from gmcpt.completion import complete
-    from gmcpt.domain import WorkingDomain
-    from gmcpt.metrics import tonemap
-    from gmcpt.placement import error_density, feature_density, feature_edges
+    from gmcpt.image.domain import WorkingDomain
+    from gmcpt.image.metrics import tonemap
+    from gmcpt.sampling.placement import error_density, feature_density, feature_edges
 
     frame = masked(full, simulated_mask(full, "random", 0.3, seed))
     image = complete(frame, method).image
@@ -114,13 +115,13 @@ def main() -> int:
     import mitsuba as mi
 
     from gmcpt.completion import DEFAULT_METHOD, complete
-    from gmcpt.denoise import denoise_oidn
-    from gmcpt.scene import path_integrator
+    from gmcpt.image.denoise import denoise_oidn
+    from gmcpt.render.scene import path_integrator
     from gmcpt.evaluation.scenes import QUALITY_SCENES, procedural_scenes
     from gmcpt.evaluation.baselines import render_full
-    from gmcpt.metrics import all_metrics
-    from gmcpt.render import DEFAULT_FEATURE_SPP
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.image.metrics import all_metrics
+    from gmcpt.render.kernels import DEFAULT_FEATURE_SPP
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     mi.set_log_level(mi.LogLevel.Error)
     args.methods = args.methods or [DEFAULT_METHOD]

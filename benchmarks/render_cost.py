@@ -59,10 +59,10 @@ def main() -> int:
     import gmcpt  # noqa: F401
     import mitsuba as mi
     from gmcpt.evaluation.scenes import BREAKFAST, STILL_LIFE
-    from gmcpt.masks import DEFAULT_PATTERN, check_pattern
-    from gmcpt.render import DEFAULT_FEATURE_SPP
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling.masks import DEFAULT_PATTERN, check_pattern
+    from gmcpt.render.kernels import DEFAULT_FEATURE_SPP
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
+    from gmcpt.render.scene import load_scene
 
     mi.set_log_level(mi.LogLevel.Error)
     rows = []

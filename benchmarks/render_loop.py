@@ -70,7 +70,7 @@ def main() -> int:
 
     import gmcpt  # noqa: F401  (variant, plugins)
     from gmcpt.evaluation.sequences import AOV_GUIDES, denoised_with_aov_guides
-    from gmcpt.scene import path_integrator
+    from gmcpt.render.scene import path_integrator
 
     rows = {}
     for name, opaque in (("mi.render + OIDN, literal", False), ("mi.render + OIDN, opaque", True),

@@ -17,7 +17,7 @@ pace of ``pan``, ``dolly`` and ``light``):
 A motion sets the scene's parameters through ``mi.traverse``, made opaque (``dr.make_opaque``) so that a new frame
 compiles no kernel of its own, and the contenders and the references see the same scene at each frame. Where shapes
 move (``object``, a light that is a shape), gmcpt's frozen kernels run as plain Dr.Jit code, as ``mi.render`` does
-(:class:`gmcpt.render.FrozenKernel`). Each frame has two independent
+(:class:`gmcpt.render.kernels.FrozenKernel`). Each frame has two independent
 references (``--reference-spp`` each, cached under the motion; PSNR is read against their mean). Contenders, each
 at a ladder of samples a pixel a frame:
 
@@ -25,10 +25,10 @@ at a ladder of samples a pixel a frame:
   samples, then one pass of Mitsuba's ``aov`` integrator (albedo, shading normal) at as many samples whose images
   are OIDN's guides (the albedo clipped to [0, 1], OIDN's range), then OIDN; all three timed;
 - ``accumulation+oidn`` (``--path-spp``): the same samples averaged with the previous frames' accumulated image,
-  reprojected to the nearest pixel with the depth and normal tests of :mod:`gmcpt.temporal`, an exponential moving
-  average (weight ``max(1 / n, 0.2)`` for the new samples, n the pixel's history length), then the same guides and
-  OIDN: SVGF's accumulation, the strongest simple alternative;
-- ``sequence`` (``--budgets``): :class:`gmcpt.sequence.SequenceRenderer` at the same budget.
+  reprojected to the nearest pixel with the depth and normal tests of :mod:`gmcpt.temporal.history`, an exponential
+  moving average (weight ``max(1 / n, 0.2)`` for the new samples, n the pixel's history length), then the same guides
+  and OIDN: SVGF's accumulation, the strongest simple alternative;
+- ``sequence`` (``--budgets``): :class:`gmcpt.temporal.sequence.SequenceRenderer` at the same budget.
 
 The contenders take turns frame by frame, so a machine whose pace drifts slows them alike. Printed per scene,
 motion and setting, over the frames after the first ``--warm`` (history needs frames to build): mean PSNR;
@@ -238,8 +238,8 @@ def reference(loaded_scene, name: str, label: str, frame: int, spp: int, res: in
     """The frame's reference (``second``: another, independent of the first), cached under the gmcpt cache by the
     scene, the motion's ``label`` (:class:`SceneMotion`), the frame, size and samples."""
     from gmcpt.seeds import SEQUENCE_REFERENCE_SEEDS as REFERENCE_SEEDS
-    from gmcpt.files import cache_folder
-    from gmcpt.render import render_native
+    from gmcpt.io.files import cache_folder
+    from gmcpt.render.kernels import render_native
 
     tail = "-b" if second else ""
     path = cache_folder("sequence-references") / f"{name}-{label}-{frame:03d}-{res}-{spp}{tail}.npy"
@@ -266,9 +266,9 @@ class Accumulation:
     def render(self, scene, integrator, aov, spp: int, seed: int) -> np.ndarray:
         """The next frame (every stage is charged to it: :func:`gmcpt.evaluation.sequences.take_turns`)."""
         from gmcpt.evaluation.sequences import denoised_with_aov_guides
-        from gmcpt.render import render_native
-        from gmcpt.sequence import geometry
-        from gmcpt.temporal import PastFrame, reproject
+        from gmcpt.render.kernels import render_native
+        from gmcpt.temporal.sequence import geometry
+        from gmcpt.temporal.history import PastFrame, reproject
 
         sensor = scene.sensors()[0]
         image = render_native(scene, sensor, integrator, spp, seed)
@@ -326,10 +326,10 @@ def main() -> int:
     import gmcpt  # noqa: F401  (variant, LLVM)
     import mitsuba as mi
 
-    from gmcpt.evaluation.cli import _commit
+    from gmcpt.cli.eval import _commit
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.evaluation.sequences import AOV_GUIDES
-    from gmcpt.scene import path_integrator
+    from gmcpt.render.scene import path_integrator
 
     rows, verdicts, moving, started, commit = [], [], {}, time.time(), _commit()  # the commit before docs/ changes
     for eval_scene in [s for s in evaluation_scenes(None, 2) if s.name in args.scenes]:
@@ -356,7 +356,7 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
     """The rows of every contender on one scene in one motion (printed as they come)."""
     from gmcpt.evaluation.sequences import Run, Truth, path_oidn_run, sequence_figures, sequence_run, take_turns
     from gmcpt.evaluation.stability import FrameGeometry
-    from gmcpt.sequence import geometry
+    from gmcpt.temporal.sequence import geometry
 
     sensor = scene.sensors()[0]
     firsts, seconds, geometries = [], [], []
@@ -413,10 +413,10 @@ def record(args, rows: list[dict], verdicts: list[dict], moving: dict, seconds: 
     (``.png``)."""
     import datetime
 
-    from gmcpt.evaluation.cli import _versions, machine_line
+    from gmcpt.cli.eval import _versions, machine_line
     from gmcpt.evaluation.plots import sequence_plot
-    from gmcpt.exr import atomic_output
-    from gmcpt.files import json_text
+    from gmcpt.io.exr import atomic_output
+    from gmcpt.io.files import json_text
 
     data = {"command": "python benchmarks/sequence.py " + " ".join(sys.argv[1:]),
             "date": datetime.date.today().isoformat(), "commit": commit, "machine": machine_line(),
@@ -434,8 +434,8 @@ def merge(target: Path, parts: list[Path]) -> None:
     import json
 
     from gmcpt.evaluation.plots import sequence_plot
-    from gmcpt.exr import atomic_output
-    from gmcpt.files import json_text
+    from gmcpt.io.exr import atomic_output
+    from gmcpt.io.files import json_text
 
     records = [json.loads(part.read_text()) for part in parts]
     scenes = [scene for r in records for scene in r["settings"]["scenes"]]

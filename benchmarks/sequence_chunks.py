@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A sequence on Ray in chunks (:mod:`gmcpt.sequence_ray`) against the same sequence in one process: the PSNR
+"""A sequence on Ray in chunks (:mod:`gmcpt.cli.sequence_ray`) against the same sequence in one process: the PSNR
 gap, and the flicker at chunk borders against inside chunks. Each seed runs ``gmcpt batch --history H`` once in
 one process and once with ``--ray local --chunk C``, then reads the frames back.
 
@@ -40,7 +40,7 @@ def batch(args, seed: int, out: Path, ray: bool) -> None:
 
 def frames(out: Path) -> list[np.ndarray]:
     """The RGB images of a batch's frames, in order."""
-    from gmcpt.exr import read_exr
+    from gmcpt.io.exr import read_exr
 
     items = json.loads((out / "batch-summary.json").read_text())["items"]
     return [np.stack([layers[c] for c in "RGB"], axis=-1) for layers in
@@ -50,10 +50,10 @@ def frames(out: Path) -> list[np.ndarray]:
 def truth(args) -> tuple[list, list, list]:
     """Two independent references of every frame and its geometry (:class:`FrameGeometry`)."""
     from gmcpt.evaluation.stability import FrameGeometry
-    from gmcpt.render import render_native
-    from gmcpt.scene import load_scene, path_integrator
+    from gmcpt.render.kernels import render_native
+    from gmcpt.render.scene import load_scene, path_integrator
     from gmcpt.seeds import SEQUENCE_REFERENCE_SEEDS
-    from gmcpt.sequence import geometry
+    from gmcpt.temporal.sequence import geometry
 
     firsts, seconds, geometries = [], [], []
     for frame in range(args.frames):
@@ -91,8 +91,8 @@ def main() -> int:
     args = parser.parse_args()
 
     import gmcpt  # noqa: F401  (variant)
-    from gmcpt.metrics import psnr
-    from gmcpt.sequence_ray import blend_frames
+    from gmcpt.image.metrics import psnr
+    from gmcpt.cli.sequence_ray import blend_frames
 
     firsts, seconds, geometries = truth(args)
     references = [(a + b) / 2 for a, b in zip(firsts, seconds)]

@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def frame_seconds(scene: str, res: int, frames: int, spend: list[str]) -> tuple[list[float], list[float]]:
     """Each frame's seconds and budget in a sequence of ``frames`` frames of ``scene`` at ``res`` x ``res`` that
     spends ``spend`` (``["--time", S]`` or ``["--budget", B]``)."""
-    from gmcpt.batch import main as batch
+    from gmcpt.cli.batch import main as batch
 
     with tempfile.TemporaryDirectory() as out, contextlib.redirect_stdout(io.StringIO()):
         status = batch([scene, "--frames", f"0:{frames}", *spend, "--res", str(res), str(res), "--out", out, "-q"])

@@ -58,7 +58,7 @@ def main() -> int:
     from gmcpt.completion import complete
     from gmcpt.completion.matrix import LOW_RANK_DOMAIN, complete_pawnnm
     from gmcpt.lowrank import DEFAULT
-    from gmcpt.metrics import psnr
+    from gmcpt.image.metrics import psnr
 
     frames = [load_frame(path) for path in args.frames]
     interp = [psnr(complete(frame, "interp").image, reference) for _, frame, reference in frames]

@@ -26,8 +26,8 @@ def main() -> int:
 
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.pipeline import render_and_complete
-    from gmcpt.sampling import RenderSettings
-    from gmcpt.scene import load_scene, path_integrator
+    from gmcpt.sampling.strategies import RenderSettings
+    from gmcpt.render.scene import load_scene, path_integrator
 
     print(f"{'scene':22s} {'S':>6s} {'wall s':>8s} {'wall / S':>9s} {'spp':>6s}")
     ratios = []

@@ -43,9 +43,9 @@ def main(argv=None) -> int:
     from gmcpt.completion import complete
     from gmcpt.evaluation.scenes import evaluation_scenes
     from gmcpt.gan.weights import load_generator
-    from gmcpt.metrics import psnr
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
-    from gmcpt.scene import path_integrator
+    from gmcpt.image.metrics import psnr
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
+    from gmcpt.render.scene import path_integrator
 
     names = [Path(w).stem for w in args.weights]
     for weights in args.weights:

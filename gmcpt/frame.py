@@ -38,7 +38,7 @@ class SparseFrame:
     spp : samples per traced pixel.
     info : free-form metadata (mask pattern, seed, counts of dropped samples, ...).
     coverage : (H, W) fraction of the feature rays that hit a surface with a diffuse albedo (see
-        :mod:`gmcpt.domain`), or None where it was not recorded.
+        :mod:`gmcpt.image.domain`), or None where it was not recorded.
     """
 
     radiance: np.ndarray

@@ -1,4 +1,4 @@
-"""One frame end to end: render (:mod:`gmcpt.sampling`), then complete (:mod:`gmcpt.completion`).
+"""One frame end to end: render (:mod:`gmcpt.sampling.strategies`), then complete (:mod:`gmcpt.completion`).
 
 The ``masked_path`` plugin, the ``render`` and ``batch`` commands, the regression suite and the evaluation all
 reach the renderer through :func:`render_and_complete`.
@@ -13,7 +13,7 @@ import numpy as np
 
 from .completion import DEFAULT_METHOD, complete
 from .frame import SparseFrame
-from .sampling import RenderSettings, render_sparse_frame
+from .sampling.strategies import RenderSettings, render_sparse_frame
 
 
 @dataclass

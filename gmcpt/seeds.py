@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from .limits import SEED_LIMIT
 
-# --- a single frame (gmcpt.sampling, gmcpt.dense, gmcpt.render) ---
+# --- a single frame (gmcpt.sampling.strategies, gmcpt.sampling.dense, gmcpt.render.kernels) ---
 #: the feature pass's rays (albedo, normal, depth, visibility)
 FEATURE_SEED_OFFSET = 0x5EED_F00D
 #: the second radiance pass of ``two_pass`` draws other samples
@@ -33,13 +33,13 @@ CLEAN_GUIDE_SEED_OFFSET = 0xC1EA
 #: adaptive path tracing's second pass
 EXTRA_SEED_OFFSET = 0xADA97
 
-# --- sample placement (gmcpt.masks) ---
+# --- sample placement (gmcpt.sampling.masks) ---
 #: the mask patterns' generator, beside the frame's seed ('mask')
 MASK_STREAM = 0x6D61736B
 #: the blue-noise threshold map, one for every frame
 THRESHOLD_MAP_SEED = 0x7B1E
 
-# --- sequences (gmcpt.sequence) ---
+# --- sequences (gmcpt.temporal.sequence) ---
 #: frame i of a sequence draws from ``seed + i * FRAME_SEED_STEP``
 FRAME_SEED_STEP = 0x9E37
 #: a sequence frame's samples above the level every pixel gets

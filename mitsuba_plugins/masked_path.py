@@ -5,18 +5,18 @@ import mitsuba as mi
 
 from gmcpt.completion import DEFAULT_METHOD, check_options
 from gmcpt.completion.tiles import DEFAULT_TILE, check_tile
-from gmcpt.costs import read_costs
+from gmcpt.sampling.costs import read_costs
 from gmcpt.errors import GmcptError
-from gmcpt.exr import channel_names, pack
-from gmcpt.film import fill_film
+from gmcpt.io.exr import channel_names, pack
+from gmcpt.io.film import fill_film
 from gmcpt.limits import check_feature_spp, check_seed
-from gmcpt.masks import DEFAULT_PATTERN, DEFAULT_RATE, check_pattern, check_rate
+from gmcpt.sampling.masks import DEFAULT_PATTERN, DEFAULT_RATE, check_pattern, check_rate
 from gmcpt.pipeline import Rendered, render_and_complete
-from gmcpt.plugins import constructor
-from gmcpt.render import DEFAULT_FEATURE_SPP
-from gmcpt.sampling import RenderSettings, check_one_sample_count
-from gmcpt.scene import scene_sensor
-from gmcpt.sequence import RenderLoop
+from gmcpt.runtime.plugins import constructor
+from gmcpt.render.kernels import DEFAULT_FEATURE_SPP
+from gmcpt.sampling.strategies import RenderSettings, check_one_sample_count
+from gmcpt.render.scene import scene_sensor
+from gmcpt.temporal.sequence import RenderLoop
 
 
 class MaskedPathIntegrator(mi.SamplingIntegrator):
@@ -36,7 +36,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - |float|
        - Mean path samples a pixel, instead of ``rate`` and the sampler's spp: the first pass of ``two_pass``
          chooses per frame between tracing ``budget / 16`` of the pixels at 16 spp (completed by the
-         ``completion`` method) and tracing every pixel (see ``gmcpt.budget``); 0: none. (Default: with
+         ``completion`` method) and tracing every pixel (see ``gmcpt.sampling.budget``); 0: none. (Default: with
          neither ``rate`` nor ``budget`` set, 0.3 x the sampler's spp: as many samples as rate 0.3 traces)
      * - time
        - |float|
@@ -47,7 +47,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - |string|
        - A JSON file holding the cost model a budget's choice weighs time with (a render's JSON sidecar holds the
          one it used): the same settings and model give the same image on any machine; relative to the working
-         folder. (Default: this machine's, measured once and stored, see ``gmcpt.costs``)
+         folder. (Default: this machine's, measured once and stored, see ``gmcpt.sampling.costs``)
      * - mask
        - |string|
        - Sample placement: ``two_pass`` (half the budget where the feature buffers have edges, the rest
@@ -77,7 +77,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
        - Past frames a frame reuses (0: none). Above 0, successive ``mi.render`` calls on the same scene are the
          frames of one sequence (move the camera and shapes through ``mi.traverse`` between them): each frame
          spends ``budget`` (or ``time``) on every pixel, reuses the samples of up to ``history`` frames before
-         it where they still hold, then OIDN (see ``gmcpt.sequence``); ``mi.render``'s ``seed``, when given,
+         it where they still hold, then OIDN (see ``gmcpt.temporal.sequence``); ``mi.render``'s ``seed``, when given,
          is the frame's number. Another scene, another film size or ``reset()`` starts over. ``rate``,
          ``mask``, ``completion``, ``weights`` and ``costs`` are single-frame options, refused here. (Default: 0)
      * - tile
@@ -97,9 +97,9 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
 
     ``mi.render`` returns an ``(H, W, 17)`` tensor: the completed RGB first,
     then the layers named by :meth:`aov_names` (sparse RGB, mask, albedo,
-    normal, depth, visibility, variance, coverage); ``gmcpt.exr.unpack`` reads
+    normal, depth, visibility, variance, coverage); ``gmcpt.io.exr.unpack`` reads
     it. The sensor's film holds the same channels, named, as Mitsuba's own
-    integrators leave theirs (see :mod:`gmcpt.film`)::
+    integrators leave theirs (see :mod:`gmcpt.io.film`)::
 
         image = mi.render(scene)
         mi.util.write_bitmap("x.exr", scene.sensors()[0].film().bitmap())

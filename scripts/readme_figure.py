@@ -23,9 +23,9 @@ def main():
 
     import gmcpt  # noqa: F401
     from gmcpt.completion import DEFAULT_METHOD, complete
-    from gmcpt.exr import write_png
-    from gmcpt.sampling import render_sparse_frame
-    from gmcpt.scene import load_scene, masked_integrator
+    from gmcpt.io.exr import write_png
+    from gmcpt.sampling.strategies import render_sparse_frame
+    from gmcpt.render.scene import load_scene, masked_integrator
 
     args.method = args.method or DEFAULT_METHOD
     scene = load_scene(args.scene)

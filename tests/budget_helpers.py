@@ -6,14 +6,14 @@ SIZE = (40, 32)
 def fixed_costs(**changes):
     """A cost model of this repository's test machine's order (seconds a pixel), so that no test measures the machine
     it runs on, and none depends on it; ``changes`` replace fields."""
-    from gmcpt.costs import CostModel
+    from gmcpt.sampling.costs import CostModel
 
     return CostModel(**{"path": 1.7e-6, "guide_ray": 1.4e-7, "sparse_extra": 4.7e-6, "denoise": 1.5e-6,
                         "denoise_large": 3.5e-6, **changes})
 
 
 def render_budget(scene, budget, seed=0, costs=None):
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     integrator = scene.integrator()
     return render_sparse_frame(scene, getattr(integrator, "integrator", integrator),
@@ -23,7 +23,7 @@ def render_budget(scene, budget, seed=0, costs=None):
 def record_launches(monkeypatch) -> list:
     """The samples a pixel of each of a dense frame's renders of every pixel, with or without its guides, as a list
     that fills as frames render."""
-    from gmcpt import dense
+    from gmcpt.sampling import dense
 
     launches = []
     for name in ("render_native", "render_native_guided"):

@@ -1,7 +1,7 @@
 """A pinhole camera over a flat wall, for the tests of reprojection and of temporal stability."""
 import numpy as np
 
-from gmcpt.temporal import fit_projection
+from gmcpt.temporal.history import fit_projection
 
 WIDTH, HEIGHT = 24, 16
 

@@ -49,7 +49,7 @@ def run_cli(*args, cwd=None):
 def synthetic_frame(height=48, width=64, rate=0.3, seed=0):
     """A SparseFrame of a smooth analytic image over a two-albedo floor."""
     from gmcpt.frame import SparseFrame
-    from gmcpt.masks import make_mask
+    from gmcpt.sampling.masks import make_mask
 
     y, x = np.mgrid[0:height, 0:width].astype(np.float32)
     shading = 0.2 + 0.6 * np.exp(-((x - width / 2) ** 2 + (y - height / 3) ** 2) / (2 * (width / 3) ** 2))

@@ -7,7 +7,7 @@ from conftest import CORNELL
 
 @pytest.fixture(scope="module")
 def cornell(mi):
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
     return load_scene(CORNELL, resolution=(40, 32))
 
 
@@ -18,7 +18,7 @@ def path_tracer(mi):
 
 @pytest.mark.parametrize("total,cap", [(0, 4), (1, 4), (997, 4), (4000, 4), (2500, 32)])
 def test_allocation_is_exact_capped_and_follows_the_weights(total, cap):
-    from gmcpt.adaptive import allocate
+    from gmcpt.sampling.adaptive import allocate
 
     weights = np.random.default_rng(3).gamma(0.5, size=1000)
     weights[:10] = 0.0
@@ -32,7 +32,7 @@ def test_allocation_is_exact_capped_and_follows_the_weights(total, cap):
 
 
 def test_the_rounding_remainder_goes_to_the_largest_fractions_then_the_lowest_pixels():
-    from gmcpt.adaptive import allocate
+    from gmcpt.sampling.adaptive import allocate
 
     np.testing.assert_array_equal(allocate(np.ones(10), 13, 4), [2, 2, 2, 1, 1, 1, 1, 1, 1, 1])
     # ideal 0.2 / 0.6 / 0.2 / 0.6 / 0.4: the two 0.6s first, then the 0.4
@@ -41,7 +41,7 @@ def test_the_rounding_remainder_goes_to_the_largest_fractions_then_the_lowest_pi
 
 
 def test_allocation_refuses_more_samples_than_the_cap_allows():
-    from gmcpt.adaptive import allocate
+    from gmcpt.sampling.adaptive import allocate
     from gmcpt.errors import GmcptError
 
     with pytest.raises(GmcptError, match="cannot place"):
@@ -49,7 +49,7 @@ def test_allocation_refuses_more_samples_than_the_cap_allows():
 
 
 def test_display_error_is_high_where_the_image_is_noisy_and_fireflies_count_as_white():
-    from gmcpt.adaptive import display_error
+    from gmcpt.sampling.adaptive import display_error
 
     rng = np.random.default_rng(0)
     image = np.full((32, 32, 3), 0.3, np.float32)
@@ -63,7 +63,7 @@ def test_display_error_is_high_where_the_image_is_noisy_and_fireflies_count_as_w
 
 @pytest.mark.parametrize("budget", [1.0, 2.5, 4.8])
 def test_render_traces_exactly_the_budget_and_repeats_itself(mi, cornell, path_tracer, budget):
-    from gmcpt.adaptive import AdaptiveSettings, render_adaptive
+    from gmcpt.sampling.adaptive import AdaptiveSettings, render_adaptive
 
     settings = AdaptiveSettings(budget=budget, seed=5)
     image, info, timings = render_adaptive(cornell, path_tracer, settings)
@@ -80,7 +80,7 @@ def test_render_traces_exactly_the_budget_and_repeats_itself(mi, cornell, path_t
 def test_more_samples_land_where_the_first_pass_is_noisy(mi, cornell, path_tracer):
     """The Cornell box's light and the shadows under the boxes are noisier than its lit walls: the extra
     samples must not be spread evenly."""
-    from gmcpt.adaptive import AdaptiveSettings, render_adaptive
+    from gmcpt.sampling.adaptive import AdaptiveSettings, render_adaptive
 
     settings = AdaptiveSettings(budget=6.0, seed=1)
     _, info, _ = render_adaptive(cornell, path_tracer, settings)
@@ -89,7 +89,7 @@ def test_more_samples_land_where_the_first_pass_is_noisy(mi, cornell, path_trace
 
 
 def test_the_first_pass_takes_its_share_of_the_budget():
-    from gmcpt.adaptive import AdaptiveSettings
+    from gmcpt.sampling.adaptive import AdaptiveSettings
 
     assert [AdaptiveSettings(budget=b).first_spp for b in (1, 1.5, 3.2, 4.8, 6.4, 32)] == [1, 1, 2, 3, 4, 20]
     assert AdaptiveSettings(budget=4.8, first_share=0).first_spp == 1
@@ -101,7 +101,7 @@ def test_the_first_pass_takes_its_share_of_the_budget():
     ({"budget": 4, "exponent": -1}, "exponent"), ({"budget": 4, "max_extra": 0}, "max_extra"),
     ({"budget": 4, "first_share": 1.5}, "first_share"), ({"budget": 40, "first_share": 0}, "more than max_extra")])
 def test_bad_settings_get_one_line(options, message):
-    from gmcpt.adaptive import AdaptiveSettings
+    from gmcpt.sampling.adaptive import AdaptiveSettings
     from gmcpt.errors import GmcptError
 
     with pytest.raises(GmcptError, match=message) as error:

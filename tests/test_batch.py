@@ -23,7 +23,7 @@ def gmcpt(*args, env=None, check=True):
 
 def same_outputs(first, second, names):
     """True if every frame's EXR channels and PNG bytes are equal in both folders."""
-    from gmcpt.exr import read_exr
+    from gmcpt.io.exr import read_exr
 
     for name in names:
         a, b = read_exr(first / f"{name}.exr"), read_exr(second / f"{name}.exr")
@@ -35,7 +35,7 @@ def same_outputs(first, second, names):
 
 
 def test_frames_are_named_from_scene_and_sweep():
-    from gmcpt.batch import frame_name, scene_name, sweep_points
+    from gmcpt.cli.batch import frame_name, scene_name, sweep_points
     from gmcpt.errors import GmcptError
 
     assert scene_name(CORNELL) == "cornell-box" and scene_name("shots/a.xml") == "a"
@@ -104,7 +104,7 @@ def test_a_task_run_again_keeps_the_frame_its_first_run_wrote(one_process, tmp_p
     """A worker lost after writing a frame but before reporting it: the retry finds the frame, writes nothing."""
     import torch
 
-    from gmcpt.batch import build_parser, plan, render_job
+    from gmcpt.cli.batch import build_parser, plan, render_job
 
     out, _ = one_process
     jobs = plan(build_parser().parse_args([str(CORNELL), *TINY, "--sweep", "seed=1", "--out", str(out)]))
@@ -139,7 +139,7 @@ def test_ray_batch_is_bit_identical_and_survives_a_killed_worker(one_process, tm
 
 def test_frames_of_the_shipped_scenes_move_and_frame_0_is_the_still(tmp_path):
     """Frame N turns the Cornell box's camera and the still life's spot light N degrees; frame 0 is today's image."""
-    from gmcpt.exr import read_exr
+    from gmcpt.io.exr import read_exr
 
     gmcpt("batch", CORNELL, STILL_LIFE, *TINY, "--frames", "0:3", "--out", tmp_path / "anim", "-q")
     gmcpt("batch", CORNELL, STILL_LIFE, *TINY, "--out", tmp_path / "still", "-q")

@@ -11,7 +11,7 @@ from conftest import CORNELL, run_cli
 
 @pytest.mark.parametrize("bad", [0, -1, math.nan, math.inf, 4097, "lots", None])
 def test_bad_budgets_get_one_line(bad):
-    from gmcpt.budget import check_budget
+    from gmcpt.sampling.budget import check_budget
     from gmcpt.errors import GmcptError
 
     with pytest.raises(GmcptError) as error:
@@ -20,7 +20,7 @@ def test_bad_budgets_get_one_line(bad):
 
 
 def test_plan_counts_the_samples_and_the_sparse_pixels():
-    from gmcpt.budget import SPARSE_SPP, plan_budget
+    from gmcpt.sampling.budget import SPARSE_SPP, plan_budget
     from gmcpt.errors import GmcptError
 
     plan = plan_budget(4.8, 1000)
@@ -37,7 +37,7 @@ def test_plan_counts_the_samples_and_the_sparse_pixels():
 
 
 def test_relative_variance_is_the_median_over_lit_pixels_scaled_to_16_spp():
-    from gmcpt.budget import relative_variance
+    from gmcpt.sampling.budget import relative_variance
 
     mean = np.array([[1.0, 1.0, 1.0], [2.0, 2.0, 2.0], [0.5, 0.5, 0.5], [0.0, 0.0, 0.0]])
     variance = np.array([0.1, 0.8, 0.5, 7.0])  # relative 0.1, 0.2, 2.0; the black pixel is left out
@@ -47,7 +47,7 @@ def test_relative_variance_is_the_median_over_lit_pixels_scaled_to_16_spp():
 
 
 def test_choice_follows_either_signal_and_needs_a_sample_for_every_pixel():
-    from gmcpt.budget import DENSE, DENSE_ABOVE, EDGES_ABOVE, SPARSE, choose, edges_above, plan_budget
+    from gmcpt.sampling.budget import DENSE, DENSE_ABOVE, EDGES_ABOVE, SPARSE, choose, edges_above, plan_budget
 
     plan = plan_budget(4.8, 1000)
     quiet, flat = DENSE_ABOVE / 2, edges_above(1000) / 2
@@ -69,7 +69,7 @@ def test_choice_follows_either_signal_and_needs_a_sample_for_every_pixel():
 
 
 def test_the_sparse_way_pays_when_its_extra_time_is_worth_less_than_its_gain():
-    from gmcpt.budget import DENSE_GAIN_PER_DOUBLING, SPARSE_GAIN, sparse_pays
+    from gmcpt.sampling.budget import DENSE_GAIN_PER_DOUBLING, SPARSE_GAIN, sparse_pays
 
     break_even = 2 ** (SPARSE_GAIN / DENSE_GAIN_PER_DOUBLING) - 1  # more samples a pixel, over the budget's
     for budget in (2.0, 8.0):  # the extra seconds buy samples at the path tracer's pace: 0.01 s a sample a pixel
@@ -79,7 +79,7 @@ def test_the_sparse_way_pays_when_its_extra_time_is_worth_less_than_its_gain():
 
 
 def test_edge_share_counts_the_frame_near_feature_edges():
-    from gmcpt.budget import edge_share
+    from gmcpt.sampling.budget import edge_share
 
     flat = {"albedo": np.full((32, 32, 3), 0.5, np.float32), "normal": np.zeros((32, 32, 3), np.float32),
             "depth": np.ones((32, 32), np.float32), "visibility": np.ones((32, 32), np.float32)}
@@ -93,7 +93,7 @@ def test_edge_share_counts_the_frame_near_feature_edges():
 
 @pytest.mark.parametrize("probe,samples", [(4, 2000), (4, 4096 * 5 - 600 * 4), (4, 4096 * 3), (0, 4096 * 17 + 5)])
 def test_even_fill_levels_every_pixel_and_spreads_the_rest(probe, samples):
-    from gmcpt.budget import even_fill
+    from gmcpt.sampling.budget import even_fill
 
     current = np.zeros((64, 64), np.int64)
     current.ravel()[np.random.default_rng(2).choice(4096, 600, replace=False)] = probe
@@ -111,20 +111,20 @@ def test_even_fill_levels_every_pixel_and_spreads_the_rest(probe, samples):
 
 @pytest.fixture(scope="module")
 def cornell(mi):
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
     return load_scene(CORNELL, resolution=SIZE)
 
 
 @pytest.mark.parametrize("threshold,way", [(-1.0, "dense"), (math.inf, "sparse")])
 def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way):
-    from gmcpt import budget, sampling
-    from gmcpt.budget import SPARSE_SPP, plan_budget
+    from gmcpt.sampling import budget, strategies
+    from gmcpt.sampling.budget import SPARSE_SPP, plan_budget
 
     monkeypatch.setattr(budget, "DENSE_ABOVE", threshold)
     monkeypatch.setattr(budget, "EDGES_ABOVE", threshold)
     monkeypatch.setattr(budget, "SPARSE_GAIN", threshold)  # the sparse way's time always pays, or never
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
-    monkeypatch.setattr(sampling, "probes_for_placement", lambda *args: False)  # the placement's own probe: below
+    monkeypatch.setattr(strategies, "probes_for_placement", lambda *args: False)  # the placement's own probe: below
     pixels = SIZE[0] * SIZE[1]
     frame = _render(cornell, 4.8)
     plan = plan_budget(4.8, pixels)
@@ -148,12 +148,12 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
 def test_the_choice_follows_the_cost_model_from_a_scenes_first_frame(mi, monkeypatch):
     """Time is priced by the cost model alone: where the signals would choose sparse, a model whose sparse way is
     cheap goes sparse in a scene's first frame, and one whose sparse way is dear goes dense without a probe."""
-    from gmcpt import budget, sampling
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget, strategies
+    from gmcpt.render.scene import load_scene
 
     for name in ("DENSE_ABOVE", "EDGES_ABOVE"):
         monkeypatch.setattr(budget, name, math.inf)  # the signals choose sparse
-    monkeypatch.setattr(sampling, "probes_for_placement", lambda *args: False)
+    monkeypatch.setattr(strategies, "probes_for_placement", lambda *args: False)
     cheap, dear = fixed_costs(sparse_extra=1e-9), fixed_costs(sparse_extra=1e-3)
     sparse = _render(load_scene(CORNELL, resolution=SIZE), 4.8, costs=cheap)
     assert (sparse.info["budget_choice"], sparse.info["probe"]) == ("sparse", "traced")
@@ -166,7 +166,7 @@ def test_the_choice_follows_the_cost_model_from_a_scenes_first_frame(mi, monkeyp
 def test_a_frame_is_the_same_whatever_frames_came_before(mi):
     """Nothing a frame reads is kept for the next: a frame after others of the same scene, at other budgets and
     seeds, is the frame a fresh scene gives, its readings included."""
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
 
     scene = load_scene(CORNELL, resolution=SIZE)
     first = _render(scene, 4.8)
@@ -179,8 +179,8 @@ def test_a_frame_is_the_same_whatever_frames_came_before(mi):
 
 
 def test_every_frame_reads_its_own_probe(mi, monkeypatch):
-    from gmcpt import budget
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "DENSE_ABOVE", 1e-12)  # the probe reads dense, nothing else does
     monkeypatch.setattr(budget, "EDGES_ABOVE", math.inf)
@@ -194,8 +194,8 @@ def test_every_frame_reads_its_own_probe(mi, monkeypatch):
 
 
 def test_a_dense_frame_at_an_integral_budget_is_mitsubas_render_of_its_seed(mi, monkeypatch):
-    from gmcpt import budget
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense without a probe
     scene = load_scene(CORNELL, resolution=SIZE)  # a scene of its own: no earlier probe's reading
@@ -214,7 +214,7 @@ def test_a_budget_of_16_or_more_traces_every_pixel(cornell):
 
 def test_a_budget_refuses_an_spp_and_other_masks(mi):
     from gmcpt.errors import GmcptError
-    from gmcpt.sampling import RenderSettings
+    from gmcpt.sampling.strategies import RenderSettings
 
     with pytest.raises(GmcptError, match="not both"):
         RenderSettings(budget=4.8, spp=16)
@@ -228,7 +228,7 @@ def test_a_budget_refuses_an_spp_and_other_masks(mi):
 
 def test_the_integrator_renders_a_budget(mi, cornell):
     from gmcpt.errors import GmcptError
-    from gmcpt.scene import masked_integrator
+    from gmcpt.render.scene import masked_integrator
 
     integrator = masked_integrator(cornell, budget=4.8, completion="interp")
     image = np.asarray(mi.render(cornell, integrator=integrator))
@@ -261,7 +261,7 @@ def test_cli_budget_records_its_choice_and_refuses_a_rate_beside_it(tmp_path):
 
 
 def test_with_no_rate_no_spp_and_no_budget_the_integrator_spends_the_default_budget(mi, cornell):
-    from gmcpt.masks import DEFAULT_RATE
+    from gmcpt.sampling.masks import DEFAULT_RATE
 
     pixels = SIZE[0] * SIZE[1]
     spp = cornell.sensors()[0].sampler().sample_count()
@@ -299,7 +299,7 @@ def test_cli_without_a_rate_spends_the_default_budget(tmp_path):
 
 
 def test_error_concentration_is_the_share_of_the_noisiest_pixels():
-    from gmcpt.budget import DENSE_ABOVE, TOP_SHARE, adaptive_first_spp, error_concentration
+    from gmcpt.sampling.budget import DENSE_ABOVE, TOP_SHARE, adaptive_first_spp, error_concentration
 
     assert error_concentration(np.ones((40, 50))) == pytest.approx(TOP_SHARE)
     spot = np.zeros((40, 50))
@@ -315,8 +315,8 @@ def test_error_concentration_is_the_share_of_the_noisiest_pixels():
 
 @pytest.mark.parametrize("threshold,placement", [(0.0, "adaptive"), (math.inf, "even")])
 def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monkeypatch, threshold, placement):
-    from gmcpt import budget
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", threshold)
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its frame splits its launch
@@ -337,13 +337,13 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
 @pytest.mark.parametrize("noise,launches", [(0.01, [3]), (1.0, [4])])  # the probe's samples are left out
 def test_below_budget_8_only_a_quiet_scene_places_its_rest_where_the_error_is(mi, monkeypatch, noise, launches):
     """Every frame below budget 8 probes for its placement, dense or not: its own probe says whether it is quiet."""
-    from gmcpt import budget, sampling
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget, strategies
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", 0.0)  # any concentration pays
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense by the edges: no probe for the choice
-    monkeypatch.setattr(sampling, "relative_variance", lambda *args: noise)  # what the probe reads
+    monkeypatch.setattr(strategies, "relative_variance", lambda *args: noise)  # what the probe reads
     quiet = noise <= budget.DENSE_ABOVE
     scene = load_scene(CORNELL, resolution=SIZE)
     traced = record_launches(monkeypatch)
@@ -359,8 +359,8 @@ def test_below_budget_8_only_a_quiet_scene_places_its_rest_where_the_error_is(mi
 def test_every_frame_reads_its_own_concentration(mi, monkeypatch):
     """The error's concentration grows with the first pass's samples, and a frame weighs none but its own: every
     frame from budget 8 traces its first pass, then the rest."""
-    from gmcpt import budget
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", math.inf)  # every reading says even
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading
@@ -375,15 +375,16 @@ def test_every_frame_reads_its_own_concentration(mi, monkeypatch):
 def test_a_low_budgets_guides_are_4_rays_in_every_frame(mi, monkeypatch):
     """Below budget 4 the guides take 4 rays: a dense frame whose choice read no edges, the render's own first hits
     and a pass of the rays they lack."""
-    from gmcpt import budget, render, sampling
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget, strategies
+    from gmcpt.render import kernels
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense: no feature top-up
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # no denoiser reading: its guides go to 16 rays
     scene = load_scene(CORNELL, resolution=SIZE)
     passes = []
-    means = render.feature_means
-    monkeypatch.setattr(sampling, "feature_means", lambda *args: passes.append(args[2]) or means(*args))
+    means = kernels.feature_means
+    monkeypatch.setattr(strategies, "feature_means", lambda *args: passes.append(args[2]) or means(*args))
     for _ in range(2):
         passes.clear()
         assert _render(scene, 2).info["guide_spp"] == 4 and passes == [2]
@@ -392,6 +393,6 @@ def test_a_low_budgets_guides_are_4_rays_in_every_frame(mi, monkeypatch):
 @pytest.mark.parametrize("budget,feature_spp,rays", [(1, 16, 4), (3.9, 16, 4), (6.4, 16, 6), (64, 16, 16),
                                                       (12, 9, 9), (1, 2, 2)])
 def test_guides_take_about_the_budgets_rays_within_their_range(budget, feature_spp, rays):
-    from gmcpt.budget import guide_spp
+    from gmcpt.sampling.budget import guide_spp
 
     assert guide_spp(budget, feature_spp) == rays

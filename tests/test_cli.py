@@ -19,7 +19,7 @@ def rendered(tmp_path_factory):
 
 
 def test_writes_exr_png_json(rendered):
-    from gmcpt.exr import channel_names, read_exr
+    from gmcpt.io.exr import channel_names, read_exr
 
     out, result = rendered
     channels = read_exr(out)
@@ -44,7 +44,7 @@ def test_writes_exr_png_json(rendered):
 def test_same_seed_same_output(rendered, tmp_path):
     """A seed fixes every layer of the output bit for bit, from one process to the next, and a reference equal to
     the image scores a perfect match (against another image's: test_command.py::test_a_reference_serves_render)."""
-    from gmcpt.exr import read_exr
+    from gmcpt.io.exr import read_exr
 
     out, _ = rendered
     again = tmp_path / "again.exr"
@@ -57,7 +57,7 @@ def test_same_seed_same_output(rendered, tmp_path):
 
 
 def test_another_seed_another_output(rendered, tmp_path):
-    from gmcpt.exr import read_exr
+    from gmcpt.io.exr import read_exr
 
     out, _ = rendered
     other = tmp_path / "other.exr"
@@ -71,7 +71,7 @@ def test_scene_with_plain_path_integrator_is_wrapped(tmp_path):
     result = run_cli(NAN_SCENE, "--allow-nonfinite", "--rate", "0.5", "--out", out, "-q")
     assert result.returncode == 0, result.stderr
     assert "warning:" in result.stderr and "NaN/Inf" in result.stderr
-    from gmcpt.exr import read_rgb_exr
+    from gmcpt.io.exr import read_rgb_exr
     assert np.isfinite(read_rgb_exr(out)).all()
     record = json.loads(out.with_suffix(".json").read_text())
     assert record["nonfinite_samples"] > 0 and "PathIntegrator" in record["parameters"]["integrator"]

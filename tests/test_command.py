@@ -80,7 +80,7 @@ def _named(row: str) -> list[str]:
 
 
 def test_readme_option_tables_match_the_parsers():
-    from gmcpt.render_cli import add_render_options
+    from gmcpt.cli.render import add_render_options
 
     tables = _readme_tables()
     assert set(tables) == {"render", "batch"}
@@ -125,7 +125,7 @@ def test_a_scene_first_still_means_render(tmp_path):
 
 def test_methods_lists_every_method_and_placement():
     from gmcpt.completion import methods
-    from gmcpt.masks import PATTERNS
+    from gmcpt.sampling.masks import PATTERNS
 
     result = gmcpt("methods")
     assert result.returncode == 0
@@ -142,9 +142,9 @@ def reference(tmp_path_factory):
 
 def test_reference_renders_in_passes_with_the_time_left(mi, reference):
     from gmcpt.evaluation.reference import render_full
-    from gmcpt.exr import read_rgb_exr
-    from gmcpt.reference_cli import DEFAULT_SEED
-    from gmcpt.scene import load_scene
+    from gmcpt.io.exr import read_rgb_exr
+    from gmcpt.cli.reference import DEFAULT_SEED
+    from gmcpt.render.scene import load_scene
 
     out, result = reference
     assert "24x16 px, 8 spp in 4 passes" in result.stderr and "reference 4/4" in result.stderr

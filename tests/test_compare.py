@@ -53,7 +53,7 @@ def _environment(tmp_path):
     """A cache of the test's own for the references; the generator's conversions and the machine's cost model stay
     the user's (a conversion is 10-17 s of a process that would import torch for it, a measurement 5-15 s, and
     neither is what these tests check)."""
-    from gmcpt.costs import machine_costs_path
+    from gmcpt.sampling.costs import machine_costs_path
     from gmcpt.gan import runtime
 
     cache = tmp_path / "cache"
@@ -225,7 +225,7 @@ def test_reference_rendered_once_then_cached(tmp_path):
     (["anim.xml", "--frames", "0:3", "--budgets", "0.5"], "--budgets must each be in [1, 32]"),
 ])
 def test_bad_input_is_one_line(tmp_path, args, message):
-    from gmcpt.exr import write_exr
+    from gmcpt.io.exr import write_exr
 
     (tmp_path / "box.xml").write_text(BOX)
     (tmp_path / "anim.xml").write_text(ANIMATED_BOX)
@@ -315,7 +315,7 @@ def test_the_frames_verdict_says_a_wash_where_the_frames_spread_holds_one():
 
 def test_an_animation_is_a_scene_that_reads_frame(tmp_path):
     from gmcpt.errors import GmcptError
-    from gmcpt.scene import check_animated
+    from gmcpt.render.scene import check_animated
 
     (tmp_path / "declared.xml").write_text(BOX.replace('<scene version="3.0.0">',
                                                        '<scene version="3.0.0"><default name="frame" value="0"/>'))
@@ -331,8 +331,8 @@ def test_an_animations_frames_are_its_xml_at_each_frame(mi, tmp_path):
     """XmlFrames sets each frame's changes on one scene: the same image as the scene file loaded at that frame,
     back and forth."""
     from gmcpt.evaluation.sequences import XmlFrames
-    from gmcpt.render import render_native
-    from gmcpt.scene import load_scene, path_integrator
+    from gmcpt.render.kernels import render_native
+    from gmcpt.render.scene import load_scene, path_integrator
 
     (tmp_path / "anim.xml").write_text(ANIMATED_BOX)
     frames = XmlFrames(tmp_path / "anim.xml", (8, 8), range(2, 5))

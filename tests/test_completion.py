@@ -5,7 +5,7 @@ import pytest
 
 from conftest import synthetic_frame
 from gmcpt.completion import complete, methods, register_method, Completion
-from gmcpt.fills import push_pull
+from gmcpt.image.fills import push_pull
 from gmcpt.errors import GmcptError
 
 
@@ -41,7 +41,7 @@ def test_interp_keeps_samples_and_fills_well():
 
 
 def test_guided_fill_without_keeping_samples_smooths_them_and_keeps_edges():
-    from gmcpt.fills import guided_fill
+    from gmcpt.image.fills import guided_fill
 
     rng = np.random.default_rng(3)
     height, width = 40, 40
@@ -65,7 +65,7 @@ def test_guided_fill_without_keeping_samples_smooths_them_and_keeps_edges():
 def test_guided_fill_is_the_same_on_one_thread_and_on_several(monkeypatch):
     """The fill's bands of rows run on threads: a frame of several bands (one of them short) gives the same
     image, bit for bit, whatever the thread count."""
-    from gmcpt import fills
+    from gmcpt.image import fills
 
     rng = np.random.default_rng(5)
     monkeypatch.setattr(fills, "BAND_PIXELS", 16 * 40)
@@ -87,7 +87,7 @@ def test_a_batch_is_filled_as_its_images_are_one_by_one():
     """The torch fill of a batch (its images at rates of two radii) is each image's own numpy guided fill."""
     import torch
 
-    from gmcpt.fills import fill_batch, fill_radius, guided_fill
+    from gmcpt.image.fills import fill_batch, fill_radius, guided_fill
 
     rng = np.random.default_rng(7)
     rates = (0.15, 0.45, 0.2, 0.5)
@@ -186,7 +186,7 @@ def test_frame_validates_shapes():
 
 
 def test_demodulation_factor_is_the_mean_of_the_rays_factors():
-    from gmcpt.domain import WorkingDomain
+    from gmcpt.image.domain import WorkingDomain
 
     domain = WorkingDomain()
     eps = domain.albedo_eps
@@ -208,7 +208,7 @@ def test_the_guided_fill_on_cuda_matches_the_cpu():
     """A training batch is filled where it lives: on the GPU, to float rounding each crop's numpy fill."""
     import torch
 
-    from gmcpt.fills import fill_batch, guided_fill
+    from gmcpt.image.fills import fill_batch, guided_fill
 
     rng = np.random.default_rng(8)
     values = torch.from_numpy(rng.random((6, 3, 64, 48), np.float32))

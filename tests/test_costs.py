@@ -31,7 +31,7 @@ def test_the_cost_model_prices_a_frames_parts():
 
 
 def test_read_costs_takes_a_costs_file_or_a_sidecar_and_refuses_anything_else(tmp_path):
-    from gmcpt.costs import read_costs
+    from gmcpt.sampling.costs import read_costs
     from gmcpt.errors import GmcptError
 
     model = fixed_costs()
@@ -52,7 +52,7 @@ def test_read_costs_takes_a_costs_file_or_a_sidecar_and_refuses_anything_else(tm
 @pytest.fixture
 def cache(mi, monkeypatch, tmp_path):
     """A cache folder of the test's own, and measurements counted instead of made: (folder, measurements)."""
-    from gmcpt import costs
+    from gmcpt.sampling import costs
 
     monkeypatch.setenv("GMCPT_CACHE", str(tmp_path / "cache"))
     measured = []
@@ -61,7 +61,7 @@ def cache(mi, monkeypatch, tmp_path):
 
 
 def test_the_machines_model_is_measured_once_and_stored(cache):
-    from gmcpt.costs import COSTS_FORMAT, machine, machine_costs, machine_costs_path
+    from gmcpt.sampling.costs import COSTS_FORMAT, machine, machine_costs, machine_costs_path
 
     folder, measured = cache
     said = []
@@ -75,7 +75,7 @@ def test_the_machines_model_is_measured_once_and_stored(cache):
 
 @pytest.mark.parametrize("text", ["{not json", '{"costs": {"path": 1}}', ""])
 def test_a_stored_model_that_cannot_be_read_is_measured_again_with_a_one_line_note(cache, capsys, text):
-    from gmcpt.costs import machine_costs, machine_costs_path
+    from gmcpt.sampling.costs import machine_costs, machine_costs_path
 
     _, measured = cache
     machine_costs_path().parent.mkdir(parents=True)
@@ -89,10 +89,10 @@ def test_a_stored_model_that_cannot_be_read_is_measured_again_with_a_one_line_no
 def test_a_frame_without_a_model_weighs_with_the_machines_and_its_choice_follows_it(cache):
     """No model given: the machine's stored one, recorded with the frame. Where every signal would choose sparse, a
     machine whose sparse way is cheap goes sparse, and one whose sparse way is dear goes dense."""
-    from gmcpt import budget
-    from gmcpt.costs import machine_costs_path
-    from gmcpt.scene import load_scene
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.sampling import budget
+    from gmcpt.sampling.costs import machine_costs_path
+    from gmcpt.render.scene import load_scene
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     with pytest.MonkeyPatch.context() as patch:
         for name in ("DENSE_ABOVE", "EDGES_ABOVE"):
@@ -109,7 +109,7 @@ def test_a_frame_without_a_model_weighs_with_the_machines_and_its_choice_follows
 
 
 def test_the_machines_model_is_measured_on_its_own_scene(mi):
-    from gmcpt.costs import measure_costs
+    from gmcpt.sampling.costs import measure_costs
 
     model = measure_costs(side=32)
     assert all(0 < value < 1e-3 for value in model.record().values())  # seconds a pixel
@@ -136,7 +136,7 @@ def _gmcpt(*args, cache):
 
 
 def _store_machine_costs(mi, monkeypatch, cache, model) -> None:
-    from gmcpt.costs import machine_costs_path
+    from gmcpt.sampling.costs import machine_costs_path
 
     monkeypatch.setenv("GMCPT_CACHE", str(cache))
     machine_costs_path().parent.mkdir(parents=True, exist_ok=True)

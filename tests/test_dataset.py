@@ -102,7 +102,7 @@ def test_build_resume_and_product_identical_inputs(mi, tmp_path):
     from gmcpt.dataset import DatasetSpec, SplitSpec, build, example_path, list_examples, load_example
     from gmcpt.dataset.build import is_complete
     from gmcpt.dataset.scenes import build_scene
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     spec = DatasetSpec(splits=(SplitSpec("train", 1, 16, 16),), pass_spp=8)
     summary = build(tmp_path, spec, workers=0, say=lambda m: None)
@@ -136,7 +136,7 @@ def test_build_resume_and_product_identical_inputs(mi, tmp_path):
 
 
 def test_cli_rejects_bad_arguments(tmp_path, capsys):
-    from gmcpt.dataset.cli import main
+    from gmcpt.cli.dataset import main
 
     assert main(["--out", str(tmp_path / "d"), "--rate", "0.6", "0.2"]) == 2
     assert "error:" in capsys.readouterr().err
@@ -148,7 +148,7 @@ def test_older_files_are_upgraded_to_the_features_of_a_fresh_build(mi, tmp_path,
 
     from gmcpt.dataset import DATASET_VERSION, DatasetSpec, SplitSpec, build, example_path, load_example
     from gmcpt.dataset.build import FEATURE_KEYS, save_example
-    from gmcpt.render import DEFAULT_FEATURE_SPP
+    from gmcpt.render.kernels import DEFAULT_FEATURE_SPP
 
     spec = DatasetSpec(splits=(SplitSpec("train", 1, 16, 16),), pass_spp=8)
     assert spec.feature_spp == DEFAULT_FEATURE_SPP and spec.version == DATASET_VERSION == 3
@@ -252,8 +252,8 @@ def test_real_build_is_a_crop_of_the_view_scaled_to_its_target(mi, tmp_path, rea
     import dataclasses
 
     from gmcpt.dataset.real import draw_view, real_scene_files
-    from gmcpt.render import render_features
-    from gmcpt.scene import load_scene
+    from gmcpt.render.kernels import render_features
+    from gmcpt.render.scene import load_scene
 
     files = real_scene_files(real_root)
     spec = DatasetSpec(splits=(SplitSpec("train", 2, 16, 16),), pass_spp=8, layout="real",
@@ -281,7 +281,7 @@ def test_real_build_is_a_crop_of_the_view_scaled_to_its_target(mi, tmp_path, rea
 
 
 def test_cli_real_bad_values_are_one_line(tmp_path, capsys, real_root):
-    from gmcpt.dataset.cli import main
+    from gmcpt.cli.dataset import main
 
     for argv, words in ((["--real", str(tmp_path / "none")], "real scene folder not found"),
                         (["--real", str(real_root), "--test", "2"], "--real builds train and val splits only")):

@@ -51,7 +51,7 @@ def test_a_frame_traced_everywhere_tells_oidn_its_guides_rays(monkeypatch, rays)
 
 
 def test_oidn_takes_guides_of_enough_rays_as_clean():
-    from gmcpt.denoise import CLEAN_GUIDE_RAYS, denoise_oidn
+    from gmcpt.image.denoise import CLEAN_GUIDE_RAYS, denoise_oidn
 
     frame, _ = _noisy_frame()
     noisy = np.where(frame.mask[..., None], frame.radiance, 0.2).astype(np.float32)
@@ -111,7 +111,7 @@ def test_oidn_loads_without_torch_and_torch_still_loads_after_it():
     import sys
 
     script = ("import sys, numpy as np\n"
-              "from gmcpt.denoise import denoise_oidn\n"
+              "from gmcpt.image.denoise import denoise_oidn\n"
               "image = np.random.default_rng(0).random((24, 24, 3), dtype=np.float32)\n"
               "first = denoise_oidn(image, image, image)\n"
               "print('torch' in sys.modules)\n"

@@ -1,4 +1,4 @@
-"""Where completion's torch stages run: gmcpt.device, and the generator on another device."""
+"""Where completion's torch stages run: gmcpt.runtime.device, and the generator on another device."""
 import numpy as np
 import pytest
 import torch
@@ -7,7 +7,7 @@ from conftest import run_cli, CORNELL
 
 
 def test_auto_is_cuda_exactly_where_torch_sees_a_gpu(monkeypatch):
-    from gmcpt.device import completion_device
+    from gmcpt.runtime.device import completion_device
 
     monkeypatch.delenv("GMCPT_DEVICE", raising=False)
     expected = "cuda" if torch.cuda.is_available() else "cpu"
@@ -19,7 +19,7 @@ def test_auto_is_cuda_exactly_where_torch_sees_a_gpu(monkeypatch):
 
 @pytest.mark.parametrize("wanted", ["tpu", "meta", "cuda:x"])
 def test_a_device_that_is_not_cpu_or_cuda_is_refused(wanted):
-    from gmcpt.device import completion_device
+    from gmcpt.runtime.device import completion_device
     from gmcpt.errors import BadValue
 
     with pytest.raises(BadValue, match="device"):
@@ -28,7 +28,7 @@ def test_a_device_that_is_not_cpu_or_cuda_is_refused(wanted):
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="a CUDA device is present")
 def test_cuda_without_a_gpu_is_an_error_not_a_silent_cpu_run():
-    from gmcpt.device import completion_device
+    from gmcpt.runtime.device import completion_device
     from gmcpt.errors import BadValue
 
     with pytest.raises(BadValue, match="no CUDA device"):
@@ -56,7 +56,7 @@ def test_cli_refuses_an_unknown_device_before_rendering(tmp_path, monkeypatch):
 
 
 def test_generator_precision_is_bfloat16_only_on_a_cpu_with_native_bfloat16(monkeypatch):
-    from gmcpt.device import generator_precision
+    from gmcpt.runtime.device import generator_precision
     from gmcpt.errors import BadValue
 
     monkeypatch.delenv("GMCPT_GENERATOR_PRECISION", raising=False)

@@ -72,13 +72,13 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
 
     from gmcpt.evaluation import measure
     from gmcpt.evaluation.scenes import CORNELL, ProceduralScene
-    from gmcpt.evaluation.cli import evaluate
+    from gmcpt.cli.eval import evaluate
     from gmcpt.evaluation.config import EvalConfig
     from gmcpt.evaluation.document import readme_section, results_markdown
 
     from gmcpt.gan import runtime
 
-    from gmcpt import costs
+    from gmcpt.sampling import costs
 
     generators = runtime.cache_dir()  # the generator's conversion stays the user's: a conversion is 10 s, not tested here
     stored = costs.machine_costs_path()  # and so does the machine's cost model: a measurement is 5-15 s
@@ -390,7 +390,7 @@ def test_an_interrupted_evaluation_resumes_after_its_last_finished_scene(tmp_pat
     from types import SimpleNamespace
 
     from gmcpt.evaluation import checkpoint, measure, plots
-    from gmcpt.evaluation.cli import evaluate
+    from gmcpt.cli.eval import evaluate
     from gmcpt.evaluation.config import CONFIGS
 
     measured = []

@@ -5,7 +5,7 @@ CORNELL = "scenes/cornell-box/scene.xml"
 
 
 def test_without_leaves_out_the_named_shapes(mi):
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
 
     full = load_scene(CORNELL, (16, 16))
     reduced = load_scene(CORNELL, (16, 16), without=("floor", "ceiling"))
@@ -17,7 +17,7 @@ def test_without_leaves_out_the_named_shapes(mi):
 
 def test_without_unknown_id_is_a_one_line_error(mi):
     from gmcpt.errors import GmcptError
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
 
     with pytest.raises(GmcptError, match="no top-level element with id nonexistent"):
         load_scene(CORNELL, (16, 16), without=("nonexistent",))

@@ -10,7 +10,7 @@ from gmcpt.gan.model import (Critic, CriticConfig, Generator, GeneratorConfig, M
 
 
 def test_generator_starts_from_the_smoothed_feature_guided_fill_and_is_small():
-    from gmcpt.fills import guided_fill
+    from gmcpt.image.fills import guided_fill
 
     generator = Generator()
     assert 0.3e6 < sum(p.numel() for p in generator.parameters()) < 1.0e6  # CPU-sized (docs/design.md section 3: well under 1.5 M)

@@ -46,7 +46,8 @@ def test_stored_configs_with_retired_options_still_read():
 
 
 def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
-    from gmcpt.gan import cli, names
+    from gmcpt.cli import train
+    from gmcpt.gan import names
     from gmcpt.gan.train import Trainer, load_config
 
     data = tmp_path / "data"
@@ -66,7 +67,7 @@ def test_training_checkpoints_resumes_and_exports(tmp_path, monkeypatch):
     again = Trainer(config, out, lambda m: None)
     assert again.load_checkpoint() and again.step == 2
     monkeypatch.setattr(names, "WEIGHTS_DIR", tmp_path / "shipped")
-    record = cli.export(again, "tiny", "python -m gmcpt train ...")
+    record = train.export(again, "tiny", "python -m gmcpt train ...")
     assert record["dataset"]["version"] == 1 and (tmp_path / "shipped" / "tiny.pt").is_file()
 
 
@@ -94,7 +95,7 @@ def test_coverage_feature_is_the_frames_buffer_or_the_0_1_rule(tmp_path):
     import dataclasses
 
     from gmcpt.dataset import list_examples
-    from gmcpt.domain import WorkingDomain
+    from gmcpt.image.domain import WorkingDomain
     from gmcpt.gan.data import PatchSampler
     from gmcpt.gan.inputs import frame_arrays
     from tests.conftest import synthetic_frame
@@ -146,7 +147,7 @@ def test_a_batch_holds_each_crop_in_the_networks_layout(tmp_path):
 
 
 def test_train_cli_reports_a_missing_dataset(tmp_path, capsys):
-    from gmcpt.gan.cli import main
+    from gmcpt.cli.train import main
 
     assert main(["--config", "cpu", "--dataset", str(tmp_path / "none"), "--out", str(tmp_path / "r")]) == 2
     assert "python -m gmcpt dataset" in capsys.readouterr().err
@@ -170,7 +171,8 @@ LONG = {"train.steps": 100000, "train.eval_every": 1000, "train.checkpoint_every
 
 
 def test_several_datasets_pool_with_weights_and_export_each(tmp_path, monkeypatch):
-    from gmcpt.gan import cli, names
+    from gmcpt.cli import train
+    from gmcpt.gan import names
     from gmcpt.gan.train import Trainer, load_config
 
     first, second = tmp_path / "procedural", tmp_path / "real"
@@ -186,7 +188,7 @@ def test_several_datasets_pool_with_weights_and_export_each(tmp_path, monkeypatc
     summary = weighted.run()
     assert summary["train_scenes"] == 5
     monkeypatch.setattr(names, "WEIGHTS_DIR", tmp_path / "shipped")
-    record = cli.export(weighted, "mix", "python -m gmcpt train ...")
+    record = train.export(weighted, "mix", "python -m gmcpt train ...")
     assert [d["path"] for d in record["dataset"]] == both and [d["train_scenes"] for d in record["dataset"]] == [2, 3]
     for bad in ([1], [1, -1], [0, 0]):
         with pytest.raises(ValueError, match="train.dataset_weights must be 2 non-negative numbers"):
@@ -194,7 +196,8 @@ def test_several_datasets_pool_with_weights_and_export_each(tmp_path, monkeypatc
 
 
 def test_init_starts_from_the_weights_and_refuses_another_architecture(tmp_path, monkeypatch):
-    from gmcpt.gan import cli, names, weights
+    from gmcpt.cli import train
+    from gmcpt.gan import names, weights
     from gmcpt.gan.train import Trainer, load_config
 
     data = tmp_path / "data"
@@ -202,7 +205,7 @@ def test_init_starts_from_the_weights_and_refuses_another_architecture(tmp_path,
     monkeypatch.setattr(names, "WEIGHTS_DIR", tmp_path / "shipped")
     source = Trainer(load_config("cpu", {**TINY, "train.dataset": str(data)}), tmp_path / "a", lambda m: None)
     source.run()
-    cli.export(source, "start", "python -m gmcpt train ...")
+    train.export(source, "start", "python -m gmcpt train ...")
     tuned = Trainer(load_config("cpu", {**TINY, "train.dataset": str(data), "train.seed": 5,
                                         "train.init": "start"}), tmp_path / "b", lambda m: None)
     start, _ = weights.load_generator("start")
@@ -217,7 +220,7 @@ def test_init_starts_from_the_weights_and_refuses_another_architecture(tmp_path,
 
 
 def test_train_cli_pools_datasets_and_reports_a_missing_one(tmp_path, capsys):
-    from gmcpt.gan.cli import main
+    from gmcpt.cli.train import main
 
     tiny_dataset(tmp_path / "one")
     argv = ["--config", "cpu", "--dataset", str(tmp_path / "one"), "--dataset", str(tmp_path / "two"),
@@ -250,7 +253,7 @@ def test_a_deadline_stops_after_the_last_step_that_fits_checkpoints_and_resumes(
 
 
 def test_train_cli_minutes_several_datasets_and_export_to_a_path(tmp_path, capsys):
-    from gmcpt.gan.cli import main
+    from gmcpt.cli.train import main
     from gmcpt.gan.weights import load_generator
 
     for name in ("a", "b"):
@@ -269,7 +272,7 @@ def test_train_cli_minutes_several_datasets_and_export_to_a_path(tmp_path, capsy
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="checks the message where torch sees no CUDA")
 def test_a_cuda_config_without_cuda_is_one_line(tmp_path, capsys):
-    from gmcpt.gan.cli import main
+    from gmcpt.cli.train import main
 
     tiny_dataset(tmp_path / "data")
     assert main(["--config", "gpu", "--dataset", str(tmp_path / "data"), "--out", str(tmp_path / "run"), "-q"]) == 2

@@ -1,5 +1,5 @@
-"""The path tracer that brings OIDN's guides from its own first hits (gmcpt.guided_path) and the dense frames that
-take their guides from it."""
+"""The path tracer that brings OIDN's guides from its own first hits (gmcpt.render.guided_path) and the dense frames
+that take their guides from it."""
 import numpy as np
 import pytest
 
@@ -8,8 +8,8 @@ from conftest import CORNELL, STILL_LIFE
 
 
 def _scene_and_twin(path, size=SIZE):
-    from gmcpt.guided_path import guided_twin
-    from gmcpt.scene import load_scene, path_integrator
+    from gmcpt.render.guided_path import guided_twin
+    from gmcpt.render.scene import load_scene, path_integrator
 
     scene = load_scene(path, resolution=size)
     integrator = path_integrator(scene)
@@ -19,41 +19,41 @@ def _scene_and_twin(path, size=SIZE):
 @pytest.mark.parametrize("frozen", [True, False])
 @pytest.mark.parametrize("path", [CORNELL, STILL_LIFE])
 def test_the_twin_renders_the_integrators_image_to_the_bit(mi, monkeypatch, path, frozen):
-    from gmcpt import render
+    from gmcpt.render import kernels
 
     if not frozen:  # through mi.render and its film instead of the pixel-list kernel
-        monkeypatch.setattr(render, "FROZEN_FRAME_SAMPLES", 0)
+        monkeypatch.setattr(kernels, "FROZEN_FRAME_SAMPLES", 0)
     scene, integrator, twin = _scene_and_twin(path)
     sensor = scene.sensors()[0]
     for spp, seed in ((1, 0), (3, 11)):
-        image = render.render_native(scene, sensor, integrator, spp, seed)
-        same, guides = render.render_native_guided(scene, sensor, twin, spp, seed)
+        image = kernels.render_native(scene, sensor, integrator, spp, seed)
+        same, guides = kernels.render_native_guided(scene, sensor, twin, spp, seed)
         if frozen:  # the same samples, summed alike
             np.testing.assert_array_equal(same, image)
         else:  # the film develops more channels: the last bit of a pixel may differ
             np.testing.assert_allclose(same, image, rtol=1e-6, atol=1e-12)
         assert guides.spp == spp and guides.visibility is None
-    assert not np.array_equal(render.render_native(scene, sensor, integrator, 1, 1), image[:, :3])
+    assert not np.array_equal(kernels.render_native(scene, sensor, integrator, 1, 1), image[:, :3])
 
 
 def test_the_twins_guides_are_the_feature_pass_buffers(mi):
-    from gmcpt import render
+    from gmcpt.render import kernels
 
     scene, _, twin = _scene_and_twin(STILL_LIFE, (64, 64))
     sensor = scene.sensors()[0]
-    _, guides = render.render_native_guided(scene, sensor, twin, 64, 3)
-    passed = render.feature_means(scene, sensor, 64, 5, visibility=False)
+    _, guides = kernels.render_native_guided(scene, sensor, twin, 64, 3)
+    passed = kernels.feature_means(scene, sensor, 64, 5, visibility=False)
     mine, theirs = guides.buffers(), passed.buffers()
     for name in ("albedo", "normal", "depth", "coverage"):  # other rays, the same quantities: means of 64 agree
         assert np.abs(mine[name] - theirs[name]).mean() < 0.01, name
     # one ray a pixel: the first hit's own values (a pixel inside a flat wall reads the wall's albedo exactly)
-    _, one = render.render_native_guided(scene, sensor, twin, 1, 3)
+    _, one = kernels.render_native_guided(scene, sensor, twin, 1, 3)
     albedo = one.buffers()["albedo"]
     assert np.isin(albedo[30:34, 30:34], albedo).all() and albedo.max() <= 1.0
 
 
 def test_only_a_plain_path_tracer_that_shows_its_emitters_has_a_twin(mi):
-    from gmcpt.guided_path import guided_twin
+    from gmcpt.render.guided_path import guided_twin
 
     twin = guided_twin(mi.load_dict({"type": "path", "max_depth": 7, "rr_depth": 3}))
     assert (twin.max_depth, twin.rr_depth) == (7, 3)
@@ -65,13 +65,14 @@ def test_only_a_plain_path_tracer_that_shows_its_emitters_has_a_twin(mi):
 def test_a_dense_frame_takes_its_guides_from_its_render(mi, monkeypatch):
     """Budget 16 is dense without a choice: its render's 16 first hits are the guides, and no guide pass runs; the
     image is the one the frame makes with a guide pass."""
-    from gmcpt import budget, dense, render, sampling
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget, dense, strategies
+    from gmcpt.render import kernels
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", np.inf)  # even: a first launch of 10 spp, then one of 6
     passes = []
-    means = render.feature_means
-    monkeypatch.setattr(sampling, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
+    means = kernels.feature_means
+    monkeypatch.setattr(strategies, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
     frame = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
     assert frame.info["guides"] == "render" and frame.info["guide_spp"] == 16 and passes == []
     monkeypatch.setattr(dense, "twin_of", lambda scene, integrator: None)
@@ -83,13 +84,14 @@ def test_a_dense_frame_takes_its_guides_from_its_render(mi, monkeypatch):
 
 def test_an_adaptive_dense_frame_tops_its_first_launchs_guides_up(mi, monkeypatch):
     """Where the rest of a dense frame goes where the error is, only its first launch brings guide rays."""
-    from gmcpt import budget, render, sampling
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget, strategies
+    from gmcpt.render import kernels
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", 0.0)  # any concentration pays
     passes = []
-    means = render.feature_means
-    monkeypatch.setattr(sampling, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
+    means = kernels.feature_means
+    monkeypatch.setattr(strategies, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
     frame = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
     assert frame.info["dense_placement"] == "adaptive" and frame.info["guides"] == "render"
     assert passes == [6] and frame.info["guide_spp"] == 16  # 10 from the first launch
@@ -97,12 +99,13 @@ def test_an_adaptive_dense_frame_tops_its_first_launchs_guides_up(mi, monkeypatc
 
 def test_guides_from_the_render_are_topped_up_to_the_rays_the_budget_asks(mi, monkeypatch):
     """Budget 1 wants 4 rays: the render brings one, a pass the other three, from a scene's first frame on."""
-    from gmcpt import render, sampling
-    from gmcpt.scene import load_scene
+    from gmcpt.render import kernels
+    from gmcpt.sampling import strategies
+    from gmcpt.render.scene import load_scene
 
     passes = []
-    means = render.feature_means
-    monkeypatch.setattr(sampling, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
+    means = kernels.feature_means
+    monkeypatch.setattr(strategies, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
     scene = load_scene(CORNELL, resolution=SIZE)
     first, second = render_budget(scene, 1), render_budget(scene, 1)
     assert passes == [3, 3]

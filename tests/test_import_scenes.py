@@ -144,7 +144,7 @@ def test_each_translation_is_applied_and_has_a_readme_line(source, tmp_path):
 
 
 def test_the_imported_scene_loads_and_renders(source, tmp_path, mi):
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
 
     folder = _module().import_scene(source, tmp_path / "out", "box", variants=True)
     for name in ("scene.xml", "rand_scene0.xml"):
@@ -207,7 +207,7 @@ EXTRAS_06 = """
 
 
 def test_training_scene_rules_and_dropped_missing_shapes(source, tmp_path, mi):
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
 
     scene = source / "scenes" / "box" / "scene.xml"
     scene.write_text(scene.read_text().replace("</scene>", EXTRAS_06))

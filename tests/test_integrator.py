@@ -8,7 +8,7 @@ from gmcpt.errors import GmcptError
 
 @pytest.mark.parametrize("scene_file", [CORNELL, STILL_LIFE], ids=["cornell-box", "still-life"])
 def test_bundled_scene_renders_through_mi_render(mi, scene_file):
-    from gmcpt.exr import channel_names, unpack
+    from gmcpt.io.exr import channel_names, unpack
     from mitsuba_plugins import MaskedPathIntegrator
 
     # 64 px, not fewer: at 40 px the Cornell box's light and walls are a few pixels each and the
@@ -65,8 +65,8 @@ def test_default_nested_integrator_takes_depth_settings(mi):
 
 def test_feature_pass_defaults_to_antialiased_features(mi):
     from gmcpt.evaluation.config import QUICK
-    from gmcpt.render import DEFAULT_FEATURE_SPP
-    from gmcpt.sampling import RenderSettings
+    from gmcpt.render.kernels import DEFAULT_FEATURE_SPP
+    from gmcpt.sampling.strategies import RenderSettings
 
     assert DEFAULT_FEATURE_SPP > 1  # 1 spp aliases albedo at edges against the antialiased radiance
     integrator = mi.load_dict({"type": "masked_path"})
@@ -89,8 +89,8 @@ def test_weights_property_is_checked_at_load_and_reaches_the_gan(mi, tmp_path):
     import torch
     from gmcpt.gan.model import Generator
     from gmcpt.gan.weights import load_generator, save_weights
-    from gmcpt.exr import unpack
-    from gmcpt.scene import masked_integrator
+    from gmcpt.io.exr import unpack
+    from gmcpt.render.scene import masked_integrator
 
     torch.manual_seed(0)
     other = tmp_path / "untrained.pt"

@@ -6,7 +6,7 @@ import pytest
 
 from conftest import synthetic_frame
 from gmcpt.errors import GmcptError
-from gmcpt.exr import atomic_output, channel_names, check_writable, pack, read_exr, unpack, write_exr
+from gmcpt.io.exr import atomic_output, channel_names, check_writable, pack, read_exr, unpack, write_exr
 
 
 def test_pack_unpack_roundtrip():
@@ -79,7 +79,8 @@ def test_a_signal_just_after_a_temporary_is_made_leaves_none_behind(tmp_path, mo
     import signal
     import tempfile
 
-    from gmcpt import files, interrupts
+    from gmcpt.io import files
+    from gmcpt.runtime import interrupts
 
     made = tempfile.mkstemp
 

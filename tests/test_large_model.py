@@ -10,7 +10,7 @@ from conftest import CORNELL
 
 
 def test_the_denoiser_proxy_compares_the_large_models_move_with_a_doubling_of_samples():
-    from gmcpt.budget import denoiser_proxy
+    from gmcpt.sampling.budget import denoiser_proxy
 
     rng = np.random.default_rng(3)
     half = rng.uniform(0.2, 0.6, (16, 16, 3)).astype(np.float32)
@@ -23,7 +23,7 @@ def test_the_denoiser_proxy_compares_the_large_models_move_with_a_doubling_of_sa
 @pytest.mark.parametrize("proxy,extra,frame,pays", [(1.3, 0.1, 0.3, True), (1.0, 0.1, 0.3, False),
                                                     (1.3, 0.2, 0.3, False)])
 def test_the_large_model_pays_where_the_scene_reads_high_and_it_costs_under_half_the_frame(proxy, extra, frame, pays):
-    from gmcpt.budget import large_model_pays
+    from gmcpt.sampling.budget import large_model_pays
 
     assert large_model_pays(proxy, extra, frame) is pays
 
@@ -32,8 +32,8 @@ def test_the_large_model_pays_where_the_scene_reads_high_and_it_costs_under_half
 def test_a_dense_frame_reads_what_the_large_model_buys_and_takes_16_ray_guides_where_it_pays(mi, monkeypatch, above,
                                                                                             rays):
     """A frame's reading serves that frame alone: the first frame of a scene reads, and so does the next."""
-    from gmcpt import budget
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense without a probe
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)  # the time never stands in the way
@@ -49,8 +49,8 @@ def test_a_dense_frame_reads_what_the_large_model_buys_and_takes_16_ray_guides_w
 @pytest.mark.parametrize("samples", [3, 2])
 def test_a_dense_frame_that_reads_splits_its_launch(mi, monkeypatch, samples):
     from budget_helpers import record_launches
-    from gmcpt import budget
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)
@@ -66,8 +66,8 @@ def test_a_dense_frame_that_reads_splits_its_launch(mi, monkeypatch, samples):
 
 
 def test_a_frame_of_one_sample_a_pixel_or_with_a_first_pass_reads_no_denoiser(mi, monkeypatch):
-    from gmcpt import budget
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling import budget
+    from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)
@@ -78,8 +78,8 @@ def test_a_frame_of_one_sample_a_pixel_or_with_a_first_pass_reads_no_denoiser(mi
 
 def test_the_large_model_is_priced_with_its_guide_rays_and_the_reading_it_needs():
     from budget_helpers import fixed_costs
-    from gmcpt.budget import LARGE_MODEL_SHARE_BELOW, BudgetPlan
-    from gmcpt.large_model import large_model_rays
+    from gmcpt.sampling.budget import LARGE_MODEL_SHARE_BELOW, BudgetPlan
+    from gmcpt.sampling.large_model import large_model_rays
 
     plan = BudgetPlan(budget=4.0, pixels=64, samples=256, sparse_pixels=16)
     frame = lambda **costs: types.SimpleNamespace(info={}, costs=fixed_costs(**costs))  # noqa: E731

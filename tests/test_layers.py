@@ -1,5 +1,6 @@
-"""Layers that point one way: the import graph of gmcpt/ and mitsuba_plugins/ has no cycle, and
-inference (completion/, the GAN's inference modules) never reaches the dataset builder or the renderer.
+"""Layers that point one way: gmcpt/ is a stack of folders, one a stage, and a module imports only its own layer
+and the layers below it (:data:`LAYERS`, docs/design.md "Layers"); the import graph of gmcpt/ and mitsuba_plugins/
+has no cycle; the completion methods and the GAN never reach the dataset builder or the renderer.
 
 The graph is read from the source with ``ast``: every ``import`` and ``from ... import``,
 those inside functions included, and ``importlib.import_module`` (of a literal name, else of
@@ -103,20 +104,83 @@ def test_the_graph_sees_imports_inside_functions_and_parent_packages():
 def test_the_graph_follows_package_faces_and_importlib_tables():
     graph = import_graph()
     assert "gmcpt.dataset.build" in graph["gmcpt.dataset"]             # the face's own import
-    assert "gmcpt.render" in reached(graph, {"gmcpt.gan.data"})        # training data -> dataset -> renderer
-    assert "gmcpt.batch" in graph["gmcpt.cli"]                          # import_module(SUBCOMMANDS[...])
+    assert "gmcpt.render.kernels" in reached(graph, {"gmcpt.evaluation.scenes"})  # -> dataset face -> builder
+    assert "gmcpt.cli.batch" in graph["gmcpt.cli"]                       # import_module(SUBCOMMANDS[...])
     assert "gmcpt" not in graph["gmcpt.completion.learned"]             # its own package runs first
 
 
-INFERENCE = {"gmcpt.gan", "gmcpt.gan.infer", "gmcpt.gan.inputs", "gmcpt.gan.model", "gmcpt.gan.weights"}
-RENDERING = ("gmcpt.dataset", "gmcpt.render", "gmcpt.scene")
+#: The layers, lowest first: a folder (a stage) stands for its modules, a top-level module for itself. A module
+#: imports modules of its own layer and of the layers below, never of a layer above.
+LAYERS = (
+    ("gmcpt.errors", "gmcpt.limits", "gmcpt.seeds", "gmcpt.frame"),  # the faces every stage uses
+    ("gmcpt.runtime",),           # the process: LLVM, variant, plugins, signals, threads, device, progress, Ray
+    ("gmcpt.image",),             # one image alone: working domain, fills, OIDN, metrics
+    ("gmcpt.io",),                # files: safe writes, EXR, outputs, film, video, training examples
+    ("gmcpt.lowrank", "gmcpt.gan"),  # the completion's two engines: PAWNNM and the generator
+    ("gmcpt.completion",),        # the methods, by name
+    ("gmcpt.render",),            # scenes and kernels
+    ("gmcpt.sampling",),          # where the samples go: strategies, budget, costs, masks, dense, adaptive
+    ("gmcpt.temporal",),          # sequences
+    ("gmcpt.pipeline",),          # one frame end to end
+    ("gmcpt.dataset",),           # the GAN's training data
+    ("gmcpt.evaluation",),        # measuring the methods
+    ("gmcpt.regress",),           # golden-image suites
+    ("gmcpt.cli",),               # every entry point
+    ("gmcpt", "gmcpt.__main__"),  # the package's face: what ``import gmcpt`` sets up
+    ("mitsuba_plugins",),         # the masked_path integrator, over the whole library
+)
+#: The most modules the top of gmcpt/ holds: the package's faces; every other module lives in a stage folder.
+MOST_TOP_MODULES = 8
 
 
-def test_inference_never_reaches_the_dataset_or_the_renderer():
+def layer_of(module: str) -> int | None:
+    """Index in :data:`LAYERS` of ``module`` (the longest entry that names it or a package holding it)."""
+    best, depth = None, -1
+    for index, entries in enumerate(LAYERS):
+        for entry in entries:
+            names = module == entry or (entry != "gmcpt" and module.startswith(entry + "."))
+            if names and entry.count(".") > depth:
+                best, depth = index, entry.count(".")
+    return best
+
+
+def test_every_module_has_a_layer():
+    assert not sorted(module for module in import_graph() if layer_of(module) is None)
+    assert layer_of("gmcpt.cli.render") > layer_of("gmcpt.render.kernels") > layer_of("gmcpt.completion.learned")
+    assert layer_of("gmcpt") > layer_of("gmcpt.cli") and layer_of("gmcpt.errors") == 0
+
+
+def test_imports_run_one_way_between_layers():
+    """No module imports a module of a higher layer, inside a function or not."""
+    wrong = sorted(f"{module} ({LAYERS[layer_of(module)][0]}) -> {target} ({LAYERS[layer_of(target)][0]})"
+                   for module, targets in import_graph().items() for target in targets
+                   if layer_of(target) > layer_of(module))
+    assert not wrong, "\n".join(wrong)
+
+
+def test_the_top_of_the_package_holds_only_its_faces():
+    """At most :data:`MOST_TOP_MODULES` modules sit at the top of gmcpt/, each in :data:`LAYERS` by name; every
+    folder of gmcpt/ with modules is a package named there (a new stage needs its place in the order)."""
+    top = sorted(path.stem for path in (ROOT / "gmcpt").glob("*.py"))
+    assert len(top) <= MOST_TOP_MODULES, top
+    named = {entry for entries in LAYERS for entry in entries}
+    assert not [name for name in top if name != "__init__" and f"gmcpt.{name}" not in named]
+    folders = sorted(path.parent.name for path in (ROOT / "gmcpt").glob("*/*.py"))
+    assert not [folder for folder in folders if f"gmcpt.{folder}" not in named]
+    assert all((ROOT / "gmcpt" / folder / "__init__.py").is_file() for folder in folders)
+
+
+ENGINES = ("gmcpt.completion", "gmcpt.gan", "gmcpt.lowrank")
+RENDERING = ("gmcpt.dataset", "gmcpt.render")
+
+
+def test_completion_never_reaches_the_dataset_or_the_renderer():
+    """The completion methods and their engines (the GAN's training included: it reads the examples' files,
+    :mod:`gmcpt.io.examples`, not the builder) run without the renderer or the dataset builder."""
     graph = import_graph()
-    start = INFERENCE | {module for module in graph if module.startswith("gmcpt.completion")}
+    start = {module for module in graph if module.startswith(ENGINES)}
     wrong = sorted(module for module in reached(graph, start)
-                   if module in RENDERING or module.startswith(RENDERING[0] + "."))
+                   if module in RENDERING or module.startswith(tuple(folder + "." for folder in RENDERING)))
     assert not wrong
 
 

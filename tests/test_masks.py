@@ -3,9 +3,9 @@ import pytest
 from scipy import ndimage
 
 from gmcpt.errors import GmcptError
-from gmcpt.masks import (FEATURE_PATTERNS, PATTERNS, _kth_smallest, make_mask, mask_rng, sample_by_density,
+from gmcpt.sampling.masks import (FEATURE_PATTERNS, PATTERNS, _kth_smallest, make_mask, mask_rng, sample_by_density,
                          second_pass_mask)
-from gmcpt.placement import error_density, feature_density
+from gmcpt.sampling.placement import error_density, feature_density
 
 
 def edge_density(height, width):
@@ -162,7 +162,7 @@ def test_error_density_follows_radiance_structure_the_features_do_not_explain():
 
 def test_the_kept_threshold_map_cannot_be_written():
     """The threshold map of a placement is kept for the next draw on it: a caller cannot change it."""
-    from gmcpt.masks import _thresholds
+    from gmcpt.sampling.masks import _thresholds
 
     thresholds = _thresholds(200, 300, mask_rng(4))
     assert thresholds.shape == (200, 300) and not thresholds.flags.writeable

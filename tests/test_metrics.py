@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from gmcpt import metrics
+from gmcpt.image import metrics
 
 
 @pytest.fixture
@@ -64,7 +64,7 @@ def test_flip_grows_with_the_error(image):
 
 
 def test_block_psnr_averages_noise_out_and_keeps_a_shift():
-    from gmcpt.metrics import block_psnr, psnr
+    from gmcpt.image.metrics import block_psnr, psnr
 
     rng = np.random.default_rng(0)
     image = np.full((64, 48, 3), 0.3, np.float32)

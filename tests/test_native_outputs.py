@@ -14,7 +14,7 @@ def rendered(mi):
 
 
 def test_film_bitmap_written_by_mitsuba_has_named_layers(mi, rendered, tmp_path):
-    from gmcpt.exr import channel_names, named_channels, read_exr, unpack
+    from gmcpt.io.exr import channel_names, named_channels, read_exr, unpack
 
     scene, tensor = rendered
     film = scene.sensors()[0].film()
@@ -38,7 +38,7 @@ def test_film_bitmap_written_by_mitsuba_has_named_layers(mi, rendered, tmp_path)
 
 
 def test_returned_tensor_takes_the_integrator_aov_names(mi, rendered, tmp_path):
-    from gmcpt.exr import channel_names, read_exr
+    from gmcpt.io.exr import channel_names, read_exr
 
     scene, tensor = rendered
     names = ["R", "G", "B", *scene.integrator().aov_names()]
@@ -60,7 +60,7 @@ def test_film_holds_the_last_render_only(mi):
 
 
 def test_alpha_film_and_crop_window(mi):
-    from gmcpt.exr import channel_names
+    from gmcpt.io.exr import channel_names
 
     scene = mi.load_dict({
         "type": "scene",
@@ -84,7 +84,7 @@ def test_alpha_film_and_crop_window(mi):
 
 
 def test_fill_film_refuses_an_image_of_another_size(mi):
-    from gmcpt.film import fill_film
+    from gmcpt.io.film import fill_film
 
     film = mi.load_dict({"type": "hdrfilm", "width": 8, "height": 6})
     with pytest.raises(GmcptError, match="does not fit the film"):

@@ -1,7 +1,7 @@
-"""gmcpt.progress: a bar with rate and time left on a terminal, log lines elsewhere, nothing when quiet."""
+"""gmcpt.runtime.progress: a bar with rate and time left on a terminal, log lines elsewhere, nothing when quiet."""
 import io
 
-from gmcpt.progress import Progress, format_seconds, status_line
+from gmcpt.runtime.progress import Progress, format_seconds, status_line
 
 
 class Terminal(io.StringIO):

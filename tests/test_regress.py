@@ -194,7 +194,7 @@ def test_optional_scene_outside_the_folder_is_skipped_with_its_reason(suite, tmp
     ("unknown scene", "no scene nope"),
 ])
 def test_bad_input_exits_2_with_one_line(suite, tmp_path, capsys, damage, message):
-    from gmcpt.regress.cli import main
+    from gmcpt.cli.regress import main
 
     copy = tmp_path / "bad"
     shutil.copytree(suite, copy)
@@ -217,7 +217,7 @@ def test_bad_input_exits_2_with_one_line(suite, tmp_path, capsys, damage, messag
 
 
 def test_update_keeps_goldens_when_a_scene_is_broken(suite, tmp_path, capsys):
-    from gmcpt.regress.cli import main
+    from gmcpt.cli.regress import main
 
     copy = tmp_path / "broken"
     shutil.copytree(suite, copy)

@@ -50,8 +50,8 @@ def test_seed_outside_32_bits_is_refused(tmp_path, seed):
 
 
 def test_api_seed_is_checked_where_the_settings_are_made(mi):
-    from gmcpt.sampling import RenderSettings
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling.strategies import RenderSettings
+    from gmcpt.render.scene import load_scene
 
     message = _api_message(lambda: RenderSettings(seed=-5))
     assert message == "seed must be in [0, 4294967295] (the samplers take 32-bit seeds), got -5"
@@ -60,14 +60,14 @@ def test_api_seed_is_checked_where_the_settings_are_made(mi):
 
 def test_multi_pass_render_and_largest_seed_do_not_overflow(mi, monkeypatch):
     """More lanes than one launch takes: per-pass seeds stay 32-bit for every seed; one pass keeps the seed."""
-    from gmcpt import render
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
-    from gmcpt.scene import load_scene
+    from gmcpt.render import kernels
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
+    from gmcpt.render.scene import load_scene
 
-    assert render.pass_seed(123, 0, 1) == 123
-    assert all(0 <= render.pass_seed(2**32 - 1, index, 7) < 2**32 for index in range(7))
-    assert len({render.pass_seed(9, index, 4) for index in range(4)}) == 4
-    monkeypatch.setattr(render, "MAX_LANES", 64)  # 16x16 at rate 0.5 and 4 spp: 512 lanes, 8 passes
+    assert kernels.pass_seed(123, 0, 1) == 123
+    assert all(0 <= kernels.pass_seed(2**32 - 1, index, 7) < 2**32 for index in range(7))
+    assert len({kernels.pass_seed(9, index, 4) for index in range(4)}) == 4
+    monkeypatch.setattr(kernels, "MAX_LANES", 64)  # 16x16 at rate 0.5 and 4 spp: 512 lanes, 8 passes
     scene = load_scene(CORNELL, (16, 16))
     frame, _ = render_sparse_frame(scene, mi.load_dict({"type": "path"}),
                                    settings=RenderSettings(rate=0.5, spp=4, seed=2**32 - 1))
@@ -82,8 +82,8 @@ def test_absurd_sample_counts_are_refused_at_once(tmp_path, option, limit):
 
 
 def test_api_sample_counts(mi):
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
+    from gmcpt.render.scene import load_scene
 
     assert _api_message(lambda: RenderSettings(spp=10**9)).startswith("spp must be at most 65536 (")
     assert _api_message(lambda: RenderSettings(feature_spp=10**9)).startswith("feature_spp must be at most 1024 (")
@@ -102,8 +102,8 @@ def test_resolution_beyond_memory_is_refused_with_what_it_needs(tmp_path, argume
 
 
 def test_api_resolution(mi):
-    from gmcpt.sampling import render_sparse_frame
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling.strategies import render_sparse_frame
+    from gmcpt.render.scene import load_scene
 
     scene = load_scene(CORNELL, (100000, 100000))
     message = _api_message(lambda: render_sparse_frame(scene, mi.load_dict({"type": "path"})))
@@ -119,8 +119,8 @@ def test_scene_without_sensor(tmp_path, resolution):
 
 
 def test_api_scene_without_sensor(mi, tmp_path):
-    from gmcpt.sampling import render_sparse_frame
-    from gmcpt.scene import load_scene
+    from gmcpt.sampling.strategies import render_sparse_frame
+    from gmcpt.render.scene import load_scene
 
     (tmp_path / "nosensor.xml").write_text(NO_SENSOR)
     assert "has no <sensor>" in _api_message(lambda: load_scene(tmp_path / "nosensor.xml"))
@@ -132,8 +132,8 @@ def test_api_scene_without_sensor(mi, tmp_path):
 @pytest.mark.parametrize("film", ['<film type="hdrfilm"><integer name="width" value="40"/></film>', ""],
                          ids=["film", "default film"])
 def test_sensor_in_an_included_file_is_found(mi, tmp_path, film):
-    from gmcpt.exr import read_rgb_exr
-    from gmcpt.scene import load_scene
+    from gmcpt.io.exr import read_rgb_exr
+    from gmcpt.render.scene import load_scene
 
     (tmp_path / "parts").mkdir()
     (tmp_path / "parts" / "camera.xml").write_text(SENSOR.format(film=film))
@@ -159,8 +159,8 @@ def test_malformed_weights_record(tmp_path, record, problem):
 
 # 7. a reference with NaN/Inf, and JSON that is always valid
 def test_reference_with_nan_or_inf_is_refused(tmp_path):
-    from gmcpt.exr import write_exr
-    from gmcpt.metrics import all_metrics
+    from gmcpt.io.exr import write_exr
+    from gmcpt.image.metrics import all_metrics
 
     image = np.ones((16, 16), np.float32)
     bad = image.copy()
@@ -188,11 +188,11 @@ def test_json_record_is_strict_json_when_a_metric_is_infinite(tmp_path):
 
 # 8. an output that is an input
 def _collision_cases(tmp_path):
-    from gmcpt.exr import write_exr
+    from gmcpt.io.exr import write_exr
 
     reference = tmp_path / "ref.exr"
     write_exr(reference, {c: np.ones((16, 16), np.float32) for c in "RGB"})
-    named_json = tmp_path / "render.json"  # a scene whose name is the output's JSON sidecar
+    named_json = tmp_path / "kernels.json"  # a scene whose name is the output's JSON sidecar
     shutil.copy(CORNELL, named_json)
     still_life = tmp_path / "still-life"
     shutil.copytree(STILL_LIFE.parent, still_life)
@@ -200,7 +200,7 @@ def _collision_cases(tmp_path):
     shutil.copy(ROOT / "gmcpt" / "gan" / "weights" / "gan-cpu.pt", weights)
     shutil.copy(ROOT / "gmcpt" / "gan" / "weights" / "gan-cpu.json", tmp_path / "w.json")
     return {"reference": ([CORNELL, "--reference", reference], reference, "the reference"),
-            "scene": ([named_json], tmp_path / "render.exr", "the scene file"),
+            "scene": ([named_json], tmp_path / "kernels.exr", "the scene file"),
             "texture": ([still_life / "scene.xml"], still_life / "wood.exr", "the scene file"),
             "weights record": ([CORNELL, "--method", "gan", "--weights", weights], tmp_path / "w.exr",
                                "the weights record")}
@@ -215,7 +215,7 @@ def test_output_that_would_overwrite_an_input_is_refused(tmp_path, case):
 
 # 13. nothing on stderr beside the error
 def test_bad_scene_parameter_is_one_line_without_the_plugin_traceback(mi, tmp_path):
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
 
     line = _refuses(tmp_path, [CORNELL, *TINY, "-D", "rate=2"], "rate must be in (0, 1], got 2.0")
     assert line == _api_message(lambda: load_scene(CORNELL, (16, 16), {"rate": "2"}))
@@ -223,7 +223,7 @@ def test_bad_scene_parameter_is_one_line_without_the_plugin_traceback(mi, tmp_pa
 
 
 def test_truncated_reference_is_one_line(tmp_path, capfd):
-    from gmcpt.exr import read_exr, write_exr
+    from gmcpt.io.exr import read_exr, write_exr
 
     whole = tmp_path / "whole.exr"
     write_exr(whole, {c: np.random.default_rng(0).random((16, 16), np.float32) for c in "RGB"})
@@ -252,8 +252,8 @@ def test_weights_that_torch_warns_about_are_one_line(tmp_path):
 
 def test_api_functions_raise_gmcpt_error_where_they_raised_value_error():
     from gmcpt.evaluation.scenes import by_name
-    from gmcpt.exr import unpack
-    from gmcpt.metrics import mse
+    from gmcpt.io.exr import unpack
+    from gmcpt.image.metrics import mse
 
     for call in (lambda: unpack(np.zeros((4, 4, 3))), lambda: mse(np.zeros((4, 4, 3)), np.zeros((4, 5, 3))),
                  lambda: by_name(["kitchen"])):

@@ -43,7 +43,7 @@ def test_a_crop_that_fits_is_drawn(tmp_path):
 # dataset --res: one number, or W H as every other --res
 @pytest.mark.parametrize("res", [["32"], ["32", "32"]], ids=["N", "W H"])
 def test_dataset_res_takes_one_number_or_w_h(res):
-    from gmcpt.dataset.cli import build_parser, spec_from_args
+    from gmcpt.cli.dataset import build_parser, spec_from_args
 
     spec = spec_from_args(build_parser().parse_args(["--out", "x", "--res", *res, "--test", "1"]))
     assert [(split.name, split.resolution) for split in spec.splits] == [("val", 32), ("train", 32), ("test", 256)]
@@ -64,7 +64,7 @@ def test_tile_help_says_its_minimum(command, capsys):
 
     from gmcpt.completion.tiles import MIN_TILE, check_tile
 
-    module = importlib.import_module({"render": "gmcpt.render_cli", "batch": "gmcpt.batch"}[command])
+    module = importlib.import_module({"render": "gmcpt.cli.render", "batch": "gmcpt.cli.batch"}[command])
     assert f"N >= {MIN_TILE}; 0: whole" in " ".join(module.build_parser().format_help().split())
     with pytest.raises(GmcptError, match=f"at least {MIN_TILE} pixels, got {MIN_TILE - 1}"):
         check_tile(MIN_TILE - 1)

@@ -47,7 +47,7 @@ def _json_fails_as_on_a_full_disk(self, text, *args, **kwargs):
 @pytest.mark.parametrize("failing", ["exr", "json"])
 @pytest.mark.parametrize("earlier", [True, False], ids=["over a previous run", "new"])
 def test_full_disk_is_one_line_and_leaves_the_outputs_as_they_were(mi, tmp_path, capfd, monkeypatch, failing, earlier):
-    from gmcpt import outputs
+    from gmcpt.io import outputs
 
     out = previous_outputs(tmp_path) if earlier else tmp_path / "out.exr"
     before = snapshot(tmp_path)
@@ -82,7 +82,7 @@ def _failing_rename(monkeypatch, target: Path):
 @pytest.mark.parametrize("failing", [".exr", ".png", ".json"])
 @pytest.mark.parametrize("earlier", [True, False], ids=["over a previous run", "new"])
 def test_failed_rename_leaves_no_mixed_set(tmp_path, monkeypatch, failing, earlier):
-    from gmcpt.outputs import write_outputs
+    from gmcpt.io.outputs import write_outputs
 
     out = previous_outputs(tmp_path) if earlier else tmp_path / "out.exr"
     before = snapshot(tmp_path)
@@ -106,7 +106,7 @@ def test_failed_rename_from_the_command_line(mi, tmp_path, capfd, monkeypatch):
 SLOW_WRITE = """
 import sys, time
 from pathlib import Path
-from gmcpt import outputs
+from gmcpt.io import outputs
 from gmcpt.cli import main
 
 write_png = outputs.write_png
@@ -153,7 +153,7 @@ def test_signal_while_writing_removes_the_temporaries(tmp_path, number, status, 
 AFTER_WRITE = """
 import sys, time
 from pathlib import Path
-from gmcpt import outputs
+from gmcpt.io import outputs
 from gmcpt.cli import main
 
 write_outputs = outputs.write_outputs

@@ -7,7 +7,7 @@ from conftest import CORNELL
 
 @pytest.fixture(scope="module")
 def cornell(mi):
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
     return load_scene(CORNELL, resolution=(48, 40))
 
 
@@ -17,7 +17,7 @@ def path_tracer(mi):
 
 
 def test_rate_one_equals_stock_path(mi, cornell, path_tracer):
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     frame, timings = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=1.0, spp=8, seed=7))
     stock = np.asarray(mi.render(cornell, integrator=path_tracer, spp=8, seed=7))[..., :3]
@@ -30,7 +30,7 @@ def test_rate_one_equals_stock_path(mi, cornell, path_tracer):
 def _plain_pixel_sums(mi, scene, path_tracer, pixels, spp, seed):
     """trace_pixels' sums from the plain (never frozen) function."""
     import drjit as dr
-    from gmcpt.render import _camera_key, _pixel_sums
+    from gmcpt.render.kernels import _camera_key, _pixel_sums
 
     sensor = scene.sensors()[0]
     sums = _pixel_sums(scene, sensor, path_tracer, mi.UInt32(pixels.astype(np.uint32)),
@@ -41,7 +41,7 @@ def _plain_pixel_sums(mi, scene, path_tracer, pixels, spp, seed):
 
 def test_replayed_trace_equals_a_fresh_trace_for_any_pixel_count_and_seed(mi, cornell, path_tracer):
     """trace_pixels replays a recorded kernel: other pixel counts and seeds must still be traced as asked."""
-    from gmcpt.render import trace_pixels
+    from gmcpt.render.kernels import trace_pixels
 
     sensor = cornell.sensors()[0]
     rng = np.random.default_rng(0)
@@ -58,7 +58,7 @@ def test_a_new_spp_reuses_the_compiled_kernels(mi, cornell, path_tracer):
     """A time budget's passes come in sizes the frame picks as it goes: a kernel compiled for each spp (about
     1 s on 2 cores) overran a 1.5-s budget by 70% in CI. Only the recording is new; the kernel is the same."""
     import drjit as dr
-    from gmcpt.render import feature_means, trace_pixels
+    from gmcpt.render.kernels import feature_means, trace_pixels
 
     sensor, pixels = cornell.sensors()[0], np.arange(0, 48 * 40, 3)
     trace_pixels(cornell, sensor, path_tracer, pixels, 2, 0)
@@ -81,10 +81,10 @@ def test_a_new_spp_reuses_the_compiled_kernels(mi, cornell, path_tracer):
 def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, path_tracer, monkeypatch):
     """A recording that Dr.Jit refuses (a virtual call it cannot follow) falls back to the plain
     function for that scene: same sums, and no second try at recording it."""
-    from gmcpt import render
-    from gmcpt.held import scene_state
+    from gmcpt.render import kernels
+    from gmcpt.render.held import scene_state
 
-    kernel = render.FrozenKernel(render._pixel_sums)
+    kernel = kernels.FrozenKernel(kernels._pixel_sums)
     refusals = []
 
     def refuse(*arguments):
@@ -93,10 +93,10 @@ def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, 
 
     recordings = scene_state(cornell).setdefault("recordings", {})
     recordings[kernel] = refuse
-    monkeypatch.setattr(render, "_frozen_pixel_sums", kernel)
+    monkeypatch.setattr(kernels, "_frozen_pixel_sums", kernel)
     pixels = np.arange(0, 48 * 40, 3)
     for _ in range(2):
-        total, squares, _ = render.trace_pixels(cornell, cornell.sensors()[0], path_tracer, pixels, 4, 2)
+        total, squares, _ = kernels.trace_pixels(cornell, cornell.sensors()[0], path_tracer, pixels, 4, 2)
         plain_total, plain_squares = _plain_pixel_sums(mi, cornell, path_tracer, pixels, 4, 2)
         np.testing.assert_array_equal(total, plain_total)
         np.testing.assert_array_equal(squares, plain_squares)
@@ -109,23 +109,23 @@ def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
     everything the process kept of it."""
     import gc
 
-    from gmcpt import held, render
-    from gmcpt.scene import load_scene
+    from gmcpt.render import held, kernels
+    from gmcpt.render.scene import load_scene
 
-    kernel = render.FrozenKernel(render._pixel_sums)
+    kernel = kernels.FrozenKernel(kernels._pixel_sums)
     pixels = np.arange(0, 24 * 20, 2)
     first = load_scene(CORNELL, resolution=(24, 20))
     path = first.integrator().integrator
     arguments = lambda scene, seed: (lambda: (  # noqa: E731
-        scene.sensors()[0], path, mi.UInt32(pixels.astype(np.uint32)), render.dr.arange(mi.UInt32, pixels.size * 4),
-        render.dr.opaque(mi.UInt32, seed), 4, render._camera_key(scene.sensors()[0]),
-        [render.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
+        scene.sensors()[0], path, mi.UInt32(pixels.astype(np.uint32)), kernels.dr.arange(mi.UInt32, pixels.size * 4),
+        kernels.dr.opaque(mi.UInt32, seed), 4, kernels._camera_key(scene.sensors()[0]),
+        [kernels.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
     kernel(first, arguments(first, 1))
     recording = held.scene_state(first)["recordings"][kernel]
     second = load_scene(CORNELL, resolution=(24, 20))
     sums = kernel(second, arguments(second, 2))
     assert held.scene_state(second)["recordings"][kernel] is not recording
-    plain = render._pixel_sums(second, *arguments(second, 2)())
+    plain = kernels._pixel_sums(second, *arguments(second, 2)())
     for column, expected in zip(sums, plain):
         np.testing.assert_array_equal(np.asarray(column), np.asarray(expected))
     first_id = id(first)
@@ -136,7 +136,7 @@ def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
 
 
 def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     frame, _ = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=0.3, spp=16, seed=3))
     reference = np.asarray(mi.render(cornell, integrator=path_tracer, spp=1024, seed=99))[..., :3]
@@ -152,7 +152,7 @@ def test_traced_mean_matches_high_spp_reference(mi, cornell, path_tracer):
 
 @pytest.mark.parametrize("pattern", ["adaptive", "two_pass"])
 def test_feature_placements_spend_the_exact_budget_and_repeat_per_seed(mi, cornell, path_tracer, pattern):
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     for rate in (0.2, 0.5, 1.0):
         settings = RenderSettings(rate=rate, pattern=pattern, spp=4, seed=5)
@@ -172,7 +172,7 @@ def test_feature_placements_spend_the_exact_budget_and_repeat_per_seed(mi, corne
 
 
 def test_feature_buffers(mi, cornell, path_tracer):
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     frame, _ = render_sparse_frame(cornell, path_tracer, settings=RenderSettings(rate=0.2, spp=1, seed=0))
     hits = frame.depth < 1
@@ -211,7 +211,7 @@ def _poisoned(mi):
 def test_nonfinite_samples_do_not_spread(mi, cornell):
     """A nested integrator that returns NaN/Inf for some rays: those samples are dropped."""
     from gmcpt.completion import complete
-    from gmcpt.sampling import RenderSettings, render_sparse_frame
+    from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     poisoned = _poisoned(mi)
     frame, _ = render_sparse_frame(cornell, poisoned, settings=RenderSettings(rate=0.5, spp=4, seed=1))
@@ -234,7 +234,7 @@ def _sphere_scene(mi, bsdf: dict):
 
 def test_albedo_is_diffuse_reflectance_only(mi):
     """A rough metal has no diffuse albedo (Mitsuba's default estimate gives it values far above 1)."""
-    from gmcpt.render import render_features
+    from gmcpt.render.kernels import render_features
 
     rough_metal = {"type": "roughconductor", "alpha": 0.05}
     metal = render_features(s := _sphere_scene(mi, rough_metal), s.sensors()[0], feature_spp=4)
@@ -247,7 +247,7 @@ def test_albedo_is_diffuse_reflectance_only(mi):
 
 
 def test_coverage_is_the_fraction_of_rays_on_the_diffuse_surface(mi):
-    from gmcpt.render import render_features
+    from gmcpt.render.kernels import render_features
 
     gray = {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.5}}
     features = render_features(s := _sphere_scene(mi, gray), s.sensors()[0], feature_spp=16)
@@ -271,7 +271,7 @@ def test_a_scene_with_an_exr_loads_with_one_drjit_thread(mi, tmp_path):
     scene = CORNELL.read_text().replace("</scene>", '<emitter type="envmap"><string name="filename" '
                                                      'value="sky.exr"/></emitter></scene>')
     (tmp_path / "scene.xml").write_text(scene)
-    code = ("import sys, gmcpt, drjit as dr; from gmcpt.scene import load_scene; dr.set_thread_count(1); "
+    code = ("import sys, gmcpt, drjit as dr; from gmcpt.render.scene import load_scene; dr.set_thread_count(1); "
             "load_scene(sys.argv[1], (8, 8)); print('threads', dr.thread_count())")
     result = subprocess.run([sys.executable, "-c", code, str(tmp_path / "scene.xml")], capture_output=True,
                             text=True, timeout=120, cwd=ROOT)
@@ -283,7 +283,7 @@ def test_a_scene_loads_its_emitters_in_the_same_order_every_time(mi, tmp_path):
     """Mitsuba's shape merging put the merged scene's area emitters in a new order on each load (4 orders in 8
     loads of this scene), and emitter sampling with them: the same seed gave another image in the next process.
     load_scene keeps the document's order."""
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
 
     (tmp_path / "quad.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n"
                                        "f 1//1 3//1 4//1\n")
@@ -307,7 +307,7 @@ def test_a_top_up_folds_into_a_native_mean_as_the_sums_would(mi, cornell, path_t
     """A dense frame's sums stay Mitsuba's float32 mean while only native passes and pixel-list top-ups come: the
     mean is each pixel's native samples and its top-up's together, the top-up's squares are dropped, and the
     float64 sums made afterwards (another kind of pass) agree with it."""
-    from gmcpt.render import SampleSums, render_native, trace_pixels
+    from gmcpt.render.kernels import SampleSums, render_native, trace_pixels
 
     sensor = cornell.sensors()[0]
     pixels = np.arange(0, 48 * 40, 3)
@@ -329,12 +329,12 @@ def test_a_top_up_folds_into_a_native_mean_as_the_sums_would(mi, cornell, path_t
 def test_every_pixel_through_the_frozen_kernel_is_mitsubas_render(mi, cornell, monkeypatch):
     """Below its size the frozen kernel stands in for mi.render: the same image for the same seed, and a pixel with
     a non-finite sample non-finite too, so that its samples count as dropped as they did."""
-    import gmcpt.render as render
+    from gmcpt.render import kernels
 
     poisoned, sensor = _poisoned(mi), cornell.sensors()[0]
-    frozen = render.render_native(cornell, sensor, poisoned, 2, 3)
-    monkeypatch.setattr(render, "FROZEN_FRAME_SAMPLES", 0)
-    native = render.render_native(cornell, sensor, poisoned, 2, 3)
+    frozen = kernels.render_native(cornell, sensor, poisoned, 2, 3)
+    monkeypatch.setattr(kernels, "FROZEN_FRAME_SAMPLES", 0)
+    native = kernels.render_native(cornell, sensor, poisoned, 2, 3)
     finite = np.isfinite(native).all(axis=1)
     assert 0 < finite.sum() < finite.size
     np.testing.assert_array_equal(np.isfinite(frozen).all(axis=1), finite)
@@ -348,8 +348,8 @@ def test_a_shape_moved_through_traverse_is_traced_where_it_is_now(mi):
     import drjit as dr
 
     from gmcpt.evaluation.scenes import evaluation_scenes
-    from gmcpt.render import render_native
-    from gmcpt.scene import path_integrator
+    from gmcpt.render.kernels import render_native
+    from gmcpt.render.scene import path_integrator
 
     found = [s for s in evaluation_scenes(None, 2) if s.name == "living-room" and s.available()]
     if not found:

@@ -33,7 +33,7 @@ def loop(mi):
 
 
 def test_the_frames_of_a_render_loop_equal_the_batch_sequence(mi, loop, tmp_path):
-    from gmcpt.exr import read_rgb_exr
+    from gmcpt.io.exr import read_rgb_exr
 
     scene, integrator, params = loop
     frames = []
@@ -81,7 +81,7 @@ def test_reset_another_size_or_another_scene_starts_a_new_sequence(mi, loop):
                                                  ({"history": 65}, "history must be"), ({"time": -1}, "time")])
 def test_a_history_the_plugin_cannot_make_is_one_line(mi, properties, message):
     from gmcpt.errors import GmcptError
-    from gmcpt.plugins import plugin_errors
+    from gmcpt.runtime.plugins import plugin_errors
 
     with pytest.raises(GmcptError, match=message) as caught, plugin_errors():
         mi.load_dict({"type": "masked_path", "history": 8, **properties})

@@ -1,4 +1,5 @@
-"""Sequences (gmcpt.sequence): reuse on a still camera, no smear after a cut or a changed light, resuming, seeds."""
+"""Sequences (gmcpt.temporal.sequence): reuse on a still camera, no smear after a cut or a changed light, resuming,
+seeds."""
 import numpy as np
 import pytest
 
@@ -8,12 +9,12 @@ SIZE = (48, 40)
 
 
 def _scene(path=CORNELL, frame=0):
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
     return load_scene(path, resolution=SIZE, parameters={"frame": str(frame)})
 
 
 def _renderer(**settings):
-    from gmcpt.sequence import SequenceRenderer, SequenceSettings
+    from gmcpt.temporal.sequence import SequenceRenderer, SequenceSettings
     return SequenceRenderer(SequenceSettings(**{"budget": 2, "seed": 5, **settings}))
 
 
@@ -29,7 +30,7 @@ def test_a_still_camera_reuses_the_earlier_frames_and_keeps_the_budget(mi):
 
 
 def test_same_seed_same_frames_and_a_resumed_sequence_gives_the_same_images(mi, tmp_path):
-    from gmcpt.sequence import SequenceRenderer, SequenceSettings
+    from gmcpt.temporal.sequence import SequenceRenderer, SequenceSettings
 
     frames = [_scene(frame=index) for index in range(3)]  # the cornell box turns a degree a frame
     straight = _renderer()
@@ -73,7 +74,7 @@ def test_a_changed_light_drops_the_history_that_disagrees(mi):
                                                ({"decay": 0.0}, "decay"), ({"budget": 0}, "budget")])
 def test_bad_settings_get_one_line(settings, message):
     from gmcpt.errors import GmcptError
-    from gmcpt.sequence import SequenceSettings
+    from gmcpt.temporal.sequence import SequenceSettings
 
     with pytest.raises(GmcptError, match=message):
         SequenceSettings(**settings)
@@ -89,9 +90,9 @@ def _move(mi, parameters, key, base, offset):
 
 
 def test_a_moving_shapes_old_shadow_is_gone_within_one_frame(mi):
-    from gmcpt.render import render_native
-    from gmcpt.scene import path_integrator
-    from gmcpt.sequence import survey
+    from gmcpt.render.kernels import render_native
+    from gmcpt.render.scene import path_integrator
+    from gmcpt.temporal.sequence import survey
 
     scene = _scene()
     sensor, integrator = scene.sensors()[0], path_integrator(scene)
@@ -132,8 +133,8 @@ def test_a_light_switched_off_or_on_drops_its_history(mi):
 
 
 def test_the_jit_gather_keeps_what_the_numpy_tests_keep(mi):
-    from gmcpt.reprojection import gather_history, jit_frame
-    from gmcpt.temporal import matches, surfaces, unchanged
+    from gmcpt.temporal.reprojection import gather_history, jit_frame
+    from gmcpt.temporal.history import matches, surfaces, unchanged
 
     renderer = _renderer()
     renderer.render(_scene(frame=0), 0)
@@ -157,7 +158,7 @@ def test_the_jit_gather_keeps_what_the_numpy_tests_keep(mi):
 
 
 def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():
-    from gmcpt.sequence import FramePace
+    from gmcpt.temporal.sequence import FramePace
 
     pace, clock = FramePace(), 0.0
     assert pace.budget(1.0, first=3.0) == 3.0  # nothing measured yet

@@ -14,7 +14,7 @@ NAMES = [f"cornell-box_frame-000{frame}" for frame in range(8)]
 
 
 def test_chunks_are_planned_with_their_warm_up_and_cross_fade():
-    from gmcpt.sequence_ray import Chunk, blend_frames, chunks, default_size, span, weight, workers
+    from gmcpt.cli.sequence_ray import Chunk, blend_frames, chunks, default_size, span, weight, workers
 
     assert chunks(list(range(8)), 3, 2, blend=1) == [Chunk([], [0, 1, 2], [2], []), Chunk([1, 2], [3, 4, 5], [5], [2]),
                                                      Chunk([4, 5], [6, 7], [], [5])]
@@ -35,7 +35,7 @@ def runs(tmp_path_factory):
     """The sequence in one process, and on a local Ray cluster in chunks of 3 whose first task to write a frame
     kills its own process once (Ray runs it again)."""
     pytest.importorskip("ray")
-    from gmcpt.batch import CRASH_ONCE
+    from gmcpt.cli.batch import CRASH_ONCE
 
     folder = tmp_path_factory.mktemp("sequence-ray")
     gmcpt("batch", CORNELL, *SEQUENCE, "--out", folder / "one")
@@ -45,15 +45,15 @@ def runs(tmp_path_factory):
 
 
 def _image(folder, name):
-    from gmcpt.exr import read_exr
+    from gmcpt.io.exr import read_exr
 
     layers = read_exr(folder / f"{name}.exr")
     return np.stack([layers[channel] for channel in "RGB"], axis=-1)
 
 
 def _reference(frame):
-    from gmcpt.render import render_native
-    from gmcpt.scene import load_scene, path_integrator
+    from gmcpt.render.kernels import render_native
+    from gmcpt.render.scene import load_scene, path_integrator
 
     scene = load_scene(str(CORNELL), (16, 16), {"frame": str(frame)})
     return render_native(scene, scene.sensors()[0], path_integrator(scene), 1024, 7_000_000 + frame,
@@ -61,7 +61,7 @@ def _reference(frame):
 
 
 def test_chunks_write_the_frames_of_one_process_within_a_tenth_of_a_db(runs):
-    from gmcpt.metrics import mse
+    from gmcpt.image.metrics import mse
 
     folder, summary = runs
     one, ray = folder / "one", folder / "ray"
@@ -96,8 +96,8 @@ def test_a_resumed_chunk_renders_from_its_warm_up_and_writes_only_what_is_missin
     import drjit as dr
     import torch
 
-    from gmcpt.batch import build_parser, plan
-    from gmcpt.sequence_ray import _tasks, finished, render_chunk
+    from gmcpt.cli.batch import build_parser, plan
+    from gmcpt.cli.sequence_ray import _tasks, finished, render_chunk
 
     folder, _ = runs
     copy = tmp_path / "ray"

@@ -2,7 +2,7 @@
 import numpy as np
 
 from gmcpt.evaluation.stability import FrameGeometry, screen_flicker, surface_flicker
-from gmcpt.metrics import tonemap
+from gmcpt.image.metrics import tonemap
 
 from camera_helpers import HEIGHT, WIDTH, camera, wall_frame
 

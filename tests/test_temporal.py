@@ -1,9 +1,10 @@
-"""Reprojection of past frames (gmcpt.temporal): a pinhole fit, exact reuse, and the tests that refuse history."""
+"""Reprojection of past frames (gmcpt.temporal.history): a pinhole fit, exact reuse, and the tests that refuse
+history."""
 import numpy as np
 import pytest
 
 from gmcpt.errors import GmcptError
-from gmcpt.temporal import PastFrame, agreement, cubic_sample, fit_projection, history_weights, reproject
+from gmcpt.temporal.history import PastFrame, agreement, cubic_sample, fit_projection, history_weights, reproject
 
 from camera_helpers import HEIGHT, WIDTH, camera, centres, wall_frame
 
@@ -102,14 +103,14 @@ def test_recent_frames_weigh_most():
 
 def _edge(width=6, height=4, at=3, low=0.0, high=1.0):
     """A signature with a step from ``low`` to ``high`` at column ``at`` (lighting), flat albedo."""
-    from gmcpt.temporal import signature
+    from gmcpt.temporal.history import signature
 
     lighting = np.where(np.arange(width * height) % width < at, low, high).astype(np.float32)
     return signature(lighting, np.full(width * height, 0.5, np.float32), width, height)
 
 
 def test_a_still_camera_keeps_a_static_edge_and_drops_one_that_moved():
-    from gmcpt.temporal import unchanged
+    from gmcpt.temporal.history import unchanged
 
     pixels = np.arange(24)
     centred = np.stack([pixels % 6 + 0.5, pixels // 6 + 0.5], axis=1).astype(np.float32)
@@ -121,7 +122,7 @@ def test_a_still_camera_keeps_a_static_edge_and_drops_one_that_moved():
 
 
 def test_half_a_pixel_off_the_past_centre_excuses_what_a_sub_pixel_shift_changes_across_an_edge():
-    from gmcpt.temporal import unchanged
+    from gmcpt.temporal.history import unchanged
 
     pixels = np.arange(24)
     half = np.stack([pixels % 6 + 1.0, pixels // 6 + 0.5], axis=1).astype(np.float32)  # half a pixel off
@@ -133,7 +134,7 @@ def test_half_a_pixel_off_the_past_centre_excuses_what_a_sub_pixel_shift_changes
 
 
 def test_a_switched_light_or_a_changed_material_is_no_longer_the_same():
-    from gmcpt.temporal import signature, unchanged
+    from gmcpt.temporal.history import signature, unchanged
 
     pixels = np.arange(24)
     centred = np.stack([pixels % 6 + 0.5, pixels // 6 + 0.5], axis=1).astype(np.float32)

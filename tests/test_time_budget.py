@@ -13,13 +13,13 @@ SIZE = (40, 32)
 
 @pytest.fixture(scope="module")
 def cornell(mi):
-    from gmcpt.scene import load_scene
+    from gmcpt.render.scene import load_scene
     return load_scene(CORNELL, resolution=SIZE)
 
 
 def _render(scene, seconds, costs=None):
     from gmcpt.pipeline import render_and_complete
-    from gmcpt.sampling import RenderSettings
+    from gmcpt.sampling.strategies import RenderSettings
 
     integrator = scene.integrator()
     return render_and_complete(scene, getattr(integrator, "integrator", integrator),
@@ -41,13 +41,13 @@ def test_more_seconds_buy_more_samples_every_pixel_alike(cornell):
 def test_a_time_budgets_passes_are_powers_of_two_that_add_up_to_its_samples(cornell, monkeypatch):
     """Each pass size is a recording of the frozen kernel: powers of two keep a scene to a few of them."""
     from budget_helpers import record_launches
-    from gmcpt import sampling
+    from gmcpt.sampling import strategies
 
     sizes = record_launches(monkeypatch)
     rendered = _render(cornell, 0.5)
     assert len(sizes) > 1 and all(size & (size - 1) == 0 for size in sizes)
     assert sum(sizes) == rendered.frame.info["budget"]
-    assert [sampling._pass_size(n) for n in (0, 1, 3, 39, 64)] == [0, 1, 2, 32, 64]
+    assert [strategies._pass_size(n) for n in (0, 1, 3, 39, 64)] == [0, 1, 2, 32, 64]
 
 
 @pytest.mark.parametrize("samples_left, expected", [(0.4, 0), (0.6, 1), (1.4, 1), (1.6, 2), (3.6, 4)])
@@ -55,19 +55,19 @@ def test_a_time_budgets_next_pass_is_the_nearest_whole_sample(monkeypatch, sampl
     """Rounded, not floored: a short budget ends within half a sample of its seconds instead of up to one short."""
     from types import SimpleNamespace
 
-    from gmcpt import sampling
+    from gmcpt.sampling import strategies
 
-    monkeypatch.setattr(sampling.time, "perf_counter", lambda: 10.0)
+    monkeypatch.setattr(strategies.time, "perf_counter", lambda: 10.0)
     trace = SimpleNamespace(sums=SimpleNamespace(size=100, samples=100), started=10.0, twin=None,
                             costs=fixed_costs(denoise=1e-15, denoise_large=1e-15))
-    assert sampling._next_pass(trace, samples_left * 0.05, 0.05) == (expected, pytest.approx(samples_left * 0.05))
+    assert strategies._next_pass(trace, samples_left * 0.05, 0.05) == (expected, pytest.approx(samples_left * 0.05))
 
 
 def test_a_time_budgets_guides_come_from_its_samples_first_hits(mi, cornell):
     """As many guide rays as path samples where the integrator has a twin, and no guide pass; a guide pass where
     it has none (``direct``)."""
     from gmcpt.pipeline import render_and_complete
-    from gmcpt.sampling import RenderSettings
+    from gmcpt.sampling.strategies import RenderSettings
 
     info = _render(cornell, 0.3).frame.info
     assert info["guides"] == "render" and info["guide_spp"] == info["budget"] >= 4
@@ -79,13 +79,13 @@ def test_a_time_budgets_guides_come_from_its_samples_first_hits(mi, cornell):
 
 def test_a_time_budget_traces_every_pass_size_through_one_compiled_kernel(mi, cornell, monkeypatch):
     """``mi.render`` compiles a kernel for each spp, inside the frame: a time budget never calls it, at any size."""
-    from gmcpt import render
+    from gmcpt.render import kernels
 
     calls, plain = [], mi.render
-    monkeypatch.setattr(render, "FROZEN_FRAME_SAMPLES", 0)
+    monkeypatch.setattr(kernels, "FROZEN_FRAME_SAMPLES", 0)
     monkeypatch.setattr(mi, "render", lambda *args, **kwargs: calls.append(kwargs["spp"]) or plain(*args, **kwargs))
     assert _render(cornell, 0.3).frame.info["budget"] > 1 and calls == []
-    render.render_native(cornell, cornell.sensors()[0], cornell.integrator().integrator, 2, 0)
+    kernels.render_native(cornell, cornell.sensors()[0], cornell.integrator().integrator, 2, 0)
     assert calls == [2]
 
 
@@ -104,7 +104,7 @@ def test_bad_times_get_one_line(tmp_path, value):
 
 def test_time_refuses_a_budget_or_an_spp_beside_it(mi, tmp_path):
     from gmcpt.errors import GmcptError
-    from gmcpt.sampling import RenderSettings
+    from gmcpt.sampling.strategies import RenderSettings
 
     with pytest.raises(GmcptError, match="not both"):
         RenderSettings(time=1.0, budget=4.8)

@@ -23,7 +23,7 @@ def _gmcpt(variant: str, *args):
 
 @pytest.fixture
 def without_cuda():
-    from gmcpt.variant import _cuda_available
+    from gmcpt.runtime.variant import _cuda_available
 
     if _cuda_available():
         pytest.skip("this machine has a CUDA GPU: cuda_ad_rgb runs here")
@@ -59,7 +59,7 @@ def test_an_empty_variant_is_as_if_unset(tmp_path):
 
 
 def test_library_callers_get_the_same_error(monkeypatch):
-    from gmcpt import variant
+    from gmcpt.runtime import variant
 
     monkeypatch.setattr(variant, "_cuda_available", lambda: False)
     with pytest.raises(GmcptError, match=f"^GMCPT_VARIANT=cuda_ad_rgb {NO_CUDA}$"):

@@ -1,5 +1,5 @@
-"""Movies (gmcpt.video, ``gmcpt batch --video``): an MP4 that decodes back to the frames, odd sizes, one-line refusals,
-and no file, half-written or clobbered, after a failure."""
+"""Movies (gmcpt.io.video, ``gmcpt batch --video``): an MP4 that decodes back to the frames, odd sizes, one-line
+refusals, and no file, half-written or clobbered, after a failure."""
 import av
 import numpy as np
 import pytest
@@ -56,8 +56,8 @@ def test_batch_bad_video_is_one_line_before_any_work(tmp_path, monkeypatch, caps
 
 
 def test_odd_sizes_are_padded_to_even_and_float_frames_are_tonemapped(tmp_path):
-    from gmcpt.exr import write_png
-    from gmcpt.video import write_video
+    from gmcpt.io.exr import write_png
+    from gmcpt.io.video import write_video
 
     linear = [np.full((15, 9, 3), value, np.float32) for value in (0.05, 0.2, 0.8)]
     movie = write_video(linear, tmp_path / "odd.mp4", fps=29.97)
@@ -81,7 +81,7 @@ def _untouched(tmp_path, target):
 
 def test_frames_of_different_sizes_leave_the_old_movie_as_it_was(tmp_path):
     from gmcpt.errors import GmcptError
-    from gmcpt.video import write_video
+    from gmcpt.io.video import write_video
 
     target = _old_movie(tmp_path)
     frames = [np.zeros((16, 16, 3), np.uint8), np.zeros((16, 16, 3), np.uint8), np.zeros((8, 16, 3), np.uint8)]
@@ -92,7 +92,7 @@ def test_frames_of_different_sizes_leave_the_old_movie_as_it_was(tmp_path):
 
 def test_a_failed_encode_leaves_no_file(tmp_path, monkeypatch):
     from gmcpt.errors import GmcptError
-    from gmcpt.video import write_video
+    from gmcpt.io.video import write_video
 
     target = _old_movie(tmp_path)
     calls = []
@@ -120,7 +120,7 @@ def test_a_failed_encode_leaves_no_file(tmp_path, monkeypatch):
                                              ([np.zeros((4, 4), np.uint8)], "(H, W, 3)")])
 def test_bad_frames_are_one_line_and_no_file(tmp_path, monkeypatch, frames, message):
     from gmcpt.errors import GmcptError
-    from gmcpt.video import write_video
+    from gmcpt.io.video import write_video
 
     monkeypatch.chdir(tmp_path)
     with pytest.raises(GmcptError, match=message.replace("(", r"\(").replace(")", r"\)")):

@@ -2,7 +2,7 @@ import threading
 
 import pytest
 
-from gmcpt.workers import THREADS_ENV, cpu_threads, map_threads
+from gmcpt.runtime.workers import THREADS_ENV, cpu_threads, map_threads
 
 
 def test_map_threads_keeps_the_order_and_runs_on_the_pool():
@@ -33,7 +33,7 @@ def test_map_threads_called_from_its_own_pool_runs_inline_and_does_not_wait_for_
 
 
 def test_one_setting_caps_the_fills_threads_and_the_generators(monkeypatch):
-    from gmcpt.device import generator_threads
+    from gmcpt.runtime.device import generator_threads
     from gmcpt.errors import GmcptError
 
     monkeypatch.delenv(THREADS_ENV, raising=False)

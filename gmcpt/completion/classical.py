@@ -1,16 +1,16 @@
 """Classical completion methods: ``none`` and ``interp``.
 
 ``interp`` is the strongest non-learned baseline we ship (docs/design.md section 5):
-the feature-guided fill of :mod:`gmcpt.fills` on demodulated, log-compressed
+the feature-guided fill of :mod:`gmcpt.image.fills` on demodulated, log-compressed
 radiance. Traced pixels keep their samples: this is a fill, not a denoiser.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..domain import WorkingDomain
-from ..fills import GuidedFillParams, interpolate
 from ..frame import SparseFrame
+from ..image.domain import WorkingDomain
+from ..image.fills import GuidedFillParams, interpolate
 from . import Completion, register_method
 
 

@@ -1,7 +1,7 @@
 """Completion, then a denoiser: ``gan_oidn`` (the default) and ``gan_pawnnm_oidn``.
 
 The fill of ``gan`` or ``gan_pawnnm`` stands at the untraced pixels, each traced pixel gets its own
-path-traced samples back, and Intel Open Image Denoise (:func:`gmcpt.denoise.denoise_oidn`, with
+path-traced samples back, and Intel Open Image Denoise (:func:`gmcpt.image.denoise.denoise_oidn`, with
 the feature pass's albedo and normal as guides) filters the whole frame. The completion methods'
 own denoising of the traced pixels is dropped on purpose: OIDN denoises Monte Carlo noise far
 better than it cleans up an image that is already smooth (OIDN over ``gan_pawnnm``'s own output
@@ -20,15 +20,15 @@ from typing import Callable
 
 import numpy as np
 
-from ..denoise import denoise_oidn
-from ..domain import WorkingDomain
 from ..frame import SparseFrame
+from ..image.denoise import denoise_oidn
+from ..image.domain import WorkingDomain
 from . import Completion, register_method
 from .learned import complete_gan_pawnnm, generator_fill
 
 
 def oidn_guide_rays(frame: SparseFrame) -> int:
-    """The rays a pixel OIDN is told the frame's guides are the mean of (:func:`gmcpt.denoise.denoise_oidn`): the
+    """The rays a pixel OIDN is told the frame's guides are the mean of (:func:`gmcpt.image.denoise.denoise_oidn`): the
     feature pass's where every pixel was traced; 0 over a fill, where clean guides lost (docs/experiments.md)."""
     return frame.info.get("feature_spp", 0) if frame.mask.all() else 0
 

@@ -13,7 +13,7 @@ default :data:`gmcpt.gan.weights.DEFAULT_WEIGHTS`).
 On a CPU the generator's network runs on OpenVINO (:mod:`gmcpt.gan.runtime`, converted once per weights
 file and kept on disk; no torch then) on the threads OpenVINO chooses, else in PyTorch band by band
 (:func:`gmcpt.gan.infer.generate`) on as many threads as torch is set to use; ``$GMCPT_TORCH_THREADS``
-overrides both. It runs in bfloat16 on a CPU that has it (:func:`gmcpt.device.generator_precision`).
+overrides both. It runs in bfloat16 on a CPU that has it (:func:`gmcpt.runtime.device.generator_precision`).
 """
 from __future__ import annotations
 
@@ -22,12 +22,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..device import completion_device, generator_precision, generator_threads
-from ..domain import WorkingDomain
 from ..frame import SparseFrame
-from ..lowrank.params import DEFAULT as LOW_RANK_DEFAULT
+from ..image.domain import WorkingDomain
 from ..lowrank.noise import blend_samples, working_variance
-from ..workers import threads_setting
+from ..lowrank.params import DEFAULT as LOW_RANK_DEFAULT
+from ..runtime.device import completion_device, generator_precision, generator_threads
+from ..runtime.workers import threads_setting
 from . import Completion, register_method
 
 #: The low-rank stage after the GAN pre-completion: one iteration with a lighter threshold, because a good

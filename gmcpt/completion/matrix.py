@@ -1,10 +1,10 @@
 """Matrix-completion methods: ``pawnnm``, its ``nnm`` ablation and the image-only ``liu`` baseline.
 
 Both pre-complete with the classical feature-guided fill (``interp``'s
-:func:`~gmcpt.fills.guided_fill`), then refine the whole frame
+:func:`~gmcpt.image.fills.guided_fill`), then refine the whole frame
 with weighted block matching + low-rank group recovery
 (:func:`gmcpt.lowrank.complete_low_rank`) in the working domain of
-:mod:`gmcpt.domain`. :func:`refine_low_rank` is the shared second stage, which
+:mod:`gmcpt.image.domain`. :func:`refine_low_rank` is the shared second stage, which
 the GAN methods reuse with their own pre-completion.
 """
 from __future__ import annotations
@@ -13,11 +13,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..domain import WorkingDomain
-from ..fills import guided_fill, push_pull
 from ..frame import SparseFrame
-from ..lowrank.params import DEFAULT, NNM_PRESET, LowRankParams
+from ..image.domain import WorkingDomain
+from ..image.fills import guided_fill, push_pull
 from ..lowrank.noise import working_variance
+from ..lowrank.params import DEFAULT, NNM_PRESET, LowRankParams
 from . import Completion, register_method
 
 #: Working domain of the low-rank stage. A larger albedo regulariser than the

@@ -11,7 +11,7 @@ Per scene seed (see :mod:`gmcpt.dataset.scenes`):
      ``pass_spp`` with seeds disjoint from the input's (``REFERENCE_SEED``);
    - the product's sparse frame at a rate drawn from ``rate_range`` (mask
      ``random``, 16 spp, seed = scene seed), via
-     :func:`gmcpt.sampling.render_sparse_frame`: ``radiance``, ``mask``,
+     :func:`gmcpt.sampling.strategies.render_sparse_frame`: ``radiance``, ``mask``,
      ``variance`` and the feature buffers (``feature_spp`` primary rays a pixel);
    - the same call at rate 1 (``full_radiance``, ``full_variance``): every
      pixel traced with the same per-pixel estimator, so training can draw
@@ -31,10 +31,10 @@ they depend on nothing but the scene and its seed, so a build over version-1
 files re-renders their features in place (:func:`upgrade_example`, about a
 second a scene) instead of the whole scene. Version 3 changed the features
 again (albedo only for BSDFs with a diffuse lobe, clipped to [0, 1], and the
-``coverage`` buffer: see :func:`gmcpt.render.render_features`); older files are
+``coverage`` buffer: see :func:`gmcpt.render.kernels.render_features`); older files are
 upgraded the same way.
 
-Files live in ``ROOT/<split>/<seed:07d>.npz`` with a ``meta`` JSON entry
+Files (:mod:`gmcpt.io.examples`) live in ``ROOT/<split>/<seed:07d>.npz`` with a ``meta`` JSON entry
 (dataset version, seed, split, exposure, rate, settings, render seconds);
 ``ROOT/manifest.json`` records the :class:`DatasetSpec`. Building skips files
 that already exist with the current version, so an interrupted build resumes
@@ -51,14 +51,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..files import atomic_output
 from ..frame import DEFAULT_FEATURE_SPP
+from ..io.examples import ARRAY_KEYS, example_path, load_example, save_example
 from ..seeds import DATASET_REFERENCE_SEED as REFERENCE_SEED, SEEDS_PER_SPLIT, SPLIT_SEED_BASE
 
 DATASET_VERSION = 3
 FEATURE_KEYS = ("albedo", "normal", "depth", "visibility", "coverage")
-ARRAY_KEYS = ("reference", "radiance", "mask", "variance", "albedo", "normal", "depth", "visibility",
-              "full_radiance", "full_variance", "coverage")
 #: Arrays of files older than version 3 (which added ``coverage``).
 VERSION_2_KEYS = ARRAY_KEYS[:-1]
 
@@ -111,10 +109,6 @@ def split_of(seed: int) -> str:
     raise ValueError(f"seed {seed} is in no split")
 
 
-def example_path(root: str | Path, split: str, seed: int) -> Path:
-    return Path(root) / split / f"{seed:07d}.npz"
-
-
 def pick_exposure(seed: int, resolution: int, spec: DatasetSpec) -> float:
     """The emitter scale of scene ``seed`` (step 1 of the module docstring); deterministic."""
     import mitsuba as mi
@@ -146,7 +140,7 @@ def render_reference(scene, spp: int, pass_spp: int, seed: int) -> np.ndarray:
 def render_frames(scene, seed: int, split: SplitSpec, spec: DatasetSpec):
     """``(reference, rate, frame, full)`` of a loaded scene: the reference, the product's sparse frame at a
     seeded rate and the same call at rate 1 (see the module docstring)."""
-    from ..sampling import RenderSettings, render_sparse_frame
+    from ..sampling.strategies import RenderSettings, render_sparse_frame
 
     reference = render_reference(scene, split.reference_spp, spec.pass_spp, seed)
     rate = float(np.random.default_rng([seed, 0x4A7E]).uniform(*spec.rate_range))
@@ -177,7 +171,7 @@ def example_meta(seed: int, split: SplitSpec, spec: DatasetSpec, rate: float, fu
 def _render_real_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
     """One example of the ``real`` layout: a view (:func:`gmcpt.dataset.real.draw_view`) of one of the scene files,
     its light scaled to a drawn level."""
-    from ..scene import load_scene
+    from ..render.scene import load_scene
     from .real import draw_view
 
     start = time.perf_counter()
@@ -203,21 +197,6 @@ def render_example(seed: int, split: SplitSpec, spec: DatasetSpec) -> dict:
     reference, rate, frame, full = render_frames(scene, seed, split, spec)
     return {"arrays": example_arrays(reference, frame, full),
             "meta": example_meta(seed, split, spec, rate, full, start, exposure=exposure)}
-
-
-def save_example(path: Path, example: dict) -> None:
-    """Write atomically (temporary name, then rename)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_output(path) as temporary:
-        np.savez_compressed(temporary, meta=np.array(json.dumps(example["meta"])), **example["arrays"])
-
-
-def load_example(path: str | Path) -> dict:
-    """``{"meta": dict, **arrays}`` of one dataset file."""
-    with np.load(path) as data:
-        example = {key: data[key] for key in ARRAY_KEYS if key in data}
-        example["meta"] = json.loads(str(data["meta"]))
-    return example
 
 
 def file_version(path: Path) -> int | None:
@@ -248,7 +227,7 @@ def upgrade_example(path: Path, spec: DatasetSpec) -> dict:
     The scene is rebuilt from the seed and exposure in the file's metadata and only the
     feature pass runs (same seed as :func:`render_example` uses); every other array is kept.
     """
-    from ..render import render_features
+    from ..render.kernels import render_features
     from .scenes import build_scene
 
     start = time.perf_counter()
@@ -314,7 +293,7 @@ def _ray_work(job_and_threads) -> tuple[int, str, float]:
 def _results(jobs: list, workers: int, threads: int, ray: str | None, quiet: bool):
     """(seed, split, seconds) of each job as it finishes: here, in a process pool or as Ray tasks."""
     if ray is not None:
-        from ..cluster import connected, default_gpus, run_tasks
+        from ..runtime.cluster import connected, default_gpus, run_tasks
         with connected(ray, quiet=quiet) as resources:  # Mitsuba renders on the CPU or the GPU the task holds
             yield from run_tasks(_ray_work, [(job, threads or 1) for job in jobs], cpus=threads or 1,
                                  gpus=default_gpus(resources))
@@ -337,11 +316,11 @@ def build(root: str | Path, spec: DatasetSpec, workers: int = 1, threads: int = 
 
     ``workers`` processes (spawned) render one scene each at a time; 0 renders
     in this process. ``threads`` caps Dr.Jit's threads per worker (0: all).
-    ``ray`` (an address, :mod:`gmcpt.cluster`) renders each scene as a Ray task
+    ``ray`` (an address, :mod:`gmcpt.runtime.cluster`) renders each scene as a Ray task
     instead, on ``threads`` CPUs (default 1); the files are the same bits.
     Progress goes to ``say`` as lines, or a bar on a terminal; ``quiet``: none.
     """
-    from ..progress import Progress
+    from ..runtime.progress import Progress
 
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
@@ -359,8 +338,3 @@ def build(root: str | Path, spec: DatasetSpec, workers: int = 1, threads: int = 
             bar.update(note=f"{split} seed {seed} {sec:.1f}s")
     return {"rendered": len(jobs), "total": total, "render_seconds": seconds,
             "wall_seconds": time.perf_counter() - start}
-
-
-def list_examples(root: str | Path, split: str) -> list[Path]:
-    """Sorted dataset files of one split."""
-    return sorted((Path(root) / split).glob("[0-9]*.npz"))

@@ -70,7 +70,7 @@ class View:
     target: float
 
     def edit(self, resolution: int):
-        """The change to the parsed scene (:func:`gmcpt.scene.load_scene`'s ``edit``) that sets this view."""
+        """The change to the parsed scene (:func:`gmcpt.render.scene.load_scene`'s ``edit``) that sets this view."""
         def apply(root: ET.Element) -> None:
             sensor = root.find("./sensor")
             transform = sensor.find("transform[@name='to_world']")

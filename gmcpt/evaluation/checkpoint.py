@@ -12,7 +12,7 @@ import subprocess
 from dataclasses import asdict
 from pathlib import Path
 
-from ..files import atomic_output
+from ..io.files import atomic_output
 
 PARTIAL = "results.partial.json"
 #: the folders whose changes make a checkpoint stale (the output folder, often docs/, changes during a run)

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from ..frame import DEFAULT_FEATURE_SPP
-from ..masks import DEFAULT_PATTERN
+from ..sampling.masks import DEFAULT_PATTERN
 
 
 @dataclass(frozen=True)
@@ -21,7 +21,7 @@ class EvalConfig:
     mask : sample placement of every table but the placement table (the product's default).
     placements, placement_variant : the placement table: ``placement_variant`` with each mask pattern at
         ``rates`` x ``spp``, beside path tracing at ``round(rate * spp)`` spp + OIDN; ``budget`` is not a mask
-        but the budget chooser (:mod:`gmcpt.budget`) at ``rate * spp`` samples a pixel.
+        but the budget chooser (:mod:`gmcpt.sampling.budget`) at ``rate * spp`` samples a pixel.
     default_placement : the placement of the default, the one the baselines are held against.
     placement_seeds : seeds (``seed``, ``seed + 1``, ...) whose mean PSNR the placement table gives for both
         baselines and the default; the other placements run at ``seed`` alone.

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 from ..seeds import BASELINE_SEED_OFFSET
 from . import report
-from .glance import LIMITS_END, LIMITS_START, default_placement, glance_section, glance_table, readme_limits
-from .plots import GROUPS_PLOT
 from .config import DEFAULT_VARIANT
+from .glance import LIMITS_END, LIMITS_START, default_placement, glance_section, glance_table, readme_limits
 from .measure import timed_runs
+from .plots import GROUPS_PLOT
 from .sequences import MOTION_WORDS, motion_of, motions as sequence_motions
 
 README_START = "<!-- results:start (written by python -m gmcpt eval; do not edit) -->"
@@ -41,14 +41,14 @@ def placement_section(run: dict) -> list[str]:
         "their own path samples, what a renderer accumulates in the same pass; the default's feature pass has "
         f"{c.get('feature_spp', 1)}): full-frame path tracing with the "
         f"same total samples (round(rate x {c['spp']}) spp a pixel) and adaptive path tracing with exactly "
-        f"rate x {c['spp']} samples a pixel on average (`gmcpt/adaptive.py`: 5/8 of the samples everywhere, "
+        f"rate x {c['spp']} samples a pixel on average (`gmcpt/sampling/adaptive.py`: 5/8 of the samples everywhere, "
         "the rest where the first pass's error in the displayed image is high). `random` is the paper's mask; `adaptive` places the "
         "samples by a density from the feature buffers' edges; `two_pass` spends half the budget "
         "so, then the rest where the first half's samples disagree with their neighbours "
-        "(`gmcpt/placement.py`); `budget` (the default) is `--budget rate x spp`: a 4-spp first pass of `two_pass` "
+        "(`gmcpt/sampling/placement.py`); `budget` (the default) is `--budget rate x spp`: a 4-spp first pass of `two_pass` "
         "chooses between `two_pass` at rate x 16 spp and tracing every pixel evenly (uniform path tracing at exactly "
         "the budget), dense where the traced means are noisy or the feature buffers busy with edges "
-        "(`gmcpt/budget.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline."
+        "(`gmcpt/sampling/budget.py`). PSNR dB / FLIP; the last columns are the default's lead over each baseline."
         + (f" Both baselines and `{default_placement(c)}` are the means of {c['placement_seeds']} seeds ({c['seed']} "
            f"to {c['seed'] + c['placement_seeds'] - 1}; baselines at seed + {BASELINE_SEED_OFFSET}), the other masks one seed: one "
            "seed's PSNR moves by 0.1-0.4 dB a scene." if c.get("placement_seeds", 1) > 1 else ""),

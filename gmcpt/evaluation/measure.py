@@ -23,11 +23,11 @@ from typing import Callable
 
 import numpy as np
 
-from ..denoise import denoise_oidn
-from ..metrics import all_metrics
+from ..image.denoise import denoise_oidn
+from ..image.metrics import all_metrics
+from ..sampling.budget import SPARSE_SPP
 from ..seeds import BASELINE_SEED_OFFSET, RUN_SEED_STEP, SECOND_REFERENCE_SEED
 from .baselines import render_full
-from ..budget import SPARSE_SPP
 from .config import DEFAULT_VARIANT, VARIANTS, EvalConfig, Variant, patch_variant
 
 Say = Callable[[str], None]
@@ -49,7 +49,7 @@ class LoadedScene:
 
 def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     """Load a scene, its cached reference, and measure the reference's noise level (a second reference)."""
-    from ..scene import path_integrator
+    from ..render.scene import path_integrator
 
     progress = lambda message: say(f"  {message} (cached after the first run)")  # noqa: E731
     reference = eval_scene.reference(config.resolution, config.reference_spp, progress=progress)
@@ -64,7 +64,7 @@ def load(eval_scene, config: EvalConfig, say: Say) -> tuple[LoadedScene, dict]:
     return loaded, noise
 
 
-#: the placement table's name for the budget chooser (:mod:`gmcpt.budget`), which is no mask pattern
+#: the placement table's name for the budget chooser (:mod:`gmcpt.sampling.budget`), which is no mask pattern
 BUDGET = "budget"
 
 
@@ -72,7 +72,7 @@ def baseline_guides(loaded: LoadedScene, samples_per_pixel: float, seed: int) ->
     """OIDN's albedo and normal for a baseline of ``samples_per_pixel`` path samples: a feature pass of as many
     primary samples, ``max(1, round(samples_per_pixel))``, what a renderer accumulates over its own samples
     (Cycles' denoising passes, Mitsuba's ``aov`` integrator). Its time is :func:`guide_pass_seconds`."""
-    from ..render import render_features
+    from ..render.kernels import render_features
 
     return render_features(loaded.scene, loaded.scene.sensors()[0], baseline_guide_rays(samples_per_pixel), seed)
 
@@ -105,7 +105,7 @@ def _aov_integrator(variant: str):
 def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig, pattern: str | None = None):
     """(frame, render timings) of the fastest of ``config.repeats`` masked renders (``pattern``: default
     ``config.mask``; :data:`BUDGET`: the budget chooser at ``rate * spp`` samples a pixel)."""
-    from ..sampling import render_sparse_frame
+    from ..sampling.strategies import render_sparse_frame
 
     settings = _settings(rate, spp, config, pattern)
     best = None
@@ -118,7 +118,7 @@ def sparse_frame(loaded: LoadedScene, rate: float, spp: int, config: EvalConfig,
 
 def _settings(rate: float, spp: int, config: EvalConfig, pattern: str | None = None):
     """The render settings of a completion contender (see :func:`sparse_frame`)."""
-    from ..sampling import RenderSettings
+    from ..sampling.strategies import RenderSettings
 
     if pattern == BUDGET:
         return RenderSettings(budget=rate * spp, seed=config.seed, feature_spp=config.feature_spp)
@@ -128,8 +128,9 @@ def _settings(rate: float, spp: int, config: EvalConfig, pattern: str | None = N
 
 def adaptive_oidn(loaded: LoadedScene, budget: float, seed: int, features: dict):
     """(image, info, timings) of adaptive path tracing + OIDN at ``budget`` mean samples a pixel, its samples drawn
-    with ``seed`` (:func:`gmcpt.adaptive.render_adaptive`; ``features``: OIDN's guides, :func:`baseline_guides`)."""
-    from ..adaptive import AdaptiveSettings, render_adaptive
+    with ``seed`` (:func:`gmcpt.sampling.adaptive.render_adaptive`; ``features``: OIDN's guides,
+    :func:`baseline_guides`)."""
+    from ..sampling.adaptive import AdaptiveSettings, render_adaptive
 
     settings = AdaptiveSettings(budget=budget, seed=seed)
     return render_adaptive(loaded.scene, loaded.integrator, settings, features=features,
@@ -230,7 +231,7 @@ def median_seconds(times: dict) -> float:
 WARM_UP_ROUNDS = 1
 
 #: The default's runs in a warm-up round: from budget 4 its readings wait on one another (the placement's, then
-#: the denoiser's, :mod:`gmcpt.large_model`), and with one run the second fell in a counted run (the veach lamp
+#: the denoiser's, :mod:`gmcpt.sampling.large_model`), and with one run the second fell in a counted run (the veach lamp
 #: at budget 8 lost 0.15 dB to path tracing + OIDN at the same seeds in one evaluation, level in every other).
 DEFAULT_WARM_UPS = 2
 
@@ -321,10 +322,10 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
     Each timed warm, in rounds (:func:`_in_rounds`). Both baselines' renders and guides draw the seeds the default's
     frames do (common random numbers: a dense frame at an integral budget is the same render as path tracing's, an
     adaptive one the same samples as adaptive path tracing's, with guides of as many rays, from a pass or from the
-    render's own first hits (:mod:`gmcpt.dense`), so the contenders differ by what they do and their time, not by one seed's luck, which moved a setting's PSNR by
-    0.2-0.4 dB). ``images``: where given, the last run's image of each setting goes in it, keyed
-    ``(contender, rate * spp)`` (``gmcpt compare`` shows them side by side); the measurements are the same either
-    way.
+    render's own first hits (:mod:`gmcpt.sampling.dense`), so the contenders differ by what they do and their time, not
+    by one seed's luck, which moved a setting's PSNR by 0.2-0.4 dB). ``images``: where given, the last run's image of
+    each setting goes in it, keyed ``(contender, rate * spp)`` (``gmcpt compare`` shows them side by side); the
+    measurements are the same either way.
     """
     base = {"scene": loaded.name}
     runs = all_rounds(config.repeats)
@@ -451,7 +452,7 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     """The equal-time comparison (:func:`equal_time`) at ``config.full_size`` on one scene: the default at
     ``config.full_budgets`` samples a pixel against both baselines at ``config.full_path_spp`` and
     ``config.full_adaptive_budgets``. The reference is cached under ``data/references``."""
-    from ..scene import path_integrator
+    from ..render.scene import path_integrator
     from .reference import render_reference
 
     progress = lambda message: say(f"  {message} (cached under data/references after the first run)")  # noqa: E731
@@ -470,7 +471,7 @@ def full_resolution(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
 def stage_timings(eval_scene, config: EvalConfig, say: Say) -> list[dict]:
     """Seconds per stage of each budget variant at each resolution (rate 0.3, ``config.spp``)."""
     from ..completion import complete
-    from ..scene import path_integrator
+    from ..render.scene import path_integrator
 
     rows = []
     for resolution in config.timing_resolutions:

@@ -5,8 +5,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exr import atomic_output
-from ..metrics import flip_map, tonemap
+from ..image.metrics import flip_map, tonemap
+from ..io.exr import atomic_output
 from .config import DEFAULT_VARIANT
 from .report import BASELINES, best_within, contender_name, contenders, groups, _in_group, one_spp_seconds
 

@@ -20,8 +20,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..exr import atomic_output, read_rgb_exr, write_exr
-from ..files import cache_folder
+from ..io.exr import atomic_output, read_rgb_exr, write_exr
+from ..io.files import cache_folder
 from ..seeds import REFERENCE_FIRST_SEED
 
 
@@ -53,9 +53,9 @@ def render_reference(scene_path: str | Path, resolution: int | tuple[int, int] =
     """Return a cached (H, W, 3) reference of a scene file, rendering it on a miss.
 
     ``resolution``: a square side or (W, H). ``without`` lists ids of scene elements left out (see
-    :func:`gmcpt.scene.load_scene`). ``folder``: where the cache is (default :func:`cache_dir`).
+    :func:`gmcpt.render.scene.load_scene`). ``folder``: where the cache is (default :func:`cache_dir`).
     """
-    from ..scene import load_scene
+    from ..render.scene import load_scene
 
     key = reference_key(scene_path, resolution, spp, seed, parameters, without)
     return cached_reference(key, lambda: load_scene(scene_path, film_size(resolution), parameters, without),
@@ -112,7 +112,7 @@ def render_full(scene, spp: int, seed: int, pass_spp: int = 256, progress: Calla
     import drjit as dr
     import mitsuba as mi
 
-    from ..scene import path_integrator
+    from ..render.scene import path_integrator
 
     integrator = path_integrator(scene)
     passes = max(1, spp // pass_spp)

@@ -58,7 +58,7 @@ class EvalScene:
 
     def load(self, resolution: int | tuple[int, int]):
         """The scene at a square side or (W, H)."""
-        from ..scene import load_scene
+        from ..render.scene import load_scene
         from .reference import film_size
 
         return load_scene(self.path, film_size(resolution), without=self.without)

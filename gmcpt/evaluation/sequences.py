@@ -152,10 +152,10 @@ def denoised_with_aov_guides(scene, aov, noisy: np.ndarray, spp: int, seed: int)
     """``noisy`` (N, 3) through OIDN with the guides of one pass of Mitsuba's ``aov`` integrator at ``spp``: its
     albedo clipped to [0, 1] (OIDN's range; Mitsuba's albedo of a rough metal reaches 18 in the dining room) and
     its shading normal in world space, a pixel's mean of unit normals (0 on a miss), as OIDN takes them and as
-    :func:`gmcpt.render.render_features` gives them but for the renormalising, which OIDN does not need."""
+    :func:`gmcpt.render.kernels.render_features` gives them but for the renormalising, which OIDN does not need."""
     import mitsuba as mi
 
-    from ..denoise import denoise_oidn
+    from ..image.denoise import denoise_oidn
 
     guides = np.asarray(mi.render(scene, integrator=aov, spp=spp, seed=seed), dtype=np.float32)
     return denoise_oidn(noisy.reshape(*guides.shape[:2], 3), np.clip(guides[..., 0:3], 0, 1), guides[..., 3:6], spp)
@@ -163,9 +163,9 @@ def denoised_with_aov_guides(scene, aov, noisy: np.ndarray, spp: int, seed: int)
 
 def path_oidn(scene, integrator, aov, spp: int, seed: int) -> np.ndarray:
     """A frame on its own, as a Mitsuba user denoises it: Mitsuba's render of every pixel at ``spp``
-    (:func:`gmcpt.render.render_native`), one pass of ``aov`` (:data:`AOV_GUIDES`) at as many samples for OIDN's
+    (:func:`gmcpt.render.kernels.render_native`), one pass of ``aov`` (:data:`AOV_GUIDES`) at as many samples for OIDN's
     guides, then OIDN (:func:`denoised_with_aov_guides`). All three are what :func:`take_turns` charges it."""
-    from ..render import render_native
+    from ..render.kernels import render_native
 
     noisy = render_native(scene, scene.sensors()[0], integrator, spp, seed)
     return denoised_with_aov_guides(scene, aov, noisy, spp, seed)
@@ -189,9 +189,9 @@ def path_oidn_run(scene, integrator, aov, spp: int) -> Run:
 
 
 def sequence_run(scene, integrator, budget: float, seed: int) -> Run:
-    """The sequence mode (:class:`gmcpt.sequence.SequenceRenderer`, its default history) at ``budget``, seeded
+    """The sequence mode (:class:`gmcpt.temporal.sequence.SequenceRenderer`, its default history) at ``budget``, seeded
     once for the sequence (each frame draws its own from it)."""
-    from ..sequence import SequenceRenderer, SequenceSettings
+    from ..temporal.sequence import SequenceRenderer, SequenceSettings
 
     renderer = SequenceRenderer(SequenceSettings(budget=budget, seed=seed))
     return Run("sequence", budget, lambda frame, _: renderer.render(scene, frame, integrator)[0])
@@ -236,7 +236,7 @@ class XmlFrames:
         import mitsuba as mi
 
         from ..errors import GmcptError
-        from ..scene import load_scene
+        from ..render.scene import load_scene
 
         self.scene = load_scene(path, resolution, {"frame": str(frames[0])})
         loaded = mi.traverse(self.scene)
@@ -307,7 +307,7 @@ class Truth:
 def sequence_figures(images: list, seconds: list, truth: Truth) -> dict:
     """A run's figures over the frames after ``truth.warm``: mean PSNR and FLIP, PSNR over the changed pixels
     (pooled) and their share, mean seconds a frame, flicker along the motion and in place."""
-    from ..metrics import all_metrics
+    from ..image.metrics import all_metrics
     from .stability import changed_psnr, screen_flicker, surface_flicker
 
     kept, references = slice(truth.warm, None), truth.references
@@ -347,7 +347,7 @@ NOISE_LEVEL = 0.9
 def frame_figures(images: list, seconds: list, truth: Truth) -> dict:
     """A run's figures frame by frame after ``truth.warm``, for :func:`verdict_noise`: PSNR and seconds of each
     frame, and the flicker (along the motion, against both references) of each pair of consecutive frames."""
-    from ..metrics import psnr
+    from ..image.metrics import psnr
     from .stability import surface_flicker
 
     kept, references = range(truth.warm, len(images)), truth.references

@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..metrics import tonemap
-from ..temporal import PastFrame, Projection, reproject
+from ..image.metrics import tonemap
+from ..temporal.history import PastFrame, Projection, reproject
 
 #: A pixel's change between frames (tonemapped, mean over R, G, B) counts as a change of the scene from this much
 #: (:func:`changed_pixels`): 5% of the display range; fainter changes are too faint for stale history to show.
@@ -92,7 +92,7 @@ def _figure(images, references, second, change) -> float:
 def _motion(past: FrameGeometry, current: FrameGeometry, shape: tuple[int, int], edges: bool = False) -> tuple:
     """Where each ``current`` pixel's surface point lies on the ``past`` film of ``shape`` (H, W), once for every
     image read there (:func:`_warped`): (seen (N,) bool: the point was in view in the past frame, by the depth and
-    normal tests of :func:`gmcpt.temporal.matches`, with all four bilinear taps on the film; the top-left tap's
+    normal tests of :func:`gmcpt.temporal.history.matches`, with all four bilinear taps on the film; the top-left tap's
     column and row (N,); the fractions (N, 1) each). ``edges``: a point in the film's outer half pixel is seen
     too and reads the edge pixels (else a still camera would lose its last row and column)."""
     height, width = shape
@@ -159,7 +159,7 @@ def changed_pixels(firsts: list[np.ndarray], seconds: list[np.ndarray], geometri
 
 
 def changed_psnr(images: list[np.ndarray], references: list[np.ndarray], masks: list[np.ndarray]) -> float | None:
-    """PSNR (dB, tonemapped, peak 1, as :func:`gmcpt.metrics.psnr`) over the pixels of ``masks`` ((N,) bool, one a
+    """PSNR (dB, tonemapped, peak 1, as :func:`gmcpt.image.metrics.psnr`) over the pixels of ``masks`` ((N,) bool, one a
     frame: :func:`changed_pixels`) of every frame, pooled: one mean squared error over all of them, so that a frame
     with more changed pixels weighs more. None where no pixel changed (a still scene)."""
     if not len(images) == len(references) == len(masks):

@@ -13,8 +13,9 @@ from typing import NamedTuple
 import numpy as np
 import torch
 
-from ..domain import WorkingDomain, frame_coverage
 from ..frame import SparseFrame
+from ..image.domain import WorkingDomain, frame_coverage
+from ..io.examples import load_example
 from .inputs import SCALE, feature_stack, working_std
 
 
@@ -46,8 +47,6 @@ class PatchSampler:
 
     def __init__(self, paths: list[Path], domain: WorkingDomain = WorkingDomain(), crop: int = 64,
                  rate_range: tuple[float, float] = (0.15, 0.5), probabilities: list[float] | None = None):
-        from ..dataset import load_example
-
         if not paths:
             raise ValueError("no training examples")
         if probabilities is not None and len(probabilities) != len(paths):

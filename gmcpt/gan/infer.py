@@ -4,16 +4,16 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from ..domain import WorkingDomain
 from ..frame import SparseFrame
-from ..workers import map_single_threaded, torch_threads
+from ..image.domain import WorkingDomain
+from ..runtime.workers import map_single_threaded, torch_threads
 from .inputs import EXPOSURE_TARGET, as_tensor, exposed, network_arrays, target_exposure, working_image  # noqa: F401
 from .model import Generator
 from .runtime import CpuNetwork, precomplete_on_cpu
 
 #: PyTorch runs the generator on horizontal bands of about ``BAND_ROWS`` rows, each seeing ``BAND_HALO`` more
 #: rows of context on either side, dealt to threads that each run torch on one thread
-#: (:func:`gmcpt.workers.map_single_threaded`), because torch's own threads meet at a barrier after every layer,
+#: (:func:`gmcpt.runtime.workers.map_single_threaded`), because torch's own threads meet at a barrier after every layer,
 #: which stalls on a whole large frame; a frame of one band (under 768 rows) runs on torch's own threads. The
 #: bands follow from the frame's height alone, so the thread count moves the output by float rounding only
 #: (band sizes and halos measured: docs/experiments.md, "Figures moved out of the code").
@@ -51,7 +51,7 @@ def generate(generator: Generator, radiance: torch.Tensor, features: torch.Tenso
     """``generator(radiance, features, fill)`` band by band (:data:`BAND_ROWS`), on ``threads`` threads: bands
     dealt to threads that each run torch on one thread, or one band on ``threads`` torch threads. On a
     GPU (the inputs' device) the same bands run one after another. ``precision`` ``"bfloat16"`` runs
-    the generator under autocast (:func:`gmcpt.device.generator_precision`); the output is float32. The
+    the generator under autocast (:func:`gmcpt.runtime.device.generator_precision`); the output is float32. The
     inputs are laid out in the device's :func:`memory_format` (the generator: :func:`prepare`). Without a
     ``fill`` (the whole frame's), each band computes its own."""
     height = radiance.shape[2]

@@ -1,15 +1,15 @@
 """Network inputs of a sparse frame, shared by inference and training.
 
-The generator sees (all in the working domain of :mod:`gmcpt.domain`, divided by 255):
+The generator sees (all in the working domain of :mod:`gmcpt.image.domain`, divided by 255):
 
 - ``radiance`` (3): sparse demodulated, log-compressed radiance, 0 where not traced;
 - ``features``: mask, albedo (3), normal (3), depth, visibility and, when the
   config asks, the standard deviation of each traced pixel's mean (delta
   method, 0 elsewhere, clipped at 1) and the feature pass's coverage.
 
-Inference imports this module, never :mod:`gmcpt.gan.data` (the training loader), so that
-completing a frame needs no dataset or renderer code (``tests/test_layers.py`` checks it). It needs no torch
-either: a CPU runtime (:mod:`gmcpt.gan.runtime`) takes the numpy arrays of :func:`network_arrays`; PyTorch
+Inference imports this module, never :mod:`gmcpt.gan.data` (the training loader), which reads the dataset's
+files; no module of the GAN reaches the dataset builder or the renderer (``tests/test_layers.py``). Inference
+needs no torch either: a CPU runtime (:mod:`gmcpt.gan.runtime`) takes the numpy arrays of :func:`network_arrays`; PyTorch
 sees them as channels-last tensors without a copy (:func:`as_tensor`, :func:`gmcpt.gan.infer.network_inputs`).
 """
 from __future__ import annotations
@@ -18,9 +18,9 @@ import dataclasses
 
 import numpy as np
 
-from ..domain import WorkingDomain, channel_mean, frame_coverage
-from ..fills import guided_fill
 from ..frame import SparseFrame
+from ..image.domain import WorkingDomain, channel_mean, frame_coverage
+from ..image.fills import guided_fill
 
 SCALE = 255.0
 #: Feature channels: mask, albedo (3), normal (3), depth, visibility.

@@ -32,7 +32,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ..fills import fill_batch
+from ..image.fills import fill_batch
 from .inputs import FEATURE_CHANNELS, smoothed_fill_arrays
 from .retired import drop_retired
 
@@ -49,7 +49,7 @@ class GeneratorConfig:
     use_variance : add the standard deviation of each traced pixel's mean (working domain / 255, clipped
         at 1; :func:`gmcpt.gan.inputs.working_std`) as a feature.
     use_coverage : add the feature pass's ``coverage`` (the fraction of a pixel's feature rays on a
-        diffuse surface, :func:`gmcpt.render.render_features`) as a feature: at a silhouette it says how
+        diffuse surface, :func:`gmcpt.render.kernels.render_features`) as a feature: at a silhouette it says how
         much of the pixel the albedo describes.
     """
 

@@ -9,10 +9,10 @@ The compiled network is cached too (folder ``generators/compiled``, :func:`compi
 converted network, the compile settings and the CPU), so a one-shot process imports it instead of compiling;
 an entry is written under a temporary name and renamed, checked against its sha256 before OpenVINO reads it,
 and one that is missing, damaged or unwritable is compiled again (a cache that cannot be written is no error).
-Compiled networks live as long as the process. It runs in bfloat16 where :func:`gmcpt.device.generator_precision`
-says so, as the PyTorch path does. Where OpenVINO is missing or fails, :func:`cpu_network` says so in one line
-on stderr, once, and returns None: the caller runs the generator in PyTorch. ``$GMCPT_GENERATOR_RUNTIME``
-``torch`` keeps PyTorch (training and CUDA always use it).
+Compiled networks live as long as the process. It runs in bfloat16 where
+:func:`gmcpt.runtime.device.generator_precision` says so, as the PyTorch path does. Where OpenVINO is missing or fails,
+:func:`cpu_network` says so in one line on stderr, once, and returns None: the caller runs the generator in PyTorch.
+``$GMCPT_GENERATOR_RUNTIME`` ``torch`` keeps PyTorch (training and CUDA always use it).
 """
 from __future__ import annotations
 
@@ -31,17 +31,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ..device import AUTO
-from ..domain import WorkingDomain
 from ..errors import BadValue, GmcptError
-from ..files import atomic_output, cache_folder, check_writable
 from ..frame import SparseFrame
+from ..image.domain import WorkingDomain
+from ..io.files import atomic_output, cache_folder, check_writable
+from ..runtime.device import AUTO
 from .inputs import exposed, network_arrays, working_image
 from .names import checked_weights
 
 RUNTIME_ENV = "GMCPT_GENERATOR_RUNTIME"
 RUNTIMES = ("openvino", "torch")
-#: OpenVINO's names for :func:`gmcpt.device.generator_precision`'s
+#: OpenVINO's names for :func:`gmcpt.runtime.device.generator_precision`'s
 PRECISION_HINTS = {"float32": "f32", "bfloat16": "bf16"}
 #: the code a converted network is made by: a change to either converts again
 CONVERSION_CODE = ("model.py", "export.py")
@@ -54,7 +54,8 @@ _IMPORTING = threading.Lock()
 
 
 def wanted_runtime() -> str:
-    """``$GMCPT_GENERATOR_RUNTIME``: ``openvino`` (also :data:`~gmcpt.device.AUTO`, the default) or ``torch``."""
+    """``$GMCPT_GENERATOR_RUNTIME``: ``openvino`` (also :data:`~gmcpt.runtime.device.AUTO`, the default) or
+    ``torch``."""
     wanted = os.environ.get(RUNTIME_ENV) or AUTO
     if wanted not in (AUTO, *RUNTIMES):
         raise BadValue(f"generator runtime {wanted!r}: use {AUTO}, {' or '.join(RUNTIMES)}")

@@ -33,13 +33,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ..domain import WorkingDomain
-from ..files import atomic_output
+from ..image.domain import WorkingDomain
+from ..io.examples import list_examples, load_example
+from ..io.files import atomic_output
 from ..seeds import TRAINING_RANK_STEP
-from .losses import (FixedFeatureExtractor, LossWeights, critic_loss, gradient_penalty, hybrid_loss, l2_loss,
-                     wasserstein_distance)
 from . import distributed
 from .distributed import Ranks
+from .losses import (FixedFeatureExtractor, LossWeights, critic_loss, gradient_penalty, hybrid_loss, l2_loss,
+                     wasserstein_distance)
 from .model import Critic, CriticConfig, Generator, GeneratorConfig, parameter_count
 from .retired import drop_retired
 
@@ -146,7 +147,7 @@ def config_from_dict(data: dict) -> FullConfig:
 
 def validate(generator: Generator, examples: list[dict], domain: WorkingDomain) -> dict:
     """Mean PSNR (tonemapped sRGB) of the generator alone on stored product frames, at their dataset exposure."""
-    from ..metrics import psnr
+    from ..image.metrics import psnr
     from .data import example_frame
     from .infer import precomplete
 
@@ -160,9 +161,9 @@ def validate(generator: Generator, examples: list[dict], domain: WorkingDomain) 
 
 
 def interp_baseline(examples: list[dict]) -> float:
-    """Mean PSNR of the feature-guided fill alone (the ``interp`` method, :func:`gmcpt.fills.interpolate`)."""
-    from ..fills import interpolate
-    from ..metrics import psnr
+    """Mean PSNR of the feature-guided fill alone (the ``interp`` method, :func:`gmcpt.image.fills.interpolate`)."""
+    from ..image.fills import interpolate
+    from ..image.metrics import psnr
     from .data import example_frame
 
     return float(np.mean([psnr(interpolate(example_frame(e)), e["reference"]) for e in examples]))
@@ -210,7 +211,6 @@ class Trainer:
     """
 
     def __init__(self, config: FullConfig, out: str | Path, say=print, ranks: Ranks = Ranks(), quiet: bool = False):
-        from ..dataset import list_examples, load_example
         from .data import PatchSampler
 
         self.config, self.out, self.ranks, self.quiet = config, Path(out), ranks, quiet
@@ -365,7 +365,7 @@ class Trainer:
     def run(self, deadline: float | None = None) -> dict:
         """Train to ``steps``, or until the next step would end after ``deadline`` (a
         :func:`time.monotonic` time); either way the last step is validated and checkpointed."""
-        from ..progress import Progress
+        from ..runtime.progress import Progress
 
         cfg = self.config.train
         self.load_checkpoint()

@@ -17,7 +17,7 @@ from pathlib import Path
 import torch
 
 from ..errors import GmcptError
-from ..files import atomic_output
+from ..io.files import atomic_output
 from .model import Generator, GeneratorConfig
 from .names import DEFAULT_WEIGHTS, checked_weights, retrain_hint, sha256, weights_path  # noqa: F401 (API too)
 

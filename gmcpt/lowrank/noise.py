@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..domain import channel_mean
+from ..image.domain import channel_mean
 
 
 def _box_mean(image: np.ndarray, size, mode: str) -> np.ndarray:

@@ -86,7 +86,7 @@ class LowRankParams:
         (memory grows with the tile, not the frame); None makes one tile (on
         CPU it is still cut into row bands so every thread has work).
     device : str
-        Torch device (``"cpu"``, ``"cuda"``), or ``"auto"``: :func:`gmcpt.device.completion_device`'s
+        Torch device (``"cpu"``, ``"cuda"``), or ``"auto"``: :func:`gmcpt.runtime.device.completion_device`'s
         choice (``$GMCPT_DEVICE``, else CUDA where torch sees a GPU, else the CPU).
     """
 

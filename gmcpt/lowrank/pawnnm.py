@@ -51,8 +51,8 @@ import time
 import numpy as np
 import torch
 
-from ..device import completion_device
-from ..workers import map_single_threaded, torch_threads
+from ..runtime.device import completion_device
+from ..runtime.workers import map_single_threaded, torch_threads
 from .linalg import stable_eigh
 from .matching import block_match, matching_signal
 from .noise import local_noise_scale
@@ -200,7 +200,7 @@ class _Workers:
     """Run a function over a fixed split of the tiles, one share per worker.
 
     On CPU with ``torch.get_num_threads() > 1`` and several tiles, tiles are
-    dealt round-robin to that many threads (:func:`gmcpt.workers.map_single_threaded`),
+    dealt round-robin to that many threads (:func:`gmcpt.runtime.workers.map_single_threaded`),
     each running torch single-threaded: coarse tasks instead of OpenMP/MKL parallel
     regions per small op, which cost more than they gain on the small batched
     matrices here and stall badly when the machine is busy.  Partial results are

@@ -14,7 +14,7 @@ A suite is a folder ``DIR`` of scene files: ``DIR/NAME.xml`` and
 A scene kept outside ``DIR`` is an entry whose ``file`` points there (relative
 to ``DIR`` or absolute), with ``"optional": true`` if it may be absent (it is
 then skipped, with the reason) and ``"without": [ids]`` for top-level elements
-to leave out (:func:`gmcpt.scene.load_scene`); ``--update`` keeps such entries.
+to leave out (:func:`gmcpt.render.scene.load_scene`); ``--update`` keeps such entries.
 """
 from __future__ import annotations
 

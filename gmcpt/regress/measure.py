@@ -11,7 +11,7 @@ and 4 sigmas the Cornell box's 8-seed spread (0.25 dB) was half its 40-seed
 one (0.47 dB), and 2 of 40 unchanged seeds came within 0.15 dB of the threshold.
 
 Gated metrics (:data:`GATES`): FLIP (mean, on tonemapped sRGB; larger is worse)
-and block PSNR (:func:`gmcpt.metrics.block_psnr`, 8x8-pixel blocks; smaller is
+and block PSNR (:func:`gmcpt.image.metrics.block_psnr`, 8x8-pixel blocks; smaller is
 worse). PSNR and relMSE are reported beside them. Block PSNR separates
 noise from change best: averaging over blocks takes out the check's per-pixel
 noise and keeps a change that spans a few pixels. Measured at rate 0.5, 16 spp
@@ -31,8 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .manifest import Settings
 from ..seeds import REFERENCE_FIRST_SEED as GOLDEN_SEED
+from .manifest import Settings
 
 #: gated metrics: "max" where a larger value is worse, "min" where a smaller one is
 GATES = {"flip": "max", "block_psnr": "min"}
@@ -78,7 +78,7 @@ def render_golden(scene, settings: Settings) -> np.ndarray:
 
 def render_check(scene, settings: Settings, seed: int) -> np.ndarray:
     """The cheap check: masked render at the suite's rate and spp, completed by its method; same seed, same image."""
-    from ..scene import masked_integrator
+    from ..render.scene import masked_integrator
 
     integrator = masked_integrator(scene, rate=settings.rate, seed=int(seed), completion=settings.method)
     return integrator.render_frame(scene, spp=settings.spp).image
@@ -93,7 +93,7 @@ def timed(function, *args):
 
 def compare(image: np.ndarray, golden: np.ndarray, block: int = 8) -> tuple[dict, np.ndarray]:
     """(metrics of ``image`` against ``golden``, per-pixel FLIP map)."""
-    from ..metrics import block_psnr, flip_map, psnr, relmse
+    from ..image.metrics import block_psnr, flip_map, psnr, relmse
 
     error_map, mean_flip = flip_map(image, golden)
     metrics = {"flip": mean_flip, "block_psnr": block_psnr(image, golden, block),

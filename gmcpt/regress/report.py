@@ -76,7 +76,7 @@ def panels(result: SceneResult) -> list[tuple[str, np.ndarray]]:
     """(caption, display image) of a checked scene: golden, check, FLIP error map (magma, 0 to 1)."""
     from matplotlib import colormaps
 
-    from ..metrics import tonemap
+    from ..image.metrics import tonemap
 
     error = colormaps["magma"](np.clip(result.flip_map, 0.0, 1.0))[..., :3]
     return [("golden", tonemap(result.golden)), ("check", tonemap(result.image)),
@@ -128,7 +128,7 @@ def html_page(results: list[SceneResult], title: str) -> str:
 
 def write_html(path: str | Path, results: list[SceneResult], title: str = "gmcpt regression report") -> Path:
     """Write the report to ``path`` atomically."""
-    from ..files import atomic_output
+    from ..io.files import atomic_output
 
     with atomic_output(path) as temporary:
         Path(temporary).write_text(html_page(results, title), encoding="utf-8")

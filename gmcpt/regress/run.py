@@ -32,7 +32,7 @@ class Prepared:
 
 def load(suite: Suite, name: str, settings: Settings | None = None) -> tuple[object, float]:
     """(the loaded Mitsuba scene ``name`` at the suite's resolution, seconds it took)."""
-    from ..scene import load_scene
+    from ..render.scene import load_scene
 
     spec = suite.spec(name)
     settings = settings or suite.settings
@@ -47,7 +47,7 @@ def film_size(scene) -> tuple[int, int]:
 def prepare_check(suite: Suite, names: list[str]) -> list:
     """Load each scene and its golden; skipped scenes become their SceneResult. Raises on bad input."""
     from ..completion import check_size
-    from ..exr import read_rgb_exr
+    from ..io.exr import read_rgb_exr
 
     prepared = []
     for name in names:
@@ -153,8 +153,8 @@ def write_goldens(suite: Suite, settings: Settings, goldens: dict, images: dict,
 
     Golden files of scenes no longer in ``goldens`` are removed.
     """
-    from ..exr import write_exr
-    from ..files import atomic_output
+    from ..io.exr import write_exr
+    from ..io.files import atomic_output
 
     suite.golden_folder.mkdir(parents=True, exist_ok=True)
     written = []

@@ -1,0 +1,156 @@
+"""``gmcpt batch SCENE --frames A:B --history N``: the frames of an animation in order, each reusing the samples
+of the N frames before it (:mod:`gmcpt.temporal.sequence`).
+
+Each frame is written as ``DIR/NAME.exr`` (R, G, B), ``.png`` and ``.json`` (parameters, versions, the frame's
+history figures and stage timings), then the history to ``DIR/.sequence-state.npz``. A stopped sequence
+resumes after the newest frame of that state, with the images an uninterrupted run gives; a frame whose
+outputs were written but not its state is rendered again, to the same image. With ``--ray`` the frames go in
+chunks, one Ray task each (:mod:`gmcpt.cli.sequence_ray`), with these files and records and no state file.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GmcptError
+
+STATE = ".sequence-state.npz"
+#: the render options a sequence frame has no use for: it spends a budget (or a time) on every pixel, then OIDN
+UNUSED = ("rate", "spp", "mask", "method", "weights", "tile", "costs")
+
+
+def default_history(args) -> int | None:
+    """``--history`` when not given: :data:`~gmcpt.temporal.sequence.HISTORY_FRAMES` for the frames of one scene
+    (``--frames``, no ``--sweep``) without single-frame options (:data:`UNUSED`), else none (independent frames)."""
+    from ..temporal.sequence import HISTORY_FRAMES
+
+    if args.history is not None:
+        return args.history
+    sequence = args.frames and not args.sweep and len(args.scenes) == 1
+    return HISTORY_FRAMES if sequence and not single_frame_options(args) else None
+
+
+def single_frame_options(args) -> list[str]:
+    """The options given that a sequence frame has no use for (:data:`UNUSED`), as typed."""
+    return [f"--{name}" for name in UNUSED if getattr(args, name) is not None]
+
+
+def check(args) -> None:
+    """One line for a sequence the options cannot make."""
+    if not args.frames:
+        raise GmcptError("--history reuses earlier frames: give --frames A:B")
+    if args.sweep or len(args.scenes) != 1:
+        raise GmcptError("--history renders one scene's frames in order: no --sweep or second scene")
+    given = single_frame_options(args)
+    if given:
+        raise GmcptError(f"--history spends --budget (or --time) on every pixel, then OIDN: drop {', '.join(given)}, "
+                         f"or give --history 0 for independent frames")
+    from ..temporal.sequence import SequenceSettings
+
+    SequenceSettings(history=args.history)  # its one rule of the history's length
+
+
+def _settings(args, scene):
+    from ..render.scene import scene_sensor
+    from ..temporal.sequence import SequenceSettings, sequence_budget
+
+    return SequenceSettings(budget=sequence_budget(args.budget, scene_sensor(scene)), seed=args.seed or 0,
+                            history=args.history, time=args.time or 0.0)
+
+
+def _state_path(args) -> Path:
+    return Path(args.out) / STATE
+
+
+def load_frame(args, job: dict) -> tuple:
+    """(scene, its ``$`` parameters, the frame's index) of ``job``: what every sequence path loads a frame from."""
+    from ..render.scene import load_scene
+
+    parameters = dict(define.split("=", 1) for define in job["options"]["defines"])
+    scene = load_scene(job["scene"], tuple(args.res) if args.res else None, parameters)
+    return scene, parameters, int(parameters["frame"])
+
+
+def render_frame(args, renderer, job: dict, scene, parameters: dict) -> tuple[np.ndarray, dict]:
+    """``job``'s frame as ``renderer``'s next: (image, its JSON record). One record for the one-process and the Ray
+    paths, so a frame's files do not say where it was rendered; a failure names the frame on its one line."""
+    from ..io.outputs import library_versions
+    from .render import check_nonfinite
+
+    frame = int(parameters["frame"])
+    try:
+        image, info, timings = renderer.render(scene, frame)
+        check_nonfinite(info["nonfinite_samples"], args.allow_nonfinite)
+    except GmcptError as error:  # the frame's name on the one line: the frames before it are written
+        raise GmcptError(f"frame {frame} ({job['name']}): {error}") from None
+    settings = renderer.settings
+    record = {"scene": job["scene"], "output": str(Path(job["out"]).resolve()),
+              "parameters": {"sequence": True, "budget": settings.budget, "seed": info["seed"],
+                             "history": settings.history, "decay": settings.decay, "time": settings.time or None,
+                             "resolution": [image.shape[1], image.shape[0]], "scene_parameters": parameters},
+              "versions": library_versions(), **{k: v for k, v in info.items() if k != "seed"},
+              "timings": timings, "batch": {"key": job["key"], "name": job["name"]}}
+    return image, record
+
+
+def frame_row(job: dict, status: str, seconds: float = 0.0, timings: dict | None = None) -> dict:
+    """``job``'s row of the batch summary."""
+    row = {"name": job["name"], "output": job["out"], "status": status, "seconds": round(seconds, 3)}
+    return row if timings is None else {**row, "timings": timings}
+
+
+def write_frame(job: dict, image: np.ndarray, record: dict) -> None:
+    """``job``'s EXR (R, G, B; the record's parameters in its header), PNG and JSON record, all or none."""
+    from ..io.exr import write_exr, write_png
+    from ..io.files import json_text, write_together
+    from ..io.outputs import sidecar_paths
+
+    exr, png, sidecar = sidecar_paths(job["out"])
+    channels = {name: image[..., index] for index, name in enumerate("RGB")}
+    attributes = {"gmcpt": json_text(record["parameters"], indent=None)}
+    text = json_text(record)
+    write_together([(exr, lambda path: write_exr(path, channels, attributes)),
+                    (png, lambda path: write_png(path, image)),
+                    (sidecar, lambda path: Path(path).write_text(text))])
+
+
+def _save_state(args, renderer) -> None:
+    from ..io.files import atomic_output
+
+    with atomic_output(_state_path(args)) as temporary:
+        with open(temporary, "wb") as handle:
+            np.savez(handle, **renderer.state())
+
+
+def run(args, jobs: list[dict], say, bar) -> dict:
+    """Render ``jobs`` (one scene's frames, in order) as a sequence; returns the summary rows by name."""
+    from ..temporal.sequence import SequenceRenderer
+
+    rows, renderer, newest = {}, None, -1
+    for job in jobs:
+        start = time.perf_counter()
+        scene, parameters, frame = load_frame(args, job)
+        if renderer is None:
+            renderer = SequenceRenderer(_settings(args, scene))
+            if _state_path(args).exists():
+                try:
+                    renderer.restore(dict(np.load(_state_path(args))))
+                except (OSError, ValueError, KeyError) as error:
+                    raise GmcptError(f"cannot read {_state_path(args)}: {error}; delete it to start again") from None
+                except GmcptError as error:  # another budget, seed or history: its frames would not match
+                    raise GmcptError(f"{_state_path(args)}: {error}: delete it, or give another --out") from None
+                newest = max((past.index for past in renderer.past), default=-1)
+        if frame <= newest:
+            rows[job["name"]] = frame_row(job, "skipped")
+            continue
+        say(f"frame {frame}: " + (f"{renderer.settings.time:g} s" if renderer.settings.time else
+                                  f"{renderer.settings.budget:g} samples a pixel") + f", {len(renderer.past)} past frames")
+        image, record = render_frame(args, renderer, job, scene, parameters)
+        write_frame(job, image, record)
+        _save_state(args, renderer)
+        seconds = time.perf_counter() - start
+        rows[job["name"]] = frame_row(job, "rendered", seconds, record["timings"])
+        bar.update(note=f"{job['name']} {seconds:.1f}s")
+    return rows

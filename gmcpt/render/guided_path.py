@@ -1,0 +1,147 @@
+"""Mitsuba's ``path`` integrator that also returns OIDN's guides from its own first hits.
+
+A dense frame's guides (albedo, normal) otherwise cost a pass of their own, as Mitsuba's ``aov`` integrator costs
+a user: 4-10% of the path tracing at 4-16 samples a pixel (living room, Cornell box). Wrapping ``path`` in ``aov``
+costs twice the two passes, since ``aov`` traces its own first intersection; this integrator reads the path's first
+surface interaction instead. Its paths are ``path``'s for the same seed (the same sampler draws in the same order,
+the same MIS and Russian roulette): its radiance is the same to the bit through the pixel-list kernel, and to the
+last bit of a float through ``mi.render``'s film, which develops more channels (checked in the tests).
+
+.. list-table::
+   :header-rows: 1
+
+   * - parameter
+     - meaning
+   * - ``max_depth``
+     - longest path, in segments (-1: unbounded), as ``path``'s
+   * - ``rr_depth``
+     - depth from which Russian roulette may end a path, as ``path``'s
+
+AOVs, one value a sample: the first hit's :func:`first_hit_features` (albedo, normal, hit distance, hit, coverage),
+the feature pass's planes (:func:`gmcpt.render.kernels.feature_means`), so both make the same guides.
+"""
+from __future__ import annotations
+
+import re
+
+import drjit as dr
+import mitsuba as mi
+
+from ..image.domain import ALBEDO_MIN
+from .held import scene_state
+
+#: The AOVs, in the order of :class:`gmcpt.render.kernels.FeatureMeans`'s planes.
+FEATURE_PLANES = ("albedo.R", "albedo.G", "albedo.B", "normal.X", "normal.Y", "normal.Z", "distance", "hit",
+                  "coverage")
+
+
+def first_hit_features(si: mi.SurfaceInteraction3f, bsdf: mi.BSDFPtr) -> list:
+    """The feature planes of a primary ray's hit ``si`` (:data:`FEATURE_PLANES`): the albedo is the diffuse
+    reflectance of BSDFs with a diffuse lobe clipped to [0, 1], 0 for the others (Mitsuba's own gives a rough metal
+    an "albedo" of 5 to 70 where its highlight faces the camera); all planes 0 on a miss."""
+    hit = si.is_valid()
+    diffuse = hit & mi.has_flag(bsdf.flags(), mi.BSDFFlags.DiffuseReflection)
+    albedo = dr.select(diffuse, dr.clip(bsdf.eval_diffuse_reflectance(si, diffuse), 0.0, 1.0), 0.0)
+    covered = dr.select(dr.max(albedo) >= ALBEDO_MIN, 1.0, 0.0)
+    normal = dr.select(hit, si.sh_frame.n, 0.0)
+    return [*albedo, *normal, dr.select(hit, si.t, 0.0), dr.select(hit, 1.0, 0.0), covered]
+
+
+def _mis_weight(pdf_a: mi.Float, pdf_b: mi.Float) -> mi.Float:
+    """The power heuristic, 0 where it is not finite (as ``path``'s)."""
+    pdf_a = pdf_a * pdf_a
+    weight = pdf_a / (pdf_a + pdf_b * pdf_b)
+    return dr.detach(dr.select(dr.isfinite(weight), weight, 0.0))
+
+
+class GuidedPath(mi.SamplingIntegrator):
+    """``path`` with the first hit's feature planes as AOVs (module docstring)."""
+
+    def __init__(self, props: mi.Properties):
+        super().__init__(props)
+        depth = props.get("max_depth", -1)
+        self.max_depth = 0xFFFFFFFF if depth < 0 else depth
+        self.rr_depth = props.get("rr_depth", 5)
+
+    def aov_names(self) -> list[str]:
+        return list(FEATURE_PLANES)
+
+    @dr.syntax
+    def sample(self, scene, sampler, ray, medium=None, active=True):
+        ray = mi.Ray3f(ray)
+        # what path carries from bounce to bounce: radiance, throughput, eta, depth, whether the path counts, and
+        # the previous interaction, its BSDF sample's pdf and whether that was a delta lobe
+        path = (mi.Spectrum(0.0), mi.Spectrum(1.0), mi.Float(1.0), mi.UInt32(0),
+                mi.Bool(scene.environment() is not None), dr.zeros(mi.Interaction3f), mi.Float(1.0), mi.Bool(True))
+        active = mi.Bool(active)
+        hit = scene.ray_intersect_preliminary(ray, True, False, 0, 0, active)
+        # the first bounce before the loop, so that its full interaction gives the features too: read inside the
+        # loop they cost a masked BSDF call at every bounce, and a second interaction of their own 2-5% of the paths
+        si = hit.compute_surface_interaction(ray, mi.RayFlags.All, active)
+        bsdf = si.bsdf(ray)
+        features = first_hit_features(si, bsdf)
+        path, ray, hit, active = self._bounce(scene, sampler, path, si, bsdf)
+        while dr.hint(active, max_iterations=-1, label="guided_path"):
+            si = hit.compute_surface_interaction(ray, mi.RayFlags.All)
+            path, ray, hit, active = self._bounce(scene, sampler, path, si, si.bsdf(ray))
+        result, valid = path[0], path[4]
+        return dr.select(valid, result, 0.0), valid, features
+
+    def _bounce(self, scene, sampler, path: tuple, si, bsdf) -> tuple:
+        """One bounce of ``path`` at ``si`` (``bsdf``: its BSDF): the emission reached, emitter sampling, the BSDF
+        sample, Russian roulette. Returns (``path`` after it, the next ray, its preliminary hit, whether the path
+        goes on)."""
+        result, throughput, eta, depth, valid, prev_si, prev_pdf, prev_delta = path
+        # emission reached by the previous bounce's BSDF sample, weighed against emitter sampling
+        emitted = mi.DirectionSample3f(scene, si, prev_si)
+        emitter_pdf = scene.pdf_emitter_direction(prev_si, emitted, ~prev_delta)
+        result = dr.fma(throughput, emitted.emitter.eval(si, prev_pdf > 0) * _mis_weight(prev_pdf, emitter_pdf), result)
+        active_next = (depth + 1 < self.max_depth) & si.is_valid()
+        # emitter sampling, then one BSDF evaluation and sample for both strategies
+        active_emitter = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
+        sampled, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, active_emitter)
+        active_emitter &= sampled.pdf != 0
+        wo = si.to_local(sampled.d)
+        sample_1, sample_2 = sampler.next_1d(), sampler.next_2d()
+        bsdf_value, bsdf_pdf, bsdf_sample, bsdf_weight = bsdf.eval_pdf_sample(mi.BSDFContext(), si, wo, sample_1,
+                                                                              sample_2)
+        emitter_mis = dr.select(sampled.delta, 1.0, _mis_weight(sampled.pdf, bsdf_pdf))
+        result = dr.select(active_emitter, dr.fma(throughput, bsdf_value * emitter_weight * emitter_mis, result), result)
+        ray = si.spawn_ray(si.to_world(bsdf_sample.wo))
+        throughput = throughput * bsdf_weight
+        eta = eta * bsdf_sample.eta
+        valid = valid | (si.is_valid() & ~mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Null))
+        depth = dr.select(si.is_valid(), depth + 1, depth)
+        # Russian roulette, its sample drawn at every depth as path draws it
+        largest = dr.max(throughput)
+        survival = dr.minimum(largest * dr.square(eta), 0.95)
+        roulette = depth >= self.rr_depth
+        survives = sampler.next_1d() < survival
+        throughput = dr.select(roulette, throughput * dr.rcp(survival), throughput)
+        active = active_next & (~roulette | survives) & (largest != 0)
+        path = (result, throughput, eta, depth, valid, mi.Interaction3f(si), bsdf_sample.pdf,
+                mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Delta))
+        return path, ray, scene.ray_intersect_preliminary(ray, False, False, 0, 0, active), active
+
+
+def guided_twin(integrator: mi.SamplingIntegrator) -> GuidedPath | None:
+    """A :class:`GuidedPath` tracing what ``integrator`` does, or None where it cannot: anything but Mitsuba's plain
+    ``path`` (read from its description), or one that hides emitters."""
+    description = str(integrator)
+    if not description.startswith("PathIntegrator[") or getattr(integrator, "hide_emitters", True):
+        return None
+    settings = dict(re.findall(r"(max_depth|rr_depth) = (\d+)", description))
+    if set(settings) != {"max_depth", "rr_depth"}:
+        return None
+    props = mi.Properties()
+    props["max_depth"] = int(settings["max_depth"]) if int(settings["max_depth"]) < 2 ** 31 else -1
+    props["rr_depth"] = int(settings["rr_depth"])
+    return GuidedPath(props)
+
+
+def twin_of(scene: mi.Scene, integrator: mi.SamplingIntegrator) -> GuidedPath | None:
+    """:func:`guided_twin` of ``integrator``, made once per scene and integrator (the frozen kernels record it once)."""
+    twins = scene_state(scene).setdefault("guided_twins", {})
+    if id(integrator) not in twins:
+        twins[id(integrator)] = (integrator, guided_twin(integrator))  # the integrator held: its id stays its own
+    return twins[id(integrator)][1]

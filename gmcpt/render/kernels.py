@@ -1,0 +1,524 @@
+"""The renderer's kernels: feature buffers, path tracing of a pixel list, and Mitsuba's own full frame.
+
+The sampling strategies that call them (fixed rate, two_pass, budget) are in :mod:`gmcpt.sampling.strategies`.
+
+The radiance pass builds its ray batch from the *compacted* list of traced
+pixels (``n_traced * spp`` lanes), so its cost scales with the sampling rate.
+Lane ``k * spp + s`` is sample ``s`` of the ``k``-th traced pixel, and the
+sampler is seeded for exactly that many lanes, drawing in the same order as
+Mitsuba's own ``SamplingIntegrator``: at rate 1 the samples, and so the image,
+equal the stock integrator's for the same seed.
+
+Each pixel's value is the box-filter estimate (plain mean of its samples);
+non-finite samples are left out of the mean and counted. The variance of the
+mean is kept alongside. Sums are accumulated inside the one path tracing
+kernel (``scatter_reduce``), so no per-sample buffer is written.
+
+The feature pass traces ``feature_spp`` primary rays per pixel, all pixels,
+and records albedo, shading normal and depth, and where asked light visibility
+(one shadow ray towards a sampled emitter point per primary ray: on interiors
+with many lights this ray costs several times the rest of the pass).
+
+A dense frame's bulk is Mitsuba's render of every pixel (:func:`render_native`): the
+scene's integrator at its full speed, through the frozen pixel-list kernel while the
+pass is small and ``mi.render`` above; the pixel-list kernel tops it up.
+:func:`render_native_guided` renders it through the integrator's twin
+(:mod:`gmcpt.render.guided_path`), whose first hits are the frame's guides.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from typing import Callable
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from ..frame import DEFAULT_FEATURE_SPP
+from ..limits import SEED_LIMIT
+from ..seeds import FEATURE_SEED_OFFSET
+from .guided_path import FEATURE_PLANES, first_hit_features
+from .held import scene_state
+
+MAX_LANES = 1 << 24  # split the radiance pass into several when larger
+# samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
+SCATTER_MODE = dr.ReduceMode.Local
+# the features need UVs (textured albedo) and the shading frame, no surface derivatives
+FEATURE_RAY_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFrame
+#: the frozen kernels (dr.freeze) keep the recordings of the last 64 resolutions and spp of a scene (about 1 MB
+#: each): at 8, a process that renders many settings (the evaluation: 29 spp values a scene) evicted and recorded
+#: them again in nearly every frame, a trace each. A new one records, as expected: no warning about it
+FREEZE_OPTIONS = {"limit": 64, "warn_after": 1 << 30}
+
+
+class FrozenKernel:
+    """``function(scene, ...)`` recorded by ``dr.freeze`` once per scene and settings, then replayed.
+
+    Each scene gets recordings of its own: replaying one scene's recording for another scene of the
+    same layout read the first scene's freed objects (a batch that loads the scene again for every
+    frame got garbage features now and then). The recordings live in the scene's
+    :func:`~gmcpt.render.held.scene_state`, let go with it. Dr.Jit cannot record a virtual call when objects of another
+    live scene share the call's registry (seen with the breakfast room loaded beside another scene): the recording
+    raises, and that scene runs the plain function, with the same result. Call with a function that
+    builds the arguments, so a failed recording leaves none dirty.
+    """
+
+    def __init__(self, function: Callable):
+        self.function = function
+
+    def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple]):
+        state, shapes = scene_state(scene), geometry_key(scene)
+        recordings, seen = state.setdefault("recordings", {}), state.setdefault("geometry", {})
+        moved, seen[self] = self in seen and seen[self] != shapes, shapes
+        if moved:
+            # shapes moved since this kernel last ran: a replay would trace the old geometry (or freed memory), and a
+            # recording made now would serve one frame of a moving object; the plain function runs until the shapes
+            # keep still for a second call
+            recordings.pop(self, None)
+            return self._plain(scene, arguments)
+        if self not in recordings:
+            recordings[self] = dr.freeze(self.function, **FREEZE_OPTIONS)
+        if recordings[self] is not None:
+            try:
+                return recordings[self](scene, *arguments())
+            except RuntimeError:
+                recordings[self] = None
+        return self._plain(scene, arguments)
+
+    def _plain(self, scene: mi.Scene, arguments: Callable[[], tuple]):
+        outputs = self.function(scene, *arguments())
+        dr.eval(outputs)  # one kernel for all of them, as a replay gives (else one kernel a column read)
+        return outputs
+
+
+def geometry_key(scene: mi.Scene) -> tuple:
+    """What changes when a shape of ``scene`` moves through ``mi.traverse``: each mesh's vertex buffer (a new Dr.Jit
+    variable on every update) and each other shape's bounding box. A recording of :class:`FrozenKernel` replayed
+    after such a move traced stale geometry (NaN pixels in the living room after four moves of a table)."""
+    key = []
+    for shape in scene.shapes():
+        if isinstance(shape, mi.Mesh):
+            key.append(shape.vertex_positions_buffer().index)
+        else:
+            box = shape.bbox()
+            key.append((tuple(box.min), tuple(box.max)))
+    return tuple(key)
+
+
+def pass_seed(seed: int, index: int, passes: int) -> int:
+    """The sampler seed of radiance pass ``index`` of ``passes``: ``seed`` itself when there is one pass,
+    else a 32-bit hash of (seed, index), which stays in range for every seed."""
+    if passes == 1:
+        return seed
+    return int.from_bytes(hashlib.blake2b(f"{seed}/{index}".encode(), digest_size=4).digest(), "little")
+
+
+def _sensor_film_size(sensor: mi.Sensor) -> tuple[int, int]:
+    size = sensor.film().crop_size()
+    return int(size[1]), int(size[0])
+
+
+def _primary_rays(sensor: mi.Sensor, sampler: mi.Sampler, pixel: mi.UInt32, width: int,
+                  spp: int) -> tuple[mi.RayDifferential3f, mi.Color3f]:
+    """Rays through ``pixel`` (flat index per lane), drawn as Mitsuba's integrators do."""
+    film = sensor.film()
+    pos = mi.Vector2u(pixel % width, pixel // width) + mi.Vector2u(film.crop_offset())
+    pos_f = mi.Vector2f(pos) + sampler.next_2d()
+    scale = dr.rcp(mi.ScalarVector2f(film.crop_size()))
+    offset = -mi.ScalarVector2f(film.crop_offset()) * scale
+    aperture = sampler.next_2d() if sensor.needs_aperture_sample() else mi.Point2f(0.5)
+    ray_time = mi.Float(sensor.shutter_open())
+    if sensor.shutter_open_time() > 0:
+        ray_time += sampler.next_1d() * sensor.shutter_open_time()
+    ray, weight = sensor.sample_ray_differential(time=ray_time, sample1=0.0,
+                                                 sample2=dr.fma(pos_f, scale, offset), sample3=aperture)
+    # opaque: a literal would make every spp a kernel of its own to compile (about 1 s on 2 cores)
+    ray.scale_differential(dr.opaque(mi.Float, dr.rsqrt(float(spp))))
+    return ray, weight
+
+
+def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int | mi.UInt32, lanes: int) -> mi.Sampler:
+    sampler = sensor.sampler().clone()
+    sampler.set_sample_count(spp)
+    sampler.set_samples_per_wavefront(spp)
+    sampler.seed(seed, lanes)
+    return sampler
+
+
+def _feature_means(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, feature_spp: int, camera: tuple,
+                   visibility: bool) -> list:
+    """Per-pixel means of albedo (3), normal (3), hit distance, hit fraction, coverage and, with ``visibility``,
+    light visibility over ``feature_spp`` primary rays (see :func:`render_features`); ``camera``
+    (:func:`_camera_key`) keys the recording of :data:`_frozen_feature_means`."""
+    width, height = camera[0]
+    lanes = height * width * feature_spp
+    sampler = _seeded_sampler(sensor, feature_spp, seed, lanes)
+    # opaque, as in _primary_rays: one compiled kernel for every feature_spp
+    pixel = dr.arange(mi.UInt32, lanes) // dr.opaque(mi.UInt32, feature_spp)
+    share = dr.opaque(mi.Float, 1 / feature_spp)  # a product, as Dr.Jit made of the division by a literal
+    ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
+    si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
+    hit = si.is_valid()
+    values = first_hit_features(si, si.bsdf(ray))
+    if visibility:
+        _, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, hit)
+        values.append(dr.select(hit & ((emitter_weight[0] + emitter_weight[1] + emitter_weight[2]) > 0), 1.0, 0.0))
+    return pixel_means(values, pixel, share, height * width) if feature_spp > 1 else values
+
+
+def pixel_means(values: list, pixel: mi.UInt32, share: mi.Float, pixels: int) -> list:
+    """Each of ``values`` (one lane a ray) averaged over the rays of its ``pixel`` (``share``: 1 / rays a pixel),
+    inside the kernel (as trace_pixels sums its radiance): one value per pixel comes back, not a buffer per ray."""
+    means = [dr.zeros(mi.Float, pixels) for _ in values]
+    for target, value in zip(means, values):
+        dr.scatter_reduce(dr.ReduceOp.Add, target, value * share, pixel, mode=SCATTER_MODE)
+    return means
+
+
+#: :func:`_feature_means` recorded once per scene, resolution and feature spp, then replayed (as the radiance pass)
+_frozen_feature_means = FrozenKernel(_feature_means)
+
+
+@dataclass(frozen=True)
+class FeatureMeans:
+    """Per-pixel means of the feature rays, before they become buffers (:meth:`buffers`): flat float32 planes
+    of albedo (3), normal (3), hit distance, hit fraction and coverage over ``spp`` rays, and visibility over
+    ``visibility_spp`` rays (None where no shadow ray was traced). Two of them merge (:meth:`merged`)."""
+
+    planes: tuple[np.ndarray, ...]
+    spp: int
+    visibility: np.ndarray | None
+    visibility_spp: int
+    shape: tuple[int, int]
+
+    def merged(self, other: "FeatureMeans") -> "FeatureMeans":
+        """The means over both sets of rays (weighted by their counts)."""
+        spp = self.spp + other.spp
+        planes = tuple((mine * self.spp + theirs * other.spp) / spp for mine, theirs in zip(self.planes, other.planes))
+        sets = [(means.visibility, means.visibility_spp) for means in (self, other) if means.visibility is not None]
+        visibility_spp = sum(count for _, count in sets)
+        visibility = sum(plane * count for plane, count in sets) / visibility_spp if sets else None
+        return FeatureMeans(planes, spp, visibility, visibility_spp, self.shape)
+
+    def buffers(self) -> dict:
+        """The buffers of :func:`render_features` (visibility 0 where no shadow ray was traced)."""
+        height, width = self.shape
+        columns = [plane.reshape(height, width) for plane in self.planes]
+        albedo, normal = np.stack(columns[0:3], axis=-1), _unit_normals(columns[3:6], self.spp)
+        distance, hit_fraction, coverage = columns[6:]
+        distance = distance / np.maximum(hit_fraction, 1e-6)
+        max_distance = float(distance.max()) if (hit_fraction > 0).any() else 1.0
+        depth = np.where(hit_fraction > 0, distance / max(max_distance, 1e-12), 1.0)
+        visible = (np.zeros(self.shape, np.float32) if self.visibility is None
+                   else self.visibility.reshape(height, width))
+        return {"albedo": albedo, "normal": normal, "depth": depth.astype(np.float32), "visibility": visible,
+                "coverage": coverage}
+
+
+def feature_means(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int, seed: int = 0,
+                  visibility: bool = True) -> FeatureMeans:
+    """:class:`FeatureMeans` of ``feature_spp`` primary rays a pixel (seeded by ``seed``), with a shadow ray
+    each where ``visibility``."""
+    height, width = _sensor_film_size(sensor)
+    feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
+    values = _frozen_feature_means(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), feature_spp,
+                                                   _camera_key(sensor), visibility))
+    columns = [np.asarray(value, dtype=np.float32) for value in values]
+    return FeatureMeans(tuple(columns[:9]), feature_spp, columns[9] if visibility else None,
+                        feature_spp if visibility else 0, (height, width))
+
+
+def render_features(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int = DEFAULT_FEATURE_SPP, seed: int = 0) -> dict:
+    """Albedo, shading normal, depth and visibility for every pixel.
+
+    Returns a dict of float32 arrays: ``albedo`` and ``normal`` (H, W, 3),
+    ``depth``, ``visibility`` and ``coverage`` (H, W).
+
+    ``albedo`` is the diffuse reflectance of BSDFs that have a diffuse lobe,
+    clipped to [0, 1], and 0 for the others: Mitsuba's default
+    ``eval_diffuse_reflectance`` (the BSDF times pi at normal incidence) gives
+    a rough metal an "albedo" of 5 to 70 where its highlight faces the camera.
+    ``coverage`` is the fraction of the pixel's rays whose albedo is at least
+    :data:`~gmcpt.image.domain.ALBEDO_MIN` (the rays that demodulation divides).
+    """
+    return feature_means(scene, sensor, feature_spp, seed).buffers()
+
+
+def _unit_normals(planes: list, feature_spp: int) -> np.ndarray:
+    """(H, W, 3) normals from their three (H, W) float32 planes of per-pixel means: a mean of unit normals
+    is renormalised (one sample is unit already, or 0 on a miss). Worked plane by plane: a norm over the
+    short last axis of an (H, W, 3) array is ten times slower."""
+    if feature_spp == 1:
+        return np.stack(planes, axis=-1)
+    length = planes[0] * planes[0]
+    for plane in planes[1:]:
+        length += plane * plane
+    np.sqrt(length, out=length)
+    np.maximum(length, np.float32(1e-6), out=length)
+    normal = np.empty((*length.shape, 3), np.float32)
+    for channel, plane in enumerate(planes):
+        np.divide(plane, length, out=normal[..., channel])
+    return normal
+
+
+def _camera_key(sensor: mi.Sensor) -> tuple:
+    """The sensor's scalar settings that :func:`_primary_rays` bakes into a kernel as constants."""
+    film = sensor.film()
+    return (tuple(film.crop_size()), tuple(film.crop_offset()), sensor.shutter_open(), sensor.shutter_open_time(),
+            sensor.needs_aperture_sample())
+
+
+def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: mi.UInt32,
+                lane: mi.UInt32, seed: mi.UInt32, spp: int, camera: tuple, sums: list) -> list:
+    """Path trace lane ``k * spp + s`` (``lane`` counts them) as sample ``s`` of pixel ``pixels[k]`` and add
+    (R, G, B, squared norm, finite count) of the finite samples to ``sums`` (five zero arrays, one value a pixel),
+    and where ``sums`` holds more arrays, the integrator's AOVs of every sample (the guides of
+    :class:`~gmcpt.render.guided_path.GuidedPath`).
+
+    Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
+    pixel count; ``camera`` (:func:`_camera_key`) only keys the recording.
+    """
+    sampler = _seeded_sampler(sensor, spp, seed, dr.width(lane))
+    lane_pixel = lane // dr.opaque(mi.UInt32, spp)  # as in _primary_rays: one compiled kernel for every spp
+    ray, weight = _primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp)
+    radiance, _, aovs = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
+    radiance = weight * radiance
+    finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
+    radiance = dr.select(finite, radiance, 0.0)
+    # Accumulate per pixel inside the path tracing kernel (as the film does,
+    # with as many channels: RGB, squared norm, count of finite samples).
+    values = [radiance[0], radiance[1], radiance[2], dr.squared_norm(radiance), dr.select(finite, 1.0, 0.0), *aovs]
+    for target, value in zip(sums, values):
+        dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
+    return sums
+
+
+#: :func:`_pixel_sums` recorded once per scene, integrator, spp and camera, then replayed: tracing the path
+#: integrator's kernel in Python costs about 10 ms a pass (a tenth of that replayed), as much as 2 % of a
+#: cheap 16-spp frame. A recording costs about what one plain trace does.
+_frozen_pixel_sums = FrozenKernel(_pixel_sums)
+#: the same with a :class:`~gmcpt.render.guided_path.GuidedPath`'s AOVs: recorded apart, so that a scene where it cannot
+#: be recorded still replays the plain kernel
+_frozen_guided_sums = FrozenKernel(_pixel_sums)
+
+
+def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
+                 pixels: np.ndarray, spp: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Path trace ``spp`` samples for each flat pixel index in ``pixels``.
+
+    Returns float32 ``(sum, sum_of_squares, count)`` over the finite samples,
+    shapes (n, 3), (n,) and (n,); the sum of squares is summed over the three
+    channels (all that the channel-averaged variance needs).
+    """
+    red, green, blue, squares, count = _traced_sums(scene, sensor, integrator, pixels, spp, seed)
+    return np.stack([red, green, blue], axis=1), squares, count
+
+
+def _traced_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: np.ndarray, spp: int,
+                 seed: int, aovs: int = 0) -> list[np.ndarray]:
+    """:func:`_pixel_sums` through the frozen kernel, as float32 arrays: the five sums, then ``aovs`` AOV sums."""
+    # opaque zeros and seed: literals that change between calls would make the frozen function record again
+    kernel = _frozen_guided_sums if aovs else _frozen_pixel_sums
+    sums = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
+                                  dr.arange(mi.UInt32, pixels.size * spp), dr.opaque(mi.UInt32, seed), spp,
+                                  _camera_key(sensor),
+                                  [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5 + aovs)]))
+    return [np.asarray(column) for column in sums]
+
+
+def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, counts: np.ndarray,
+                 seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Trace ``counts[p]`` samples of each flat pixel ``p``: (sum (N, 3), sum of squared norms (N,), finite sample
+    count (N,)), float64.
+
+    Each sample is one lane of a 1-spp pass over the pixel list with repeats, split into parts of at most
+    :data:`MAX_LANES` lanes with a seed of its own per part.
+    """
+    pixels = np.repeat(np.arange(counts.size), counts)
+    total, squares, finite = np.zeros((counts.size, 3)), np.zeros(counts.size), np.zeros(counts.size)
+    parts = max(1, -(-pixels.size // MAX_LANES))
+    for index, chunk in enumerate(np.array_split(pixels, parts)):
+        if chunk.size == 0:
+            continue
+        sums, chunk_squares, count = trace_pixels(scene, sensor, integrator, chunk, 1, pass_seed(seed, index, parts))
+        for channel in range(3):
+            total[:, channel] += np.bincount(chunk, weights=sums[:, channel], minlength=counts.size)
+        squares += np.bincount(chunk, weights=chunk_squares, minlength=counts.size)
+        finite += np.bincount(chunk, weights=count, minlength=counts.size)
+    return total, squares, finite
+
+
+#: Up to this many samples (pixels x spp), Mitsuba's render of every pixel is traced by the frozen pixel-list
+#: kernel (:func:`trace_pixels`), which draws the same samples: ``mi.render`` traces the integrator in Python on
+#: every call, 4-20 ms at 256x256 (living room at 1 spp: 79 ms against 100), while above this its film gathers
+#: the samples faster (256x256 at 16 spp: 1-2% faster; 1920x1080 at 1 spp: 4%; docs/experiments.md).
+FROZEN_FRAME_SAMPLES = 1 << 19
+
+
+def render_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int,
+                  seed: int, any_size: bool = False) -> np.ndarray:
+    """Mitsuba's render of every pixel at ``spp`` samples with the scene's integrator, (N, 3) float32 flat: each
+    pixel the mean of its own samples, non-finite where one of them was (as ``mi.render``'s film gives it, so that
+    :meth:`SampleSums.add_native` counts that pixel's samples as dropped). ``mi.render`` itself, or for a box
+    filter and at most :data:`FROZEN_FRAME_SAMPLES` samples (``any_size``: any number) the same samples through the
+    frozen kernel, whose one compiled kernel serves every spp where ``mi.render`` compiles one for each. The
+    sensor's sampler keeps its own sample count (``mi.render`` sets it)."""
+    return _render_full(scene, sensor, integrator, spp, seed, 0, any_size)[0]
+
+
+def render_native_guided(scene: mi.Scene, sensor: mi.Sensor, twin: mi.SamplingIntegrator, spp: int,
+                         seed: int, any_size: bool = False) -> tuple[np.ndarray, FeatureMeans]:
+    """:func:`render_native` with ``twin`` (:func:`gmcpt.render.guided_path.guided_twin` of the scene's integrator: the
+    same image) and the :class:`FeatureMeans` of its first hits, guides of ``spp`` rays a pixel."""
+    image, planes = _render_full(scene, sensor, twin, spp, seed, len(FEATURE_PLANES), any_size)
+    return image, FeatureMeans(tuple(planes), spp, None, 0, _sensor_film_size(sensor))
+
+
+def warm_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, guided: bool) -> None:
+    """Compile (or find compiled) the frozen kernel that :func:`render_native` (with ``guided``,
+    :func:`render_native_guided`) runs at ``any_size``, by tracing one sample of a few pixels: the kernel serves
+    every pixel count and spp, so that a whole frame's pass then takes its own time, not its compilation's. Nothing
+    where the film's filter is wider than a pixel (``mi.render`` renders it)."""
+    if not _box_filter(sensor):
+        return
+    height, width = _sensor_film_size(sensor)
+    _traced_sums(scene, sensor, integrator, np.arange(min(64, height * width)), 1, 0,
+                 len(FEATURE_PLANES) if guided else 0)
+
+
+def _box_filter(sensor: mi.Sensor) -> bool:
+    """Whether each sample lands in its own pixel alone, as the frozen kernel's sums take it."""
+    return sensor.film().rfilter().radius() <= 0.5
+
+
+def _render_full(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int, seed: int,
+                 aovs: int, any_size: bool) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(the image, (N, 3), and the per-pixel means of the integrator's first ``aovs`` AOVs, flat float32 planes)."""
+    height, width = _sensor_film_size(sensor)
+    if (any_size or height * width * spp <= FROZEN_FRAME_SAMPLES) and _box_filter(sensor):
+        red, green, blue, _, count, *planes = _traced_sums(scene, sensor, integrator, np.arange(height * width), spp,
+                                                           seed, aovs)
+        mean = np.stack([red, green, blue], axis=1)
+        if spp > 1:
+            mean /= np.float32(spp)
+            planes = [plane / np.float32(spp) for plane in planes]
+        mean[count < spp] = np.nan  # the kernel leaves non-finite samples out; the film does not
+        return mean, planes
+    sampler = sensor.sampler()
+    count = sampler.sample_count()
+    try:
+        image = np.asarray(mi.render(scene, sensor=sensor, integrator=integrator, spp=spp, seed=seed),
+                           dtype=np.float32).reshape(height * width, -1)
+        return image[:, :3], [np.ascontiguousarray(image[:, 3 + plane]) for plane in range(aovs)]
+    finally:
+        sampler.set_sample_count(count)
+
+
+class SampleSums:
+    """Per-pixel sums of path samples over all of a frame's passes (flat pixels): every strategy traces into one.
+
+    ``samples`` counts the samples traced, finite or not; ``finite`` a pixel's finite ones. A native pass
+    (:meth:`add_native`) brings no squares: its pixels' variance is that of the other passes' samples alone.
+    While every sample so far is a native pass's, the sums are kept as a float32 mean and a pixel-list pass is
+    folded into it, its squares dropped (a dense frame's top-up of one sample a pixel has no variance to give).
+    """
+
+    def __init__(self, pixels: int):
+        self.size = pixels
+        self._total, self.squares, self.finite = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels)
+        self.squared_samples = np.zeros(pixels)  # finite samples that brought their squares
+        self.samples = 0
+        # a frame of finite native passes and top-ups (a dense frame's usual case) keeps Mitsuba's float32 image
+        # as its mean, and makes the float64 sums only if another kind of pass comes (2-3 ms a frame at 256x256,
+        # 0.4 s at 1920x1080)
+        self._native_mean: np.ndarray | None = None
+        self._mean_is_own = False
+
+    @property
+    def total(self) -> np.ndarray:
+        """(N, 3) float64 sums of the finite samples."""
+        if self._native_mean is not None:
+            self._total, self._native_mean = self._native_mean * self.finite[:, None], None
+        return self._total
+
+    @total.setter
+    def total(self, value: np.ndarray) -> None:
+        self._total, self._native_mean = value, None
+
+    def trace(self, scene, sensor, integrator, pixels: np.ndarray, spp: int, seed: int,
+              say: Callable[[str], None] = lambda message: None) -> None:
+        """``spp`` samples of each flat pixel in ``pixels`` (consecutive lanes), in launches of at most
+        :data:`MAX_LANES` lanes, each seeded by :func:`pass_seed`."""
+        if pixels.size == 0:
+            return
+        passes = max(1, -(-pixels.size * spp // MAX_LANES))
+        pass_spp, done = -(-spp // passes), 0
+        for index in range(passes):
+            this_spp = min(pass_spp, spp - done)
+            if this_spp <= 0:
+                break
+            say(f"path tracing: {pixels.size} px x {spp} spp" + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
+            total, squares, count = trace_pixels(scene, sensor, integrator, pixels, this_spp,
+                                                 pass_seed(seed, index, passes))
+            if self._native_mean is not None:
+                self._fold(pixels, total, count)
+            else:
+                self.total[pixels] += total
+                self.squares[pixels] += squares
+                self.finite[pixels] += count
+                self.squared_samples[pixels] += count
+            done += this_spp
+        self.samples += pixels.size * spp
+
+    def _fold(self, pixels: np.ndarray, total: np.ndarray, count: np.ndarray) -> None:
+        """Fold the finite samples' sums ``total`` ((n, 3)) and counts of the flat ``pixels`` into the native mean."""
+        if not self._mean_is_own:  # the caller's image (or Mitsuba's buffer) is not ours to change
+            self._native_mean, self._mean_is_own = self._native_mean.copy(), True
+        before = self.finite[pixels]
+        after = before + count
+        # in float32 and in place: a top-up of 80% of a 1920x1080 frame folds in 0.06 s instead of 0.1
+        folded = np.take(self._native_mean, pixels, axis=0)
+        folded *= before.astype(np.float32)[:, None]
+        folded += total
+        folded /= np.maximum(after, 1).astype(np.float32)[:, None]
+        self._native_mean[pixels] = folded
+        self.finite[pixels] = after
+
+    def trace_counts(self, scene, sensor, integrator, counts: np.ndarray, seed: int) -> None:
+        """``counts[p]`` more samples of each flat pixel ``p`` (:func:`trace_counts`)."""
+        total, squares, finite = trace_counts(scene, sensor, integrator, counts, seed)
+        self.total, self.squares = self.total + total, self.squares + squares
+        self.finite, self.squared_samples = self.finite + finite, self.squared_samples + finite
+        self.samples += int(counts.sum())
+
+    def add_native(self, image: np.ndarray, spp: int) -> None:
+        """A :func:`render_native` image of ``spp`` samples a pixel (kept as it is); a non-finite pixel's samples
+        count as dropped."""
+        if np.isfinite(image).all():  # the usual case, without the masked copies (0.35 s at 1920x1080)
+            if self.samples == 0:  # the first pass is the frame (a dense frame's one launch)
+                self._native_mean, self._mean_is_own = image, False
+            else:
+                self.total += image * np.float64(spp)
+            self.finite += spp
+        else:
+            finite = np.isfinite(image).all(axis=1)
+            self.total[finite] += image[finite] * spp
+            self.finite[finite] += spp
+        self.samples += image.shape[0] * spp
+
+    def estimate(self, where: np.ndarray | slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """(mean (n, 3), variance of the mean (n,)) of the flat pixels ``where``; the variance comes from the samples
+        that brought their squares, scaled to the pixel's whole count."""
+        if self._native_mean is not None:  # one native pass: its image is the mean, and it brings no squares
+            mean = self._native_mean[where]
+            return mean, np.zeros(mean.shape[0])
+        inverse_count = 1.0 / np.maximum(self.finite[where], 1)
+        mean = self.total[where] * inverse_count[:, None]
+        squared = self.squared_samples[where]
+        if not squared.any():  # native passes alone bring no squares
+            return mean, np.zeros(mean.shape[0])
+        # channel-averaged unbiased, in float64 (sum of squares minus n mean^2 cancels)
+        sample_variance = (self.squares[where] - squared * np.einsum("ij,ij->i", mean, mean, dtype=np.float64)) \
+            / (3 * np.maximum(squared - 1, 1))
+        return mean, np.maximum(sample_variance, 0.0) * inverse_count

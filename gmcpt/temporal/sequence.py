@@ -1,0 +1,507 @@
+"""Sequences: each frame traces its budget and reuses the samples of the frames before it
+(:mod:`gmcpt.temporal.history`).
+
+    sequence = SequenceRenderer(SequenceSettings(budget=2))
+    for index in range(24):
+        scene = load_scene("anim.xml", params={"frame": index})
+        image, info, timings = sequence.render(scene, index)
+
+Per frame: guides (albedo, normal) and one ray through each pixel's centre (where it hits, to reproject);
+the past frames reprojected (each straight into this one); this frame's samples placed where the history is
+thin, so that disocclusions and the edge a pan uncovers get fresh samples first (every pixel gets one at
+least, so the history can be checked against it); the history left out where it disagrees with them; then
+OIDN over the sums; then the frame shown before, carried along the motion (Catmull-Rom, where the history
+held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every frame
+(the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after
+it. :meth:`SequenceRenderer.state` and :meth:`SequenceRenderer.restore` carry the history across processes,
+so a stopped sequence resumes with the images an uninterrupted run gives.
+
+With no history (the first frame, after a cut), a frame is the budget's samples spread evenly, then OIDN.
+"""
+from __future__ import annotations
+
+import time
+from collections import deque
+from dataclasses import asdict, dataclass, field
+
+import drjit as dr
+import mitsuba as mi
+import numpy as np
+
+from ..errors import GmcptError
+from ..frame import DEFAULT_FEATURE_SPP, SparseFrame
+from ..image.denoise import denoise_oidn
+from ..limits import SEED_LIMIT, check_seconds, check_seed
+from ..render.guided_path import first_hit_features
+from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, _camera_key, _primary_rays, _seeded_sampler,
+                              _sensor_film_size, pixel_means, render_native)
+from ..render.scene import path_integrator, scene_sensor
+from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
+from ..sampling.masks import DEFAULT_RATE
+from ..seeds import FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_TOP_UP_SEED_OFFSET, stream
+from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, cubic_sample, fit_projection,
+                      history_weights, signature)
+from .reprojection import JitFrame, gather_history, jit_frame
+
+#: Frames of history kept by default, and the weight of a frame's samples per frame of age (0.9 over 0.8: +0.1-0.2
+#: dB on a pan; 16 frames another +0.1 for twice the reprojection time; docs/experiments.md).
+HISTORY_FRAMES = 8
+HISTORY_DECAY = 0.9
+#: History counts are levelled up to this many times the budget: pixels with less (disocclusions, the edge a pan
+#: uncovers) get fresh samples first, the others an even share (levelling up to 4x lost 0.5-1 dB on a still
+#: camera: the noise OIDN sees grows uneven).
+FRESH_CAP = 1
+#: The weight of the frame shown before in each shown frame (an exponential moving average along the motion), up
+#: to a budget of :data:`CARRY_FULL_BUDGET`, then falling as 1 / budget: at 1-2 samples a pixel 0.5 took a quarter
+#: to a third off the flicker at -0.07 to +0.3 dB. At 4, 0.5 against 0.25 takes 3-12% more off the flicker and
+#: costs the breakfast and living rooms 0.15-0.2 dB (the dining room nothing): what OIDN leaves there is mostly
+#: error that stays, which carrying only resamples. Steadiness is what a sequence is for (docs/experiments.md).
+SHOWN_CARRY = 0.5
+CARRY_FULL_BUDGET = 4.0
+
+
+@dataclass(frozen=True)
+class SequenceSettings:
+    """What a sequence traces a frame.
+
+    Attributes
+    ----------
+    budget : path samples a pixel per frame (mean).
+    seed : sampler seed of frame 0; frame i draws from ``seed + i * FRAME_SEED_STEP``.
+    history : past frames kept (0: every frame on its own).
+    decay : weight of a past frame's samples per frame of age, in (0, 1].
+    time : seconds a frame, from one frame's end to the next's (0: none, every frame spends ``budget``). With a
+        time, ``budget`` is the first frame's, and each later frame's is read from the pace of the ones before
+        (:class:`FramePace`); the guides keep ``budget``'s rays, so a still surface keeps its signature.
+    """
+
+    budget: float = 2.0
+    seed: int = 0
+    history: int = HISTORY_FRAMES
+    decay: float = HISTORY_DECAY
+    time: float = 0.0
+
+    def __post_init__(self):
+        check_budget(self.budget)
+        check_seed(self.seed)
+        if self.time:
+            check_seconds(self.time, "time")
+        if not isinstance(self.history, int) or not 0 <= self.history <= 64:
+            raise GmcptError(f"history must be a whole number of frames in [0, 64], got {self.history}")
+        history_weights([1], self.decay)
+
+    def frame_seed(self, index: int) -> int:
+        return (self.seed + index * FRAME_SEED_STEP) % SEED_LIMIT
+
+
+#: The fewest and most samples a pixel a timed frame spends (below the fewest the frame is late; a warning says so).
+TIMED_BUDGETS = (0.25, float(MAX_BUDGET))
+
+
+@dataclass
+class FramePace:
+    """What a sequence's frames cost, read from the frames so far, to size the next frame's samples to a time.
+
+    A frame's period runs from the end of the frame before to its own end, so it holds what the caller does between
+    frames (loading the next scene, writing the last frame's files) as well as the frame itself. Its seconds split
+    into the path tracing and the rest (the least of the last :data:`PACE_FRAMES` frames': a slow frame, the first
+    compiling its kernels or one in a busy moment, would starve the next of samples). The path tracing's seconds
+    are a line in the samples, read from those frames: where their budgets lie apart (a sequence still finding
+    its pace) the line through them, whose launch cost a small budget's seconds a sample would count as samples;
+    else the median seconds a sample."""
+
+    ended: float | None = None  # perf_counter() at the end of the last frame
+    fixed: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # seconds a frame besides its samples
+    traced: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # (budget, seconds tracing it)
+
+    def budget(self, seconds: float, first: float) -> float:
+        """Samples a pixel for a frame of ``seconds``; ``first`` until a frame has been measured."""
+        if not self.traced:
+            return first
+        launch, per_sample = self._tracing()
+        low, high = TIMED_BUDGETS
+        return float(np.clip((seconds - min(self.fixed) - launch) / per_sample, low, high))
+
+    def _tracing(self) -> tuple[float, float]:
+        """(seconds of a launch, seconds a sample a pixel) of the path tracing in the frames so far."""
+        budgets, spent = (np.array(column, np.float64) for column in zip(*self.traced))
+        if budgets.max() >= PACE_SPREAD * budgets.min():
+            per_sample, launch = np.polyfit(budgets, spent, 1)
+            if per_sample > 0:
+                return max(float(launch), 0.0), float(per_sample)
+        return 0.0, max(float(np.median(spent / budgets)), 1e-9)
+
+    def record(self, started: float, ended: float, render_s: float, budget: float, seconds: float) -> None:
+        """A frame that ran from ``started`` to ``ended`` (perf_counter), ``render_s`` of it tracing ``budget``
+        samples a pixel, in a sequence of ``seconds`` a frame. A gap of more than twice that before the frame is
+        a pause (the caller waited on something else), not the caller's share of a frame: it is left out."""
+        period = ended - started
+        if self.ended is not None and started - self.ended <= 2 * seconds:
+            period += started - self.ended
+        self.ended = ended
+        self.fixed.append(period - render_s)
+        self.traced.append((budget, render_s))
+
+
+#: Frames whose costs :class:`FramePace` reads
+PACE_FRAMES = 3
+#: Budgets this far apart (the largest over the smallest) tell the path tracing's launch from its samples
+PACE_SPREAD = 2.0
+
+
+@dataclass(frozen=True)
+class Survey:
+    """A frame's pass over its pixels before any path is traced (:func:`survey`): where each pixel's centre ray
+    hit (N, 3; NaN on a miss) and the shading normal there (N, 3), the guides' feature means over the pixel's
+    guide rays (:class:`~gmcpt.render.kernels.FeatureMeans`), each pixel's lighting signature (N,: the luminance of the
+    direct light through fixed light samples with the surface's BSDF toward the camera, plus what the surface
+    emits, averaged over the guide rays), and the camera's :class:`~gmcpt.temporal.history.Projection`."""
+
+    positions: np.ndarray
+    normals: np.ndarray
+    features: FeatureMeans
+    lighting: np.ndarray
+    projection: Projection
+
+
+def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_rays: int, camera: tuple) -> list:
+    """The flat planes of :class:`Survey`: the feature planes and the lighting signature averaged over
+    ``guide_rays`` jittered rays a pixel, then the centre ray's hit (x, y, z, normal x, y, z, hit).
+
+    The signature's light samples are a fixed 2x2 grid over the lights' sampling domain, one a guide ray in turn:
+    the same every frame, so a static surface under static lights keeps its signature, and a changed one is light
+    that changed (a shadow that moved, a light switched or moved, a highlight that slid). Averaged over the pixel's
+    rays, not read at its centre: an emitter's or a shadow's edge covering part of a pixel moves away unseen by a
+    centre ray."""
+    width, height = camera[0]
+    lanes = height * width * guide_rays
+    sampler = _seeded_sampler(sensor, guide_rays, seed, lanes)
+    lane = dr.arange(mi.UInt32, lanes)
+    pixel = lane // dr.opaque(mi.UInt32, guide_rays)
+    ray, _ = _primary_rays(sensor, sampler, pixel, width, guide_rays)
+    si = scene.ray_intersect(ray)
+    hit = si.is_valid()
+    bsdf = si.bsdf(ray)
+    values = first_hit_features(si, bsdf)
+    corner = (lane - pixel * dr.opaque(mi.UInt32, guide_rays)) & 3
+    light_sample = mi.Point2f(mi.Float(corner & 1) * 0.5 + 0.25, mi.Float(corner >> 1) * 0.5 + 0.25)
+    towards, weight = scene.sample_emitter_direction(si, light_sample, True, hit)
+    light = bsdf.eval(mi.BSDFContext(), si, si.to_local(towards.d), hit & (towards.pdf > 0)) * weight
+    light += dr.select(hit, si.emitter(scene).eval(si, hit), 0.0)
+    values.append(dr.select(hit, (light.x + light.y + light.z) / 3, 0.0))
+    means = pixel_means(values, pixel, dr.opaque(mi.Float, 1 / guide_rays), height * width)
+    return means + _centre_planes(scene, sensor, (width, height))
+
+
+def _centre_planes(scene: mi.Scene, sensor: mi.Sensor, size: tuple[int, int]) -> list:
+    """Where one ray through each pixel's centre of a ``size`` (W, H) film hits: x, y, z, normal x, y, z, hit."""
+    width, height = size
+    index = dr.arange(mi.UInt32, height * width)
+    film = mi.Point2f(mi.Float(index % width) + 0.5, mi.Float(index // width) + 0.5)
+    centre, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
+                                  sample2=film / mi.ScalarVector2f(width, height), sample3=mi.Point2f(0.5))
+    hit = scene.ray_intersect(centre)
+    return [hit.p.x, hit.p.y, hit.p.z, hit.sh_frame.n.x, hit.sh_frame.n.y, hit.sh_frame.n.z,
+            dr.select(hit.is_valid(), 1.0, 0.0)]
+
+
+#: :func:`_survey_planes` recorded once per scene, film and guide rays, then replayed; :func:`_centre_planes` alone
+#: for :func:`geometry`
+_frozen_survey = FrozenKernel(_survey_planes)
+_frozen_centres = FrozenKernel(_centre_planes)
+
+
+def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 0) -> Survey:
+    """This frame's :class:`Survey` over ``guide_rays`` rays a pixel (seeded by ``seed``), in one pass."""
+    height, width = _sensor_film_size(sensor)
+    feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
+    planes = [np.asarray(plane, np.float32) for plane in
+              _frozen_survey(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), guide_rays,
+                                             _camera_key(sensor)))]
+    features, lighting = planes[:9], planes[9]
+    positions, normals = _hits(planes[10:])
+    return Survey(positions, normals, FeatureMeans(tuple(features), guide_rays, None, 0, (height, width)), lighting,
+                  camera_projection(sensor))
+
+
+def _hits(planes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(positions, normals) (N, 3) each, NaN on a miss, of :func:`_centre_planes`' planes. float32, as traced: the
+    reprojection of 8 past frames reads them every frame, at half float64's traffic."""
+    hit = planes[6][:, None] > 0
+    return (np.where(hit, np.stack(planes[0:3], axis=1), np.float32(np.nan)),
+            np.where(hit, np.stack(planes[3:6], axis=1), np.float32(np.nan)))
+
+
+def camera_projection(sensor: mi.Sensor) -> Projection:
+    """The sensor's :class:`~gmcpt.temporal.history.Projection`, fitted from rays through an 8x8 grid of pixel centres
+    (a grid, not a line of them: 11 numbers to fit)."""
+    height, width = _sensor_film_size(sensor)
+    columns, rows = np.meshgrid(np.linspace(0, width - 1, 8).round() + 0.5, np.linspace(0, height - 1, 8).round() + 0.5)
+    film = np.stack([columns.ravel(), rows.ravel()], axis=1)
+    ray, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
+                               sample2=mi.Point2f(*(film / [width, height]).T.astype(np.float32)),
+                               sample3=mi.Point2f(0.5))
+    lanes = film.shape[0]  # a camera whose rays share an origin or a direction gives one lane of it
+    origins = np.broadcast_to(_columns(ray.o), (lanes, 3))
+    return fit_projection(film, origins, np.broadcast_to(_columns(ray.d), (lanes, 3)), width, height)
+
+
+def geometry(scene: mi.Scene, sensor: mi.Sensor) -> tuple[np.ndarray, np.ndarray, Projection]:
+    """Where each pixel's centre ray hits (N, 3; NaN on a miss), the shading normal there (N, 3), and the
+    camera's :class:`~gmcpt.temporal.history.Projection`: the centre rays of :func:`survey` alone (no guides, no shadow
+    rays), for the stability figures and the benchmark's accumulation baseline."""
+    height, width = _sensor_film_size(sensor)
+    planes = [np.asarray(plane, np.float32) for plane in _frozen_centres(scene, lambda: (sensor, (width, height)))]
+    return (*_hits(planes), camera_projection(sensor))
+
+
+def _columns(vector, dtype=np.float64) -> np.ndarray:
+    """A Dr.Jit 3-vector of N lanes as (N, 3) ``dtype``."""
+    return np.stack([np.asarray(vector.x), np.asarray(vector.y), np.asarray(vector.z)], axis=1).astype(dtype,
+                                                                                                     copy=False)
+
+
+@dataclass(frozen=True)
+class History:
+    """What the past frames give the current one (:meth:`SequenceRenderer._history`), flat over its pixels."""
+
+    total: np.ndarray  # (N, 3) weighted sums of the samples kept
+    count: np.ndarray  # (N,) their weighted count
+    offered: np.ndarray  # (N,) bool: some past frame saw the pixel's surface
+    latest_seen: np.ndarray  # (N,) bool: the frame shown last saw it, unchanged
+    latest_film: np.ndarray  # (N, 2) where on that frame's film
+    frames: int  # past frames used
+    dropped: dict  # reason -> share of pixels that lost a past frame's samples for it
+
+
+@dataclass(frozen=True)
+class SequenceFrame:
+    """One frame of a sequence: the image shown (H, W, 3) float32; its layers as a single frame's
+    (:class:`~gmcpt.frame.SparseFrame`: the samples' mean, this frame's and the history's, where there were any;
+    the guides); the frame's figures (history kept and dropped, samples) and its stage timings in seconds."""
+
+    image: np.ndarray
+    layers: SparseFrame
+    info: dict
+    timings: dict
+
+
+def _layers(mean: np.ndarray, count: np.ndarray, guides: dict, budget: float) -> SparseFrame:
+    """The :class:`~gmcpt.frame.SparseFrame` of a sequence frame: ``mean`` (N, 3) of ``count`` (N,) weighted
+    samples, this frame's and the history's, and the survey's ``guides``; no variance is kept (zeros)."""
+    height, width = guides["albedo"].shape[:2]
+    sampled = (count > 0).reshape(height, width)
+    radiance = np.where(sampled[..., None], mean.reshape(height, width, 3), 0.0).astype(np.float32)
+    return SparseFrame(radiance=radiance, mask=sampled, variance=np.zeros((height, width), np.float32),
+                       albedo=guides["albedo"], normal=guides["normal"], depth=guides["depth"],
+                       visibility=guides["visibility"], spp=max(1, round(budget)), coverage=guides["coverage"],
+                       info={"sequence": True})
+
+
+class SequenceRenderer:
+    """Renders the frames of a sequence in order, keeping the last :attr:`SequenceSettings.history` frames'
+    samples (:class:`~gmcpt.temporal.history.PastFrame`)."""
+
+    def __init__(self, settings: SequenceSettings = SequenceSettings()):
+        self.settings = settings
+        self.past: deque[PastFrame] = deque(maxlen=max(settings.history, 1))
+        self.shown: tuple[int, np.ndarray] | None = None  # (frame, image) of the last frame shown
+        self._jit: dict[int, tuple[PastFrame, JitFrame]] = {}  # the past frames in Dr.Jit, by id
+        self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
+
+    def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
+               sensor: mi.Sensor | None = None) -> tuple[np.ndarray, dict, dict]:
+        """Frame ``index`` of ``scene``: (image (H, W, 3) float32, info, timings in seconds)."""
+        frame = self.render_frame(scene, index, integrator, sensor)
+        return frame.image, frame.info, frame.timings
+
+    def render_frame(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
+                     sensor: mi.Sensor | None = None) -> SequenceFrame:
+        """Frame ``index`` of ``scene`` with its layers (:class:`SequenceFrame`)."""
+        settings = self.settings
+        started = time.perf_counter()
+        budget = self.pace.budget(settings.time, settings.budget) if settings.time else settings.budget
+        sensor = sensor if sensor is not None else scene_sensor(scene)
+        integrator = integrator if integrator is not None else path_integrator(scene)
+        height, width = _sensor_film_size(sensor)
+        pixels, seed, timings = height * width, settings.frame_seed(index), {}
+
+        start = time.perf_counter()
+        guide_rays = guide_spp(settings.budget, DEFAULT_FEATURE_SPP)
+        found = survey(scene, sensor, guide_rays, settings.seed)  # one seed: a still camera's survey stays put
+        guides = found.features.buffers()
+        marks = signature(found.lighting, guides["albedo"].mean(axis=-1).ravel(), width, height)
+        timings["features_s"] = time.perf_counter() - start
+
+        start = time.perf_counter()
+        history = self._history(index, found, marks)
+        samples = int(round(budget * pixels))
+        counts = _placement(history.count, samples, budget, (height, width), seed)
+        timings["placement_s"] = time.perf_counter() - start
+
+        start = time.perf_counter()
+        sums, level = SampleSums(pixels), int(counts.min())
+        if level:
+            # a timed sequence's level changes every frame: the frozen kernel serves any, where mi.render compiles
+            sums.add_native(render_native(scene, sensor, integrator, level, seed, any_size=bool(settings.time)), level)
+        if (counts > level).any():
+            sums.trace_counts(scene, sensor, integrator, counts - level, stream(seed, SEQUENCE_TOP_UP_SEED_OFFSET))
+        total, count = sums.total, sums.finite  # NaN/Inf samples left out
+        timings["render_s"] = time.perf_counter() - start
+
+        start = time.perf_counter()
+        own = total / np.maximum(count, 1)[:, None]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            past_mean = history.total / history.count[:, None]
+        agrees = agreement(own.reshape(height, width, 3), np.nan_to_num(past_mean).reshape(height, width, 3),
+                           (history.count > 0).reshape(height, width)).ravel()
+        kept = np.where(agrees, history.count, 0.0)
+        image = (total + history.total * agrees[:, None]) / np.maximum(count + kept, 1e-9)[:, None]
+        timings["combine_s"] = time.perf_counter() - start
+
+        start = time.perf_counter()
+        denoised = denoise_oidn(image.reshape(height, width, 3).astype(np.float32), guides["albedo"], guides["normal"],
+                                guide_rays)
+        timings["denoise_s"] = time.perf_counter() - start
+
+        start = time.perf_counter()
+        shown, carried = self._carried(denoised, history.latest_film, history.latest_seen & agrees, budget)
+        timings["carry_s"] = time.perf_counter() - start
+
+        if settings.history:
+            # float32, as the samples were traced: 8 past frames' gathers a frame at half float64's traffic
+            self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), found.positions,
+                                       found.normals, found.projection, marks))
+            self.shown = (index, shown)
+        dropped = dict(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
+        info = {"frame": index, "seed": seed, "budget": budget, "path_samples": int(counts.sum()),
+                "history_frames": history.frames,
+                "history_pixels": float((kept > 0).mean()), "history_samples": float(kept.mean()),
+                "history_dropped": float((history.offered & ~((history.count > 0) & agrees)).mean()),
+                "dropped": dropped, "carried_pixels": carried,
+                "nonfinite_samples": int(sums.samples - count.sum()), "guide_rays": guide_rays}
+        if settings.time:
+            info["time_short"] = budget <= TIMED_BUDGETS[0]
+        layers = _layers(image, count + kept, guides, budget)
+        self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time)
+        return SequenceFrame(shown, layers, info, timings)
+
+    def _history(self, index: int, found: Survey, marks: Signature) -> History:
+        """The past frames' samples reprojected into this frame (``found``: its :func:`survey`; ``marks``: its
+        :class:`~gmcpt.temporal.history.Signature`), weighted by age, where each past pixel saw the same surface under
+        the same light and material (:func:`~gmcpt.temporal.history.unchanged`)."""
+        pixels = found.lighting.size
+        usable = [past for past in self.past if past.index < index and past.total.shape[0] == pixels]
+        weights = history_weights([index - past.index for past in usable], self.settings.decay)
+        hits = found.lighting[np.isfinite(found.positions[:, 0])]
+        floor = LIGHTING_FLOOR * float(hits.mean()) if hits.size else 0.0
+        latest = self.shown[0] if self.shown is not None else None
+        frames = [(self._jit_frame(past), weight, past.index == latest) for past, weight in zip(usable, weights)]
+        gathered = gather_history(frames, found.positions, found.normals, marks, floor)
+        shares = {"lighting": float(gathered.lighting_dropped.mean()),
+                  "material": float(gathered.material_dropped.mean()),
+                  "unseen": float((~gathered.offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0}
+        return History(gathered.summed[:, :3], gathered.summed[:, 3], gathered.offered, gathered.latest_seen,
+                       gathered.latest_film, len(usable), shares)
+
+    def _jit_frame(self, past: PastFrame) -> JitFrame:
+        """``past`` in Dr.Jit, made once (kept while the frame is in the history)."""
+        self._jit = {key: entry for key, entry in self._jit.items() if any(entry[0] is frame for frame in self.past)}
+        if id(past) not in self._jit:  # the entry holds the frame itself, so no other frame takes its id meanwhile
+            self._jit[id(past)] = (past, jit_frame(past))
+        return self._jit[id(past)][1]
+
+    def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray,
+                 budget: float) -> tuple[np.ndarray, float]:
+        """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`),
+        read along the motion at ``film`` (N, 2, its film coordinates) where ``where`` (N,) says its surface was
+        seen and its history held; the share of pixels blended)."""
+        if self.shown is None or not where.any():
+            return denoised, 0.0
+        carry = SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / budget)
+        flat = denoised.reshape(-1, 3).copy()
+        flat[where] = (1 - carry) * flat[where] + carry * cubic_sample(self.shown[1], film[where])
+        return flat.reshape(denoised.shape), float(where.mean())
+
+    def state(self) -> dict:
+        """The history as plain arrays (for :func:`numpy.savez`): what :meth:`restore` takes back."""
+        state = {"settings": np.array(repr(sorted(asdict(self.settings).items())))}
+        for slot, past in enumerate(self.past):
+            for name in ("total", "count", "positions", "normals"):
+                state[f"{slot}_{name}"] = getattr(past, name)
+            state[f"{slot}_lighting"], state[f"{slot}_albedo"] = past.signature.lighting, past.signature.albedo
+            state[f"{slot}_index"] = np.array(past.index)
+            state[f"{slot}_matrix"] = past.projection.matrix
+            state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
+        if self.shown is not None:
+            state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
+        return state
+
+    def restore(self, state) -> None:
+        """Take back a :meth:`state` of a run with the same settings; one-line error otherwise."""
+        if str(state["settings"]) != repr(sorted(asdict(self.settings).items())):
+            raise GmcptError("the saved sequence state was made with other settings; start the sequence again")
+        self.past.clear()
+        slot = 0
+        while f"{slot}_index" in state:
+            width, height = (int(value) for value in state[f"{slot}_size"])
+            self.past.append(PastFrame(int(state[f"{slot}_index"]), state[f"{slot}_total"], state[f"{slot}_count"],
+                                       state[f"{slot}_positions"], state[f"{slot}_normals"],
+                                       Projection(state[f"{slot}_matrix"], width, height),
+                                       signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height)))
+            slot += 1
+        self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
+
+
+def sequence_budget(budget: float | None, sensor: mi.Sensor) -> float:
+    """A sequence's samples a pixel a frame: ``budget``, or by default as many as rate ``DEFAULT_RATE`` traces at
+    the sensor's spp (what a single frame spends by default)."""
+    return budget if budget else DEFAULT_RATE * sensor.sampler().sample_count()
+
+
+class RenderLoop:
+    """The frames of successive renders of one scene object, as ``mi.render`` gives them to ``masked_path``: each a
+    frame of one sequence, reusing the ones before it (the camera and shapes may move through ``mi.traverse``
+    between them). Another scene, another film size or :meth:`reset` starts a new sequence.
+
+    Frame ``i`` draws the samples :class:`SequenceSettings` gives frame ``i``, so the frames equal those of
+    ``gmcpt batch --frames 0:N --history H`` on a scene that moves the same way."""
+
+    def __init__(self, budget: float | None, seed: int, history: int, seconds: float = 0.0):
+        self.budget, self.seed, self.history, self.seconds = budget, seed, history, seconds
+        SequenceSettings(budget=budget or 1.0, seed=seed, history=history, time=seconds)  # one line on a bad value
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the frames so far: the next render is frame 0 of a new sequence."""
+        self.renderer: SequenceRenderer | None = None
+        self._held: tuple = ()
+        self.next_index = 0
+
+    def render(self, scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
+               index: int | None = None) -> SequenceFrame:
+        """Frame ``index`` (default: the one after the last) of the sequence ``scene`` is in, started anew here
+        for another scene or film size. The scene is known by its address: holding it would keep it alive."""
+        held = (scene.ptr, _sensor_film_size(sensor))
+        if self.renderer is None or held != self._held:
+            self.reset()
+            self.renderer = SequenceRenderer(SequenceSettings(budget=sequence_budget(self.budget, sensor),
+                                                              seed=self.seed, history=self.history,
+                                                              time=self.seconds))
+            self._held = held
+        index = self.next_index if index is None else index
+        frame = self.renderer.render_frame(scene, index, integrator, sensor)
+        self.next_index = index + 1
+        return frame
+
+
+def _placement(history_count: np.ndarray, samples: int, budget: float, shape: tuple[int, int],
+               seed: int) -> np.ndarray:
+    """This frame's samples a pixel (flat int): one each where the budget allows, the rest levelling the
+    history's counts (capped at :data:`FRESH_CAP` x the budget) as :func:`~gmcpt.sampling.budget.even_fill` does, so
+    pixels without history come first."""
+    pixels = history_count.size
+    floor = 1 if samples >= pixels else 0
+    history = np.minimum(np.floor(history_count), FRESH_CAP * budget).astype(np.int64).reshape(shape)
+    base = np.full(shape, floor, np.int64)
+    return (base + even_fill(history + base, samples - floor * pixels, seed)).ravel()
