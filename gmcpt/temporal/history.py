@@ -23,8 +23,9 @@ DEPTH_TOLERANCE = 0.02
 #: Least cosine between the past and current shading normals.
 NORMAL_COSINE = 0.9
 #: History whose luminance over a 15x15 neighbourhood differs from the current samples' by more than this factor
-#: is left out (a light or an object that changed).
-DISAGREE_RATIO = 3.0
+#: is left out (a light or an object that changed): wide enough that one or two samples' noise does not drop good
+#: history (3 dropped 6% of a pan's at budget 1), the lighting signature catching changed light.
+DISAGREE_RATIO = 5.0
 DISAGREE_RADIUS = 7
 #: A pixel's luminance counts in the test up to this many times its image's mean: one firefly among a frame's
 #: few samples is no changed light (unclipped, the dining room's pan lost 6-9% of its history to them).
