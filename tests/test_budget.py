@@ -375,7 +375,7 @@ def test_every_frame_reads_its_own_concentration(mi, monkeypatch):
 def test_a_low_budgets_guides_are_4_rays_in_every_frame(mi, monkeypatch):
     """Below budget 4 the guides take 4 rays: a dense frame whose choice read no edges, the render's own first hits
     and a pass of the rays they lack."""
-    from gmcpt.sampling import budget, strategies
+    from gmcpt.sampling import budget, trace
     from gmcpt.render import kernels
     from gmcpt.render.scene import load_scene
 
@@ -384,7 +384,7 @@ def test_a_low_budgets_guides_are_4_rays_in_every_frame(mi, monkeypatch):
     scene = load_scene(CORNELL, resolution=SIZE)
     passes = []
     means = kernels.feature_means
-    monkeypatch.setattr(strategies, "feature_means", lambda *args: passes.append(args[2]) or means(*args))
+    monkeypatch.setattr(trace, "feature_means", lambda *args: passes.append(args[2]) or means(*args))
     for _ in range(2):
         passes.clear()
         assert _render(scene, 2).info["guide_spp"] == 4 and passes == [2]

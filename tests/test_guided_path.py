@@ -65,14 +65,14 @@ def test_only_a_plain_path_tracer_that_shows_its_emitters_has_a_twin(mi):
 def test_a_dense_frame_takes_its_guides_from_its_render(mi, monkeypatch):
     """Budget 16 is dense without a choice: its render's 16 first hits are the guides, and no guide pass runs; the
     image is the one the frame makes with a guide pass."""
-    from gmcpt.sampling import budget, dense, strategies
+    from gmcpt.sampling import budget, dense, trace
     from gmcpt.render import kernels
     from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", np.inf)  # even: a first launch of 10 spp, then one of 6
     passes = []
     means = kernels.feature_means
-    monkeypatch.setattr(strategies, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
+    monkeypatch.setattr(trace, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
     frame = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
     assert frame.info["guides"] == "render" and frame.info["guide_spp"] == 16 and passes == []
     monkeypatch.setattr(dense, "twin_of", lambda scene, integrator: None)
@@ -84,14 +84,14 @@ def test_a_dense_frame_takes_its_guides_from_its_render(mi, monkeypatch):
 
 def test_an_adaptive_dense_frame_tops_its_first_launchs_guides_up(mi, monkeypatch):
     """Where the rest of a dense frame goes where the error is, only its first launch brings guide rays."""
-    from gmcpt.sampling import budget, strategies
+    from gmcpt.sampling import budget, trace
     from gmcpt.render import kernels
     from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", 0.0)  # any concentration pays
     passes = []
     means = kernels.feature_means
-    monkeypatch.setattr(strategies, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
+    monkeypatch.setattr(trace, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
     frame = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
     assert frame.info["dense_placement"] == "adaptive" and frame.info["guides"] == "render"
     assert passes == [6] and frame.info["guide_spp"] == 16  # 10 from the first launch
@@ -100,12 +100,12 @@ def test_an_adaptive_dense_frame_tops_its_first_launchs_guides_up(mi, monkeypatc
 def test_guides_from_the_render_are_topped_up_to_the_rays_the_budget_asks(mi, monkeypatch):
     """Budget 1 wants 4 rays: the render brings one, a pass the other three, from a scene's first frame on."""
     from gmcpt.render import kernels
-    from gmcpt.sampling import strategies
+    from gmcpt.sampling import trace
     from gmcpt.render.scene import load_scene
 
     passes = []
     means = kernels.feature_means
-    monkeypatch.setattr(strategies, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
+    monkeypatch.setattr(trace, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
     scene = load_scene(CORNELL, resolution=SIZE)
     first, second = render_budget(scene, 1), render_budget(scene, 1)
     assert passes == [3, 3]

@@ -9,9 +9,9 @@ def render_full(scene, integrator, spp: int, seed: int) -> np.ndarray:
     """Full-frame path tracing at ``spp`` samples per pixel, (H, W, 3) float32: the render a dense frame's bulk is
     (:func:`gmcpt.render.kernels.render_native`, ``mi.render`` or the same samples through the frozen kernel, whichever
     is faster at the size), so that the baselines' path tracer is as fast as the product's."""
-    from ..render.kernels import _sensor_film_size, render_native
+    from ..render.kernels import render_native, sensor_film_size
 
     sensor = scene.sensors()[0]
-    height, width = _sensor_film_size(sensor)
+    height, width = sensor_film_size(sensor)
     return render_native(scene, sensor, integrator, spp, seed).reshape(height, width, 3)
 

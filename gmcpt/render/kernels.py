@@ -114,7 +114,8 @@ def pass_seed(seed: int, index: int, passes: int) -> int:
     return int.from_bytes(hashlib.blake2b(f"{seed}/{index}".encode(), digest_size=4).digest(), "little")
 
 
-def _sensor_film_size(sensor: mi.Sensor) -> tuple[int, int]:
+def sensor_film_size(sensor: mi.Sensor) -> tuple[int, int]:
+    """(height, width) of the sensor's film, its crop."""
     size = sensor.film().crop_size()
     return int(size[1]), int(size[0])
 
@@ -220,7 +221,7 @@ def feature_means(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int, seed: in
                   visibility: bool = True) -> FeatureMeans:
     """:class:`FeatureMeans` of ``feature_spp`` primary rays a pixel (seeded by ``seed``), with a shadow ray
     each where ``visibility``."""
-    height, width = _sensor_film_size(sensor)
+    height, width = sensor_film_size(sensor)
     feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
     values = _frozen_feature_means(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), feature_spp,
                                                    _camera_key(sensor), visibility))
@@ -372,7 +373,7 @@ def render_native_guided(scene: mi.Scene, sensor: mi.Sensor, twin: mi.SamplingIn
     """:func:`render_native` with ``twin`` (:func:`gmcpt.render.guided_path.guided_twin` of the scene's integrator: the
     same image) and the :class:`FeatureMeans` of its first hits, guides of ``spp`` rays a pixel."""
     image, planes = _render_full(scene, sensor, twin, spp, seed, len(FEATURE_PLANES), any_size)
-    return image, FeatureMeans(tuple(planes), spp, None, 0, _sensor_film_size(sensor))
+    return image, FeatureMeans(tuple(planes), spp, None, 0, sensor_film_size(sensor))
 
 
 def warm_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, guided: bool) -> None:
@@ -382,7 +383,7 @@ def warm_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     where the film's filter is wider than a pixel (``mi.render`` renders it)."""
     if not _box_filter(sensor):
         return
-    height, width = _sensor_film_size(sensor)
+    height, width = sensor_film_size(sensor)
     _traced_sums(scene, sensor, integrator, np.arange(min(64, height * width)), 1, 0,
                  len(FEATURE_PLANES) if guided else 0)
 
@@ -395,7 +396,7 @@ def _box_filter(sensor: mi.Sensor) -> bool:
 def _render_full(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int, seed: int,
                  aovs: int, any_size: bool) -> tuple[np.ndarray, list[np.ndarray]]:
     """(the image, (N, 3), and the per-pixel means of the integrator's first ``aovs`` AOVs, flat float32 planes)."""
-    height, width = _sensor_film_size(sensor)
+    height, width = sensor_film_size(sensor)
     if (any_size or height * width * spp <= FROZEN_FRAME_SAMPLES) and _box_filter(sensor):
         red, green, blue, _, count, *planes = _traced_sums(scene, sensor, integrator, np.arange(height * width), spp,
                                                            seed, aovs)

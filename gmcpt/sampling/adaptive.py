@@ -153,11 +153,11 @@ def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
     ``denoise_s``.
     """
     from ..image.denoise import denoise_oidn
-    from ..render.kernels import _sensor_film_size, render_features, trace_counts
+    from ..render.kernels import render_features, sensor_film_size, trace_counts
     from ..render.scene import scene_sensor
 
     sensor = sensor if sensor is not None else scene_sensor(scene)
-    height, width = _sensor_film_size(sensor)
+    height, width = sensor_film_size(sensor)
     pixels = height * width
     timings = {"features_s": 0.0}
     if features is None:

@@ -9,7 +9,7 @@ separate pass costs what Mitsuba's ``aov`` integrator costs a user, 4-10% of the
 from guides that share the radiance's sub-pixel positions (the Cornell box 0.02-0.18 dB at equal samples, the real
 interiors nothing measurable; docs/experiments.md); the scenes where it shows read their edges below budget 16.
 
-The functions take the frame's trace (:class:`gmcpt.sampling.strategies._Trace`).
+The functions take the frame's trace (:class:`gmcpt.sampling.trace.FrameTrace`) and change it through its methods.
 """
 from __future__ import annotations
 
@@ -20,28 +20,28 @@ import numpy as np
 from ..image.denoise import CLEAN_GUIDE_RAYS
 from ..limits import SEED_LIMIT
 from ..render.guided_path import twin_of
-from ..render.kernels import SampleSums, render_native, render_native_guided
+from ..render.kernels import render_native, render_native_guided
 from ..seeds import EVEN_SEED_OFFSET, GUIDE_RAYS_SEED_OFFSET, SPLIT_SEED_OFFSETS, TOP_UP_SEED_OFFSET
 from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
 from .budget import BudgetPlan, adaptive_first_spp, adaptive_pays, error_concentration, even_fill
 from .large_model import CLEAN_GUIDE_SEED_OFFSET, large_model_rays, read_denoiser
+from .trace import FrameTrace
 
 
 
-def guides_from_render(trace, wants_edges: bool) -> bool:
+def guides_from_render(trace: FrameTrace, wants_edges: bool) -> bool:
     """Whether a frame takes its guides from its render's first hits: no edges are read before the render, and a twin
     of its integrator exists (then set as the frame's, :func:`takes_twin`)."""
     return not wants_edges and takes_twin(trace)
 
 
-def takes_twin(trace) -> bool:
+def takes_twin(trace: FrameTrace) -> bool:
     """Set the frame's twin (:func:`~gmcpt.render.guided_path.twin_of`), through which its native passes bring their
     first hits as guides; whether its integrator has one."""
-    trace.twin = twin_of(trace.scene, trace.integrator)
-    return trace.twin is not None
+    return trace.use_twin(twin_of(trace.scene, trace.integrator))
 
 
-def dense_frame(trace, plan: BudgetPlan, probe: np.ndarray, guides, planned_rays: int, noise: float | None):
+def dense_frame(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, guides, planned_rays: int, noise: float | None):
     """Trace the dense way (:func:`trace_dense`) and return its guides (:class:`~gmcpt.render.kernels.FeatureMeans`):
     ``guides`` from a guide pass, or None for the render's own first hits topped up to ``planned_rays``; up to 16
     rays where OIDN's large model pays (:func:`gmcpt.sampling.large_model.large_model_rays`). ``noise``: the frame's
@@ -50,7 +50,7 @@ def dense_frame(trace, plan: BudgetPlan, probe: np.ndarray, guides, planned_rays
     if guides is not None:
         guides = topped_up(trace, guides, rays, CLEAN_GUIDE_SEED_OFFSET)
     images = trace_dense(trace, plan, probe, noise, split=price is not None)
-    trace.info["guides"] = "pass" if guides is not None else "render"
+    trace.record(guides="pass" if guides is not None else "render")
     if guides is None:
         guides = topped_up(trace, trace.native_guides, rays, GUIDE_RAYS_SEED_OFFSET)
     if images is not None:
@@ -59,14 +59,14 @@ def dense_frame(trace, plan: BudgetPlan, probe: np.ndarray, guides, planned_rays
     return guides
 
 
-def topped_up(trace, guides, rays: int, seed_offset: int):
+def topped_up(trace: FrameTrace, guides, rays: int, seed_offset: int):
     """``guides`` with a guide pass of the rays they lack up to ``rays`` (other seeds), or as they are."""
     if guides.spp >= rays:
         return guides
     return guides.merged(trace.features(rays - guides.spp, seed_offset, visibility=False))
 
 
-def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, noise: float | None = None,
+def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: float | None = None,
                 split: bool = False) -> tuple | None:
     """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
     render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
@@ -78,14 +78,13 @@ def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, noise: float | None 
     in three instead (:func:`_split_native`); returns (the first quarter's image, the half's), else None."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
-    if trace.sums.samples:
-        trace.discarded, trace.sums = trace.sums.samples, SampleSums(plan.pixels)
-    trace.first_pass_pixels = int(probe.sum())
+    trace.discard_samples()
+    trace.count_first_pass(probe.sum())
     current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget, noise)
     if first:
         native_pass(trace, first, seed)
         if _adaptive_rest(trace, left - first * plan.pixels, seed):
-            trace.traced[:] = True
+            trace.mark_all_traced()
             return None
         # the second launch draws other samples than the first
         current[:], left, seed = first, left - first * plan.pixels, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
@@ -94,7 +93,7 @@ def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, noise: float | None 
     trace.timed("mask_s", start)
     # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
     # drawn with it too, are left out of the image)
-    trace.traced[:] = True
+    trace.mark_all_traced()
     images = None
     if split and not current.any() and counts.min() >= 2:
         images = _split_native(trace, int(counts.min()), seed)
@@ -104,7 +103,7 @@ def trace_dense(trace, plan: BudgetPlan, probe: np.ndarray, noise: float | None 
     return images
 
 
-def native_pass(trace, spp: int, seed: int, any_size: bool = False, note: str = "") -> np.ndarray | None:
+def native_pass(trace: FrameTrace, spp: int, seed: int, any_size: bool = False, note: str = "") -> np.ndarray | None:
     """Mitsuba's own render of every pixel at ``spp`` (none at 0) into the frame's sums, through the frame's twin
     where it has one (its first hits join ``trace.native_guides``). ``any_size``: through the
     frozen kernel at any spp (:func:`~gmcpt.render.kernels.render_native`); ``note`` ends the progress line. Returns the
@@ -115,15 +114,14 @@ def native_pass(trace, spp: int, seed: int, any_size: bool = False, note: str = 
     trace.say(f"path tracing: {trace.sums.size} px x {spp} spp (Mitsuba's own render{note})")
     if trace.twin is not None:
         image, guides = render_native_guided(trace.scene, trace.sensor, trace.twin, spp, seed, any_size)
-        trace.native_guides = guides if trace.native_guides is None else trace.native_guides.merged(guides)
     else:
-        image = render_native(trace.scene, trace.sensor, trace.integrator, spp, seed, any_size)
-    trace.sums.add_native(image, spp)
+        image, guides = render_native(trace.scene, trace.sensor, trace.integrator, spp, seed, any_size), None
+    trace.add_native(image, spp, guides)
     trace.timed("render_s", start)
     return image
 
 
-def _split_native(trace, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+def _split_native(trace: FrameTrace, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Mitsuba's render of every pixel at ``spp`` as a quarter, a quarter and a half (seeds of their own; below 4
     samples, one, one and the rest): the first quarter's image and the half's, (H, W, 3) float32, non-finite
     pixels as 0."""
@@ -134,7 +132,7 @@ def _split_native(trace, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     return image(images[0]), image((images[0] + images[1]) / 2)
 
 
-def _adaptive_rest(trace, samples: int, seed: int) -> bool:
+def _adaptive_rest(trace: FrameTrace, samples: int, seed: int) -> bool:
     """After a dense frame's first pass, ``samples`` more where the displayed image is noisiest, as
     :func:`gmcpt.sampling.adaptive.render_adaptive` places them, if its error is concentrated enough to pay
     (:func:`~gmcpt.sampling.budget.adaptive_pays`). Returns whether it traced them; ``info`` records the reading."""
@@ -143,15 +141,12 @@ def _adaptive_rest(trace, samples: int, seed: int) -> bool:
     error = display_error(mean.reshape(*trace.shape, 3))
     concentration = error_concentration(error)
     adaptive = adaptive_pays(concentration)
-    trace.info.update(error_concentration=concentration, dense_placement="adaptive" if adaptive else "even")
+    trace.record(error_concentration=concentration, dense_placement="adaptive" if adaptive else "even")
     if adaptive:
         cap = max(MAX_EXTRA, 2 * -(-samples // trace.sums.size))  # room for the rest at budgets above 64
         counts = allocate(error ** EXPONENT, samples, cap)
     trace.timed("mask_s", start)
     if adaptive:
-        start = time.perf_counter()
         trace.say(f"path tracing: {samples} samples where the image is noisiest (adaptive placement)")
-        trace.sums.trace_counts(trace.scene, trace.sensor, trace.integrator, counts,
-                                (seed + EXTRA_SEED_OFFSET) % SEED_LIMIT)
-        trace.timed("render_s", start)
+        trace.trace_counts(counts, (seed + EXTRA_SEED_OFFSET) % SEED_LIMIT)
     return adaptive

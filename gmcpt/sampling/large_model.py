@@ -8,7 +8,7 @@ which was calibrated against the large model's gain at 2 spp (docs/experiments.m
 so a frame reads only where the large model and the reading's three OIDN runs together would cost under
 :data:`~gmcpt.sampling.budget.LARGE_MODEL_SHARE_BELOW` of it, by the frame's cost model
 (:class:`gmcpt.sampling.costs.CostModel`). The functions take the frame's trace
-(:class:`gmcpt.sampling.strategies._Trace`).
+(:class:`gmcpt.sampling.trace.FrameTrace`).
 """
 from __future__ import annotations
 
@@ -17,9 +17,10 @@ import time
 from ..image.denoise import CLEAN_GUIDE_RAYS, denoise_oidn
 from ..seeds import CLEAN_GUIDE_SEED_OFFSET
 from .budget import BudgetPlan, adaptive_first_spp, denoiser_proxy, large_model_pays
+from .trace import FrameTrace
 
 
-def large_model_rays(trace, plan: BudgetPlan, rays: int, noise: float | None) -> tuple[int, tuple | None]:
+def large_model_rays(trace: FrameTrace, plan: BudgetPlan, rays: int, noise: float | None) -> tuple[int, tuple | None]:
     """(the guide rays a dense frame of guides of ``rays`` rays takes, the price of a reading or None): ``rays``, and
     the price (the large model's extra seconds and the frame's, by ``trace.costs``) where the frame reads what the
     large model buys (:func:`read_denoiser`, which chooses the rays then). A frame reads where its one even launch
@@ -35,7 +36,7 @@ def large_model_rays(trace, plan: BudgetPlan, rays: int, noise: float | None) ->
     return rays, price
 
 
-def read_denoiser(trace, both: tuple, images: tuple, price: tuple):
+def read_denoiser(trace: FrameTrace, both: tuple, images: tuple, price: tuple):
     """Read what the large model buys the frame from its first quarter and half (``images``, (H, W, 3)), denoised
     with its guides and with the clean ones (``both``), and return the guides the frame takes after it (``price``
     as :func:`large_model_rays` gives it); ``info`` records the reading (``denoiser_proxy``)."""
@@ -46,6 +47,6 @@ def read_denoiser(trace, both: tuple, images: tuple, price: tuple):
     proxy = denoiser_proxy(denoise_oidn(quarter, mine["albedo"], mine["normal"], guides.spp),
                            denoise_oidn(half, mine["albedo"], mine["normal"], guides.spp),
                            denoise_oidn(half, theirs["albedo"], theirs["normal"], clean.spp))
-    trace.info["denoiser_proxy"] = proxy
+    trace.record(denoiser_proxy=proxy)
     trace.timed("mask_s", start)
     return clean if large_model_pays(proxy, *price) else guides

@@ -18,132 +18,28 @@ feature buffers into a :class:`~gmcpt.frame.SparseFrame`.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
-from typing import Callable
+from dataclasses import replace
 
 import mitsuba as mi
 import numpy as np
 
-from ..errors import GmcptError
-from ..frame import DEFAULT_FEATURE_SPP, SparseFrame
+from ..frame import SparseFrame
 from ..image.denoise import takes_clean_guides
-from ..limits import SEED_LIMIT, check_feature_spp, check_resolution, check_seconds, check_seed, check_spp
-from ..render.kernels import (MAX_LANES, FeatureMeans, SampleSums, _sensor_film_size, feature_means, pass_seed,
-                              warm_native)
+from ..limits import SEED_LIMIT, check_resolution, check_spp
+from ..render.kernels import MAX_LANES, pass_seed, sensor_film_size, warm_native
 from ..render.scene import scene_sensor
 from ..seeds import FIRST_PASS_SEED_OFFSET, GUIDE_TOP_UP_SEED_OFFSET, PROBE_SEED_OFFSET, SECOND_PASS_SEED_OFFSET
-from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, check_budget, choose, edge_share, guide_spp,
-                     needs_probe, plan_budget, probes_for_placement, relative_variance, sparse_pays)
-from .costs import CostModel, machine_costs
+from .budget import (DENSE, PROBE_SPP, SPARSE, SPARSE_SPP, BudgetPlan, choose, edge_share, guide_spp, needs_probe,
+                     plan_budget, probes_for_placement, relative_variance, sparse_pays)
+from .costs import machine_costs
 from .dense import (GUIDE_RAYS_SEED_OFFSET, TOP_UP_SEED_OFFSET, dense_frame, guides_from_render, native_pass,
                     takes_twin, topped_up)
-from .masks import (DEFAULT_PATTERN, DEFAULT_RATE, FEATURE_PATTERNS, check_pattern, check_rate, make_mask, mask_rng,
-                    sample_by_density, sample_count, second_pass_mask)
+from .masks import FEATURE_PATTERNS, make_mask, mask_rng, sample_by_density, sample_count, second_pass_mask
 from .placement import error_density, feature_density, first_pass_count
+from .settings import RenderSettings, Say, check_one_sample_count
+from .trace import FrameTrace
 
-
-Say = Callable[[str], None]
-
-
-@dataclass(frozen=True)
-class RenderSettings:
-    """What to trace. ``spp=0`` keeps the sensor's sample count. A ``budget`` (mean path samples a pixel, 0: none)
-    replaces ``rate`` and ``spp``: :mod:`gmcpt.sampling.budget` chooses them per frame, with the ``two_pass`` mask,
-    weighing time with ``costs`` (None: this machine's stored model, :func:`gmcpt.sampling.costs.machine_costs`), as a
-    time budget does for its first estimate of OIDN's seconds.
-
-    Checked when made (:mod:`gmcpt.limits`): a bad value raises a one-line :class:`~gmcpt.errors.GmcptError`.
-    """
-
-    rate: float = DEFAULT_RATE
-    pattern: str = DEFAULT_PATTERN
-    seed: int = 0
-    spp: int = 0
-    feature_spp: int = DEFAULT_FEATURE_SPP
-    budget: float = 0.0
-    time: float = 0.0  # seconds of wall time for the frame and its completion; 0: none
-    costs: CostModel | None = None
-
-    def __post_init__(self):
-        check_rate(self.rate)
-        check_pattern(self.pattern)
-        check_seed(self.seed)
-        if self.spp != 0:
-            check_spp(self.spp)
-        check_feature_spp(self.feature_spp)
-        if self.budget:
-            check_budget(self.budget)
-            if self.pattern != "two_pass":
-                raise GmcptError(f"a budget places its samples with the two_pass mask, not {self.pattern!r}")
-        if self.time:
-            check_seconds(self.time)
-        check_one_sample_count(spp=self.spp, budget=self.budget, time=self.time)
-
-
-def check_one_sample_count(names: dict | None = None, **given) -> None:
-    """The one rule of the sample counts: ``budget`` and ``time`` each set the samples a pixel themselves, so
-    neither goes with the other, with ``spp`` or with ``rate``. ``given``: the values (None or 0: not given);
-    ``names``: how the caller names them (the command line's ``--budget``), in the one-line error."""
-    names = names or {}
-    chosen = [name for name in ("time", "budget", "rate", "spp") if given.get(name)]
-    if len(chosen) > 1 and chosen[0] in ("time", "budget"):
-        first, second = (names.get(name, name) for name in chosen[:2])
-        raise GmcptError(f"{first} sets the samples a pixel itself: give {first} or {second}, not both")
-
-
-@dataclass
-class _Trace:
-    """What one frame's strategy has in hand: the scene, the sums of its samples, the pixels it traced."""
-
-    scene: mi.Scene
-    sensor: mi.Sensor
-    integrator: mi.SamplingIntegrator
-    settings: RenderSettings
-    say: Say
-    timings: dict
-    shape: tuple[int, int]
-    sums: SampleSums = None
-    traced: np.ndarray = None  # flat bool
-    started: float = field(default_factory=time.perf_counter)
-    costs: CostModel | None = None  # what a budget or a time budget weighs time with (None: a rate weighs none)
-    first_pass_pixels: int = 0
-    discarded: int = 0  # samples traced and left out of the image (a dense frame's probe)
-    info: dict = field(default_factory=dict)
-    twin: mi.SamplingIntegrator | None = None  # the integrator's guided twin, where the render brings the guides
-    native_guides: FeatureMeans | None = None  # the guides of the twin's first hits so far
-
-    def __post_init__(self):
-        pixels = self.shape[0] * self.shape[1]
-        self.sums, self.traced = SampleSums(pixels), np.zeros(pixels, bool)
-
-    def buffers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The estimates so far as flat float32 radiance (N, 3) and variance (N,), 0 where untraced, and the traced
-        pixels (N,) bool: a pixel whose every sample was NaN/Inf counts as untraced."""
-        mean, variance = self.sums.estimate()
-        traced = self.traced & (self.sums.finite > 0)
-        if traced.all():  # a dense frame: nothing to blank (0.1 s at 1920x1080)
-            return mean.astype(np.float32, copy=False), variance.astype(np.float32), traced
-        return (np.where(traced[:, None], mean, 0.0).astype(np.float32),
-                np.where(traced, variance, 0.0).astype(np.float32), traced)
-
-    def timed(self, key: str, start: float) -> None:
-        self.timings[key] = self.timings.get(key, 0.0) + time.perf_counter() - start
-
-    def trace(self, pixels: np.ndarray, spp: int, seed: int) -> None:
-        """``spp`` samples of each flat pixel in ``pixels``."""
-        start = time.perf_counter()
-        self.sums.trace(self.scene, self.sensor, self.integrator, pixels, spp, seed, self.say)
-        self.traced[pixels] = True
-        self.timed("render_s", start)
-
-    def features(self, spp: int, seed_offset: int = 0, visibility: bool = True):
-        start = time.perf_counter()
-        self.say(f"features: {self.shape[1]}x{self.shape[0]} px x {spp} spp"
-                 + ("" if visibility else " (guides: albedo, normal, depth)"))
-        means = feature_means(self.scene, self.sensor, spp, (self.settings.seed + seed_offset) % SEED_LIMIT,
-                              visibility)
-        self.timed("features_s", start)
-        return means
+__all__ = ["RenderSettings", "Say", "check_one_sample_count", "render_sparse_frame"]
 
 
 def _first_mask(settings: RenderSettings, features: dict, height: int, width: int,
@@ -164,7 +60,7 @@ def _first_mask(settings: RenderSettings, features: dict, height: int, width: in
     return sample_by_density(density, first, mask_rng(settings.seed), exclude=taken), density
 
 
-def _second_pass(trace: _Trace, settings: RenderSettings, features: dict, density: np.ndarray, rest: int,
+def _second_pass(trace: FrameTrace, settings: RenderSettings, features: dict, density: np.ndarray, rest: int,
                  spp: int) -> None:
     """The second pass of ``two_pass``: ``rest`` more pixels where the first pass's samples disagree."""
     height, width = trace.shape
@@ -177,7 +73,7 @@ def _second_pass(trace: _Trace, settings: RenderSettings, features: dict, densit
     trace.trace(second, spp, (settings.seed + SECOND_PASS_SEED_OFFSET) % SEED_LIMIT)
 
 
-def _mask_passes(trace: _Trace, mask: np.ndarray | None, spp: int) -> dict:
+def _mask_passes(trace: FrameTrace, mask: np.ndarray | None, spp: int) -> dict:
     """The passes at a fixed rate: the mask's pixels at ``spp``, and for ``two_pass`` a second pass. Returns the
     feature buffers."""
     settings = trace.settings
@@ -190,14 +86,14 @@ def _mask_passes(trace: _Trace, mask: np.ndarray | None, spp: int) -> dict:
     trace.timed("mask_s", start)
     pixels = np.flatnonzero(mask)
     trace.trace(pixels, spp, settings.seed)
-    trace.first_pass_pixels = pixels.size
+    trace.count_first_pass(pixels.size)
     rest = sample_count(settings.rate, height * width) - pixels.size
     if settings.pattern == "two_pass" and density is not None and rest > 0:
         _second_pass(trace, settings, features, density, rest, spp)
     return features
 
 
-def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
+def _budget_passes(trace: FrameTrace, plan: BudgetPlan) -> dict:
     """The passes of a budget (:mod:`gmcpt.sampling.budget`): guides, a probe where the choice waits for one
     (:func:`~gmcpt.sampling.budget.needs_probe`) or a dense frame's placement would
     (:func:`~gmcpt.sampling.budget.probes_for_placement`), then the sparse way or the dense one
@@ -222,7 +118,7 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
             probe = _probe(trace, plan)
             reading = relative_variance(*trace.sums.estimate(probe), PROBE_SPP)
     choice = choose(plan, reading or 0.0, edges or 0.0, pays)
-    trace.info.update({"budget": plan.budget, "budget_choice": choice, "relative_variance": reading,
+    trace.record(**{"budget": plan.budget, "budget_choice": choice, "relative_variance": reading,
                        "probe": "none" if reading is None else "traced", "edge_share": edges,
                        "sparse_time_share": extra_share})
     signals = [f"relative variance {reading:.3f}" if reading is not None else "",
@@ -231,15 +127,15 @@ def _budget_passes(trace: _Trace, plan: BudgetPlan) -> dict:
     trace.say(f"budget {plan.budget:g} spp: {choice}" + (f" ({', '.join(filter(None, signals))})"
                                                          if any(signals) else ""))
     if choice == SPARSE:  # only after the edges were read: with guides from their pass
-        trace.info["guide_spp"] = guides.spp
+        trace.record(guide_spp=guides.spp)
         return _sparse_after_probe(trace, plan, guides, probe)
     rays = guides.spp if guides is not None else guide_spp(plan.budget, feature_spp)
     frame_guides = dense_frame(trace, plan, probe, guides, rays, reading)
-    trace.info["guide_spp"] = frame_guides.spp
+    trace.record(guide_spp=frame_guides.spp)
     return features if frame_guides is guides else frame_guides.buffers()
 
 
-def _probe(trace: _Trace, plan: BudgetPlan) -> np.ndarray:
+def _probe(trace: FrameTrace, plan: BudgetPlan) -> np.ndarray:
     """Trace the probe: :attr:`~gmcpt.sampling.budget.BudgetPlan.probe_pixels` blue-noise pixels at ``PROBE_SPP``.
     Returns its flat bool mask."""
     seed = trace.settings.seed
@@ -252,7 +148,7 @@ def _probe(trace: _Trace, plan: BudgetPlan) -> np.ndarray:
     return probe
 
 
-def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarray) -> dict:
+def _sparse_after_probe(trace: FrameTrace, plan: BudgetPlan, guides, probe: np.ndarray) -> dict:
     """The sparse way: the feature pass completed (shadow rays), the probe's pixels topped up to ``SPARSE_SPP``
     beside the rest of the first pass (placed by the feature edges), then ``two_pass``'s second pass."""
     settings, seed = trace.settings, trace.settings.seed
@@ -268,12 +164,12 @@ def _sparse_after_probe(trace: _Trace, plan: BudgetPlan, guides, probe: np.ndarr
     # summed within their SIMD packet, and no per-sample index list is built in numpy
     trace.trace(np.flatnonzero(probe), SPARSE_SPP - PROBE_SPP, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)
     trace.trace(np.flatnonzero(first), SPARSE_SPP, (seed + FIRST_PASS_SEED_OFFSET) % SEED_LIMIT)
-    trace.first_pass_pixels = int(trace.traced.sum())
+    trace.count_first_pass(trace.traced.sum())
     _second_pass(trace, sparse, features, density, plan.sparse_pixels - trace.first_pass_pixels, SPARSE_SPP)
     return features
 
 
-def _time_passes(trace: _Trace) -> dict:
+def _time_passes(trace: FrameTrace) -> dict:
     """A time budget: every pixel at one sample, then passes of as many samples as the seconds left (less what the
     completion is expected to take) pay for at the pace of the passes so far, in powers of two
     (:func:`_next_pass`). All through the frozen kernel, one compiled kernel for every pass size: the first pass's
@@ -298,14 +194,14 @@ def _time_passes(trace: _Trace) -> dict:
     spent = int(trace.sums.samples // trace.sums.size)
     if guides is None:  # a frame of fewer samples than guide rays adds the rays it lacks
         guides = topped_up(trace, trace.native_guides, guide_spp(spent, settings.feature_spp), GUIDE_RAYS_SEED_OFFSET)
-    trace.traced[:] = True
-    trace.info.update({"time_budget": seconds, "budget": float(spent), "budget_choice": DENSE,
+    trace.mark_all_traced()
+    trace.record(**{"time_budget": seconds, "budget": float(spent), "budget_choice": DENSE,
                        "guide_spp": guides.spp, "guides": "pass" if trace.twin is None else "render",
                        "time_short": index == 1 and left < 0})
     return guides.buffers()
 
 
-def _next_pass(trace: _Trace, seconds: float, pace: float) -> tuple[int, float]:
+def _next_pass(trace: FrameTrace, seconds: float, pace: float) -> tuple[int, float]:
     """(the samples a pixel of a time budget's next pass, 0 for none; the seconds left before it): the whole
     samples nearest to what the seconds left pay for at ``pace``, less the completion's time, OIDN's large model's
     where the frame's guides would then have :data:`~gmcpt.image.denoise.CLEAN_GUIDE_RAYS` rays (its own samples' first
@@ -355,15 +251,17 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     """
     say = progress or (lambda message: None)
     sensor = sensor if sensor is not None else scene_sensor(scene)
-    height, width = _sensor_film_size(sensor)
+    height, width = sensor_film_size(sensor)
     check_resolution(width, height, settings.feature_spp)
     plan = plan_budget(settings.budget, height * width) if settings.budget and mask is None else None
     spp = SPARSE_SPP if plan is not None else check_spp(settings.spp or sensor.sampler().sample_count())
-    trace = _Trace(scene, sensor, integrator, settings, say, {"features_s": 0.0, "mask_s": 0.0, "render_s": 0.0},
-                   (height, width))
+    started, costs = time.perf_counter(), None
     if (settings.time or plan is not None) and mask is None:  # the strategies that weigh time
-        trace.costs = settings.costs if settings.costs is not None else machine_costs(say)
-        trace.info["costs"] = trace.costs.record()
+        costs = settings.costs if settings.costs is not None else machine_costs(say)
+    trace = FrameTrace(scene, sensor, integrator, settings, say, {"features_s": 0.0, "mask_s": 0.0, "render_s": 0.0},
+                       (height, width), started=started, costs=costs)
+    if costs is not None:
+        trace.record(costs=costs.record())
     if settings.time and mask is None:
         features = _time_passes(trace)
     elif plan is not None:

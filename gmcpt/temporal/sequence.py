@@ -34,7 +34,7 @@ from ..image.denoise import denoise_oidn
 from ..limits import SEED_LIMIT, check_seconds, check_seed
 from ..render.guided_path import first_hit_features
 from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, _camera_key, _primary_rays, _seeded_sampler,
-                              _sensor_film_size, pixel_means, render_native)
+                              pixel_means, render_native, sensor_film_size)
 from ..render.scene import path_integrator, scene_sensor
 from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
@@ -213,7 +213,7 @@ _frozen_centres = FrozenKernel(_centre_planes)
 
 def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 0) -> Survey:
     """This frame's :class:`Survey` over ``guide_rays`` rays a pixel (seeded by ``seed``), in one pass."""
-    height, width = _sensor_film_size(sensor)
+    height, width = sensor_film_size(sensor)
     feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
     planes = [np.asarray(plane, np.float32) for plane in
               _frozen_survey(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), guide_rays,
@@ -235,7 +235,7 @@ def _hits(planes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
 def camera_projection(sensor: mi.Sensor) -> Projection:
     """The sensor's :class:`~gmcpt.temporal.history.Projection`, fitted from rays through an 8x8 grid of pixel centres
     (a grid, not a line of them: 11 numbers to fit)."""
-    height, width = _sensor_film_size(sensor)
+    height, width = sensor_film_size(sensor)
     columns, rows = np.meshgrid(np.linspace(0, width - 1, 8).round() + 0.5, np.linspace(0, height - 1, 8).round() + 0.5)
     film = np.stack([columns.ravel(), rows.ravel()], axis=1)
     ray, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
@@ -250,7 +250,7 @@ def geometry(scene: mi.Scene, sensor: mi.Sensor) -> tuple[np.ndarray, np.ndarray
     """Where each pixel's centre ray hits (N, 3; NaN on a miss), the shading normal there (N, 3), and the
     camera's :class:`~gmcpt.temporal.history.Projection`: the centre rays of :func:`survey` alone (no guides, no shadow
     rays), for the stability figures and the benchmark's accumulation baseline."""
-    height, width = _sensor_film_size(sensor)
+    height, width = sensor_film_size(sensor)
     planes = [np.asarray(plane, np.float32) for plane in _frozen_centres(scene, lambda: (sensor, (width, height)))]
     return (*_hits(planes), camera_projection(sensor))
 
@@ -323,7 +323,7 @@ class SequenceRenderer:
         budget = self.pace.budget(settings.time, settings.budget) if settings.time else settings.budget
         sensor = sensor if sensor is not None else scene_sensor(scene)
         integrator = integrator if integrator is not None else path_integrator(scene)
-        height, width = _sensor_film_size(sensor)
+        height, width = sensor_film_size(sensor)
         pixels, seed, timings = height * width, settings.frame_seed(index), {}
 
         start = time.perf_counter()
@@ -482,7 +482,7 @@ class RenderLoop:
                index: int | None = None) -> SequenceFrame:
         """Frame ``index`` (default: the one after the last) of the sequence ``scene`` is in, started anew here
         for another scene or film size. The scene is known by its address: holding it would keep it alive."""
-        held = (scene.ptr, _sensor_film_size(sensor))
+        held = (scene.ptr, sensor_film_size(sensor))
         if self.renderer is None or held != self._held:
             self.reset()
             self.renderer = SequenceRenderer(SequenceSettings(budget=sequence_budget(self.budget, sensor),
