@@ -2,6 +2,7 @@
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 from dataclasses import asdict
@@ -47,6 +48,17 @@ ANIMATED_BOX = BOX.replace('<scene version="3.0.0">', '<scene version="3.0.0"><d
     .replace('<lookat origin="0, 1, 4" target="0, 0.3, 0" up="0, 1, 0"/>',
              '<lookat origin="0, 1, 4" target="0, 0.3, 0" up="0, 1, 0"/><rotate y="1" angle="$frame"/>') \
     .replace('value="32"', 'value="16"')
+
+
+#: the single frame's verdict line: the default's words where it went dense at every budget, then a speed-up with its
+#: interval, or a wash
+_NOISE = r"\d+\.\d\d-\d+\.\d\dx"
+_OVER = r"geometric mean over budgets [\d., ]+(; \d+ of \d+ ratios? (is|are)? ?only .*)?"
+VERDICT = (r"verdict: (gan_oidn traced every pixel at every budget \(dense\): it is path tracing \+ OIDN with its own "
+           r"guides here; )?(gan_oidn is \d+\.\d\dx faster than the better baseline|the better baseline is \d+\.\d\dx "
+           rf"faster than gan_oidn) at equal quality \({_OVER}; {_NOISE} within the run's noise\)"
+           rf"|verdict: (gan_oidn traced every pixel .* here; )?gan_oidn against the better baseline at equal quality: "
+           rf"a wash \(within the run's noise: a speed-up of \d+\.\d\dx, {_NOISE}; {_OVER}\)")
 
 
 def _environment(tmp_path):
@@ -101,17 +113,80 @@ def test_the_verdict_is_one_function_of_the_rows():
     table = report.speedup_table(rows, "gan_oidn")
     better = next(line for line in table.splitlines() if "the better of the two" in line)
     assert better.endswith("| 1.33x | >1.50x | 1.41x (1 bound) |"), better
-    found, line = compare_report.verdict(rows)
+    found, noise, line = compare_report.verdict(rows)
     assert found == verdict
+    # a real win: the default is faster at each budget, so every draw of the budgets is (1.33x to 1.5x)
+    assert noise["speedup"] == pytest.approx((2 / 1.5, 1.5))
     assert line == ("verdict: gan_oidn is 1.41x faster than the better baseline at equal quality (geometric mean "
-                    "over budgets 2, 4; 1 of 2 ratios is only a bound)")
+                    "over budgets 2, 4; 1 of 2 ratios is only a bound; 1.33-1.50x within the run's noise)")
+    assert compare_report.choices(rows) == {"2": "sparse", "4": "dense"}
     budgets = compare_report.per_budget(rows)
     assert [b["budget"] for b in budgets] == [2, 4]
     assert budgets[0]["better_speedup"] == {"bound": "=", "ratio": pytest.approx(2 / 1.5)}
     assert budgets[0]["equal_samples"]["path+oidn"]["psnr"] == 26.0  # path at 2 spp
     assert budgets[1]["equal_time"]["adaptive+oidn"]["psnr"] == 24.0  # within 2 s: its 1.5-s setting
     slower = [dict(r, seconds=r["seconds"] * 4) if r["contender"] == "gan_oidn" else r for r in rows]
-    assert "the better baseline is" in compare_report.verdict(slower)[1]
+    assert "the better baseline is" in compare_report.verdict(slower)[2]
+
+
+def _timed(rows, default_rounds):
+    """``rows`` with round times: each baseline's every round its seconds, the default's (one list a budget) as given,
+    its seconds their median."""
+    times = iter(default_rounds)
+    out = []
+    for row in rows:
+        rounds = next(times) if row["contender"] == "gan_oidn" else [row["seconds"]] * 3
+        out.append(dict(row, round_seconds=list(rounds), seconds=float(np.median(rounds))))
+    return out
+
+
+def test_the_verdict_says_a_wash_where_the_runs_noise_holds_one():
+    """The default wins at budget 2 (1.33x) and loses at budget 4 (4.2 s, where adaptive's slowest 3 s already falls
+    short: <0.71x): 0.98x on the mean, and the budgets' spread holds 1. At one budget, rounds of 1.6, 2.5 and
+    1.8 s against path tracing's steady 2 s for its PSNR give ratios 1.25, 0.8 and 1.11: the median 1.11x, a wash."""
+    from gmcpt.evaluation import compare_report
+
+    across = [dict(r, seconds=4.2) if r["contender"] == "gan_oidn" and r["psnr"] == 29.0 else r for r in _rows()]
+    found, noise, line = compare_report.verdict(across)
+    low, high = noise["speedup"]
+    assert found["speedup"] == pytest.approx(math.sqrt(2 / 1.5 * 3 / 4.2)) and low < 1 < high
+    assert line == ("verdict: gan_oidn against the better baseline at equal quality: a wash (within the run's noise: "
+                    "a speed-up of 0.98x, 0.71-1.33x; geometric mean over budgets 2, 4; 1 of 2 ratios only a bound)")
+    one = [r for r in _rows() if r["psnr"] != 29.0]
+    found, noise, line = compare_report.verdict(_timed(one, [[1.6, 2.5, 1.8]]))
+    assert found["speedup"] == pytest.approx(2 / 1.8) and noise["speedup"][0] < 1 < noise["speedup"][1]
+    assert "a wash (within the run's noise: a speed-up of 1.11x, 0.80-1.25x; geometric mean over budgets 2)" in line
+    assert re.fullmatch(VERDICT, line), line
+    # the same budget, steady rounds: a real win at each, and a real loss at 4x its time
+    found, noise, line = compare_report.verdict(_timed(one, [[1.5, 1.6, 1.4]]))
+    assert line == ("verdict: gan_oidn is 1.33x faster than the better baseline at equal quality (geometric mean "
+                    "over budgets 2; 1.25-1.43x within the run's noise)")
+    found, noise, line = compare_report.verdict(_timed(one, [[6.0, 6.4, 5.6]]))
+    assert line == ("verdict: the better baseline is 3.00x faster than gan_oidn at equal quality (geometric mean "
+                    "over budgets 2; 2.80-3.20x within the run's noise)")
+
+
+def test_the_verdict_says_when_the_default_never_traced_sparsely():
+    """Every budget dense (the issue's room: "1.01x faster" when every frame had gone dense): the line says that it
+    was path tracing + OIDN with its own guides, and the speed-up within the noise is a wash."""
+    from gmcpt.evaluation import compare_report
+
+    dense = [dict(r, budget_choice="dense") if r["contender"] == "gan_oidn" else r for r in _rows()]
+    level = [dict(r, psnr=27.0) if r["contender"] == "gan_oidn" and r["psnr"] == 29.0 else r for r in dense]
+    rounds = [[1.95, 2.05, 1.98], [2.33, 2.42, 2.36]]  # path tracing needs 2 s and 2.38 s for their PSNR
+    found, noise, line = compare_report.verdict(_timed(level, rounds))
+    assert compare_report.choices(dense) == {"2": "dense", "4": "dense"}
+    assert 1 < found["speedup"] < 1.02 and noise["speedup"][0] < 1 < noise["speedup"][1]
+    assert line.startswith("verdict: gan_oidn traced every pixel at every budget (dense): it is path tracing + OIDN "
+                           "with its own guides here; gan_oidn against the better baseline at equal quality: a wash "
+                           "(within the run's noise: a speed-up of 1.01x, "), line
+    assert "faster" not in line and re.fullmatch(VERDICT, line), line
+    # a real win still says it, after the same words on the dense budgets
+    line = compare_report.verdict(dense)[2]
+    assert line.startswith("verdict: gan_oidn traced every pixel at every budget (dense): it is path tracing + OIDN "
+                           "with its own guides here; gan_oidn is 1.41x faster than the better baseline"), line
+    # one sparse budget: no such words
+    assert "traced every pixel" not in compare_report.verdict(_rows())[2]
 
 
 def test_compare_config_is_the_evaluations_restricted_to_the_budgets():
@@ -146,11 +221,18 @@ def test_compare_on_a_scene_that_is_not_shipped(tmp_path):
     assert record["config"]["default_budgets"] == [2, 4] and "versions" in record and record["seconds"] > 0
     from gmcpt.evaluation import compare_report
 
-    assert compare_report.verdict(record["rows"])[1] == record["verdict_line"]  # the JSON holds every figure
+    assert compare_report.verdict(record["rows"])[2] == record["verdict_line"]  # the JSON holds every figure
+    assert record["choices"] == {f"{r['rate'] * r['spp']:g}": r["budget_choice"] for r in record["rows"]
+                                 if r["contender"] == "gan_oidn"}
+    assert sorted(record["choices"]) == ["2", "4"]
+    assert set(record["choices"].values()) <= {"sparse", "dense"}
+    low, high = record["noise"]["speedup"]
+    assert low <= record["verdict"]["speedup"] <= high
     for png in ("psnr_vs_time.png", "images.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     lines = result.stdout.splitlines()
-    assert lines[-1] == record["verdict_line"] and lines[-1].startswith("verdict: ") and "faster" in lines[-1]
+    assert lines[-1] == record["verdict_line"]
+    assert re.fullmatch(VERDICT, lines[-1]), lines[-1]
     assert lines[0].startswith("| budget (spp) |") and sum(line.startswith("| 2 |") for line in lines) == 1
     assert "left]" in result.stderr and "Traceback" not in result.stderr
     # the same rows in an evaluation's speed-up table: the verdict there is the verdict here
@@ -184,8 +266,9 @@ def test_the_verdict_agrees_with_the_evaluation_on_a_shipped_scene(tmp_path):
     assert better.split("|")[-2].strip().startswith(cell)
     run = {"config": record["config"], "equal_time": [dict(r, real=False) for r in rows], "placement": []}
     assert glance_table(run).splitlines()[2].split("|")[-2].strip().startswith(cell)
-    ratio = record["verdict"]["speedup"]
-    assert f"{ratio if ratio >= 1 else 1 / ratio:.2f}x faster" in result.stdout.splitlines()[-1]
+    ratio, line = record["verdict"]["speedup"], result.stdout.splitlines()[-1]
+    assert re.fullmatch(VERDICT, line), line
+    assert f"{ratio if ratio >= 1 else 1 / ratio:.2f}x faster" in line or f"a speed-up of {ratio:.2f}x" in line
 
 
 def test_readme_example_is_this_one():
@@ -240,7 +323,6 @@ def test_bad_input_is_one_line(tmp_path, args, message):
 def test_compare_frames_writes_the_movie_the_table_the_plot_and_the_verdict(tmp_path):
     """An animation of four 16x16 frames: the sequence mode at budget 1 against per-frame path tracing + OIDN at
     1, 2, 4, 8 spp; references of 8 spp a frame."""
-    import re
 
     from test_video import decoded
 

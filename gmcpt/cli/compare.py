@@ -8,8 +8,12 @@ the default (``gan_oidn`` through the budget chooser) at each budget, path traci
 tracing + OIDN at each budget and at twice the largest, each timed warm by the evaluation's own
 :func:`gmcpt.evaluation.measure.equal_time`. Without ``--reference`` a reference is rendered at
 ``--reference-spp`` (1024) and cached as the evaluation's are. Writes, under ``--out``: ``compare.json`` (every
-figure, the settings, versions and timings), ``psnr_vs_time.png`` and ``images.png`` (reference, the default,
-path tracing + OIDN at the nearest time, with FLIP maps); prints the table and the verdict on stdout.
+figure, the settings, versions and timings, the budget chooser's way at each budget, the verdict's noise),
+``psnr_vs_time.png`` and ``images.png`` (reference, the default, path tracing + OIDN at the nearest time, with FLIP
+maps); prints the table and the verdict on stdout. *The run's noise*: a paired bootstrap over the default's budgets
+and the timing rounds (:func:`gmcpt.evaluation.compare_report.verdict_noise`); where 90% of the draws hold 1 the
+verdict says "a wash (within the run's noise)", and where the default went dense at every budget it says so first
+(it traced every pixel: path tracing + OIDN with its own guides).
 
 **An animation** (``--frames A:B``, a scene that reads ``$frame``: :func:`gmcpt.render.scene.check_animated`): the
 default for animations, the sequence mode (:class:`gmcpt.temporal.sequence.SequenceRenderer`, its default history) at
@@ -239,11 +243,12 @@ def compare(args, say) -> dict:
     measured = time.perf_counter()
     rows = measure.equal_time(loaded, config, _Eta(weights, say, measure.all_rounds(config.repeats)), images)
     budgets = compare_report.per_budget(rows)
-    found, line = compare_report.verdict(rows)
+    found, noise, line = compare_report.verdict(rows)
     record = {"command": "gmcpt compare " + " ".join(args.argv),
               "scene": str(Path(args.scene).resolve()), "size": list(size), "reference": source,
               "reference_spp": None if args.reference else args.reference_spp, "config": asdict(config),
-              "rows": rows, "budgets": budgets, "verdict": found, "verdict_line": line,
+              "rows": rows, "budgets": budgets, "choices": compare_report.choices(rows), "verdict": found,
+              "noise": noise, "verdict_line": line,
               "equal_samples_line": compare_report.equal_samples_line(budgets),
               "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
               "versions": _versions(),

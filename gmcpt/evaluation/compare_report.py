@@ -1,7 +1,8 @@
 """What ``gmcpt compare`` measures and says, as pure functions: its configuration (the evaluation's
 :class:`~gmcpt.evaluation.config.EvalConfig` restricted to the user's budgets), the per-budget figures at equal
 samples and at equal time, the table and the verdict (:func:`gmcpt.evaluation.report.equal_time_verdict`, the
-function behind the evaluation's speed-up table)."""
+function behind the evaluation's speed-up table), with the run's noise (:func:`verdict_noise`) and the budget
+chooser's way at each budget (:func:`choices`)."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -10,6 +11,7 @@ import numpy as np
 
 from . import report
 from .config import DEFAULT_VARIANT, QUICK, EvalConfig
+from .sequences import NOISE_DRAWS, NOISE_LEVEL, _within
 
 #: the default budgets: a 128x128 scene takes a minute or two once its reference exists
 DEFAULT_BUDGETS = (2.0, 4.0, 8.0)
@@ -81,11 +83,82 @@ def _bound(value: tuple[str, float] | None) -> dict | None:
     return None if value is None else {"bound": value[0], "ratio": value[1]}
 
 
-def verdict(rows: list[dict]) -> tuple[dict | None, str]:
-    """The equal-time verdict (:func:`report.equal_time_verdict`: the evaluation's own) and its line."""
+def choices(rows: list[dict]) -> dict[str, str]:
+    """The budget chooser's way (``sparse`` or ``dense``) at each budget of the default, keyed by the budget
+    (``"4"``); budgets whose rows do not record it are left out."""
+    return {f"{r['rate'] * r['spp']:g}": r["budget_choice"] for r in rows
+            if r["contender"] == DEFAULT_VARIANT and "budget_choice" in r}
+
+
+def _in_drawn_rounds(row: dict, rounds) -> dict:
+    """``row`` with its times in the timing rounds ``rounds`` alone, in their order (None where it did not run:
+    :func:`report.speedup` then counts its median, as it does for a round a setting missed)."""
+    times = row.get("round_seconds") or []
+    return dict(row, round_seconds=[times[i] if i < len(times) else None for i in rounds])
+
+
+def verdict_noise(rows: list[dict], draws: int = NOISE_DRAWS, level: float = NOISE_LEVEL, seed: int = 0) -> dict:
+    """How far the run's noise moves :func:`verdict`'s speed-up: a paired bootstrap, as
+    :func:`gmcpt.evaluation.sequences.verdict_noise` does over an animation's frames. Each draw takes as many of the
+    default's budgets as it ran, with replacement, and for each, as many of its timing rounds as it ran
+    (``round_seconds``), with replacement, the same rounds for every baseline (each speed-up pairs runs of one
+    round: :func:`report.speedup`); the draw's speed-up is the geometric mean of the better baseline's ratios
+    (:func:`report.better_speedup`), as :func:`report.equal_time_verdict` reads it. So a budget where the default
+    loses and one where it wins, or rounds whose ratios straddle 1, widen the interval; the interval holds
+    ``level`` of the draws. Rows without round times are resampled by budget alone.
+
+    Returns ``{"speedup": (low, high) or None, "over", "draws", "level"}`` (``over``: what was resampled)."""
+    mine = [r for r in rows if r["contender"] == DEFAULT_VARIANT]
+    others = [r for r in rows if r["contender"] in report.BASELINES]
+    random = np.random.default_rng(seed)
+    found = []
+    for _ in range(draws if mine else 0):
+        ratios = []
+        for index in random.integers(0, len(mine), len(mine)):
+            row = mine[index]
+            ran = [i for i, seconds in enumerate(row.get("round_seconds") or []) if seconds is not None]
+            drawn = [row, *others]
+            if ran:
+                rounds = random.choice(ran, len(ran))
+                drawn = [_in_drawn_rounds(r, rounds) for r in drawn]
+            ratio = report.better_speedup(drawn, drawn[0])
+            if ratio is not None:
+                ratios.append(np.log(ratio[1]))
+        if ratios:
+            found.append(float(np.exp(np.mean(ratios))))
+    tail = 100 * (1 - level) / 2
+    spread = tuple(float(v) for v in np.percentile(found, [tail, 100 - tail])) if found else None
+    return {"speedup": spread, "over": "budgets and timing rounds", "draws": draws, "level": level}
+
+
+def verdict(rows: list[dict], seed: int = 0) -> tuple[dict | None, dict, str]:
+    """The equal-time verdict (:func:`report.equal_time_verdict`: the evaluation's own), its noise
+    (:func:`verdict_noise`) and its line: "a wash (within the run's noise: ...)" where the interval holds 1, and
+    first, where the default went dense at every budget, that it traced every pixel (path tracing + OIDN with its
+    own guides, not the sparse way)."""
     found = report.equal_time_verdict(rows, DEFAULT_VARIANT)
+    noise = verdict_noise(rows, seed=seed) if found else {}
     budgets = ", ".join(f"{r['rate'] * r['spp']:g}" for r in rows if r["contender"] == DEFAULT_VARIANT)
-    return found, "verdict: " + report.verdict_sentence(found, DEFAULT_VARIANT, f"budgets {budgets}")
+    spread = noise.get("speedup")
+    if found is None:
+        said = report.verdict_sentence(found, DEFAULT_VARIANT, f"budgets {budgets}")
+    elif _within(spread):
+        count, total = found["bounds"], found["settings"]
+        bounds = f"; {count} of {total} ratio{'s' if total > 1 else ''} only {'bounds' if count > 1 else 'a bound'}" \
+            if count else ""
+        said = (f"{DEFAULT_VARIANT} against the better baseline at equal quality: a wash (within the run's noise: a "
+                f"speed-up of {found['speedup']:.2f}x, {spread[0]:.2f}-{spread[1]:.2f}x; geometric mean over budgets "
+                f"{budgets}{bounds})")
+    else:
+        shown = spread if found["speedup"] >= 1 else spread and (1 / spread[1], 1 / spread[0])
+        said = report.verdict_sentence(found, DEFAULT_VARIANT, f"budgets {budgets}")  # it ends with ")"
+        if shown:
+            said = said[:-1] + f"; {shown[0]:.2f}-{shown[1]:.2f}x within the run's noise)"
+    ways = choices(rows)
+    if ways and set(ways.values()) == {"dense"}:
+        said = (f"{DEFAULT_VARIANT} traced every pixel at every budget (dense): it is path tracing + OIDN with its "
+                f"own guides here; " + said)
+    return found, noise, "verdict: " + said
 
 
 def _psnr(figures: dict | None, with_setting: bool = False) -> str:
