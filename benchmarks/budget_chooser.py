@@ -78,7 +78,7 @@ def main(argv=None) -> int:
             for seed in args.seeds:
                 sparse_frame, sparse = default_at(scene, integrator, amount, math.inf, seed)
                 _, dense = default_at(scene, integrator, amount, -1.0, seed)
-                signal, edges = sparse_frame.info["relative_variance"], sparse_frame.info["edge_share"]
+                signal, edges = sparse_frame.info.relative_variance, sparse_frame.info.edge_share
                 plan = budget.plan_budget(amount, sparse_frame.mask.size)
                 chosen = dense if budget.choose(plan, signal or 0.0, edges or 0.0) == budget.DENSE else sparse
                 own = max(1, round(amount))

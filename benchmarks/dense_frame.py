@@ -100,7 +100,7 @@ def main() -> int:
         user_wall, user_cpu, _, user_stages = best["user"]
         for name in ("as chosen", "usual OIDN"):
             wall, cpu, frame, stages = best[name]
-            print(f"{width}x{height:<5} {name:>11} {frame.info['budget_choice']:>7} {frame.info['guide_spp']:>6} "
+            print(f"{width}x{height:<5} {name:>11} {frame.info.budget_choice:>7} {frame.info.guide_spp:>6} "
                   f"{wall:7.3f}/{cpu:<7.3f} {user_wall:7.3f}/{user_cpu:<7.3f} {wall / user_wall:6.3f} "
                   f"{cpu / user_cpu:6.3f}   {_stages(stages)} | {_stages(user_stages)}", flush=True)
     return 0

@@ -68,7 +68,7 @@ def main() -> int:
                 ours.append(psnr(complete(frame, DEFAULT_METHOD).image, reference))
                 for spp in neighbours:
                     noisy = render_full(scene, integrator, spp, seed)
-                    theirs[spp].append(psnr(denoise_oidn(noisy, frame.albedo, frame.normal, frame.info["feature_spp"]),
+                    theirs[spp].append(psnr(denoise_oidn(noisy, frame.albedo, frame.normal, frame.info.feature_spp),
                                             reference))  # the same guides, told as many rays
             means = [float(np.mean(theirs[spp])) for spp in neighbours]
             equal = float(np.interp(math.log(max(samples, 1)), [math.log(spp) for spp in neighbours], means))

@@ -41,7 +41,7 @@ def main() -> int:
             wall = time.perf_counter() - start
             ratios.append(wall / seconds)
             print(f"{eval_scene.name:22s} {seconds:6g} {wall:8.3f} {wall / seconds:9.3f} "
-                  f"{rendered.frame.info['budget']:6g}")
+                  f"{rendered.frame.info.budget:6g}")
     if ratios:
         print(f"wall / S from {min(ratios):.3f} to {max(ratios):.3f}")
     return 0

@@ -6,7 +6,7 @@ reach the renderer through :func:`render_and_complete`.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -40,6 +40,6 @@ def render_and_complete(scene, integrator, settings: RenderSettings = RenderSett
     result = complete(frame, method, **(options or {}))
     timings = {**timings, **result.timings}
     if settings.time:
-        frame.info["time_spent"] = time.perf_counter() - start
+        frame = replace(frame, info=frame.info.with_values(time_spent=time.perf_counter() - start))
     return Rendered(frame, result.image, timings)
 

@@ -201,7 +201,6 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
                 raise GmcptError("masked_path with history spends its budget: give it a budget, not an spp")
             sequence_frame = self.loop.render(scene, sensor, self.integrator, int(seed) or None)
             self.last_frame, self.last_timings = sequence_frame.layers, sequence_frame.timings
-            self.last_frame.info.update(sequence_frame.info)
             tensor = pack(sequence_frame.layers, sequence_frame.image)
         else:
             rendered = self.render_frame(scene, sensor, seed, spp)

@@ -128,17 +128,17 @@ def test_both_ways_spend_the_budget_exactly(cornell, monkeypatch, threshold, way
     pixels = SIZE[0] * SIZE[1]
     frame = _render(cornell, 4.8)
     plan = plan_budget(4.8, pixels)
-    assert frame.info["budget_choice"] == way
+    assert frame.info.budget_choice == way
     # dense by the edges and by time: no probe to read; sparse: the probe's pixels begin the first pass
-    assert (frame.info["probe"], frame.info["relative_variance"] is None) == (("none", True) if way == "dense"
+    assert (frame.info.probe, frame.info.relative_variance is None) == (("none", True) if way == "dense"
                                                                              else ("traced", False))
-    assert frame.info["edge_share"] is None if way == "dense" else 0 <= frame.info["edge_share"] <= 1
+    assert frame.info.edge_share is None if way == "dense" else 0 <= frame.info.edge_share <= 1
     if way == "dense":
-        assert frame.info["path_samples"] == round(4.8 * pixels) and frame.mask.all()
+        assert frame.info.path_samples == round(4.8 * pixels) and frame.mask.all()
     else:
-        assert frame.info["path_samples"] == plan.sparse_pixels * SPARSE_SPP <= round(4.8 * pixels)
-        assert frame.info["traced_pixels"] == plan.sparse_pixels
-        assert frame.info["first_pass_pixels"] == round(plan.sparse_pixels / 2) == plan.first_pass_pixels
+        assert frame.info.path_samples == plan.sparse_pixels * SPARSE_SPP <= round(4.8 * pixels)
+        assert frame.info.traced_pixels == plan.sparse_pixels
+        assert frame.info.first_pass_pixels == round(plan.sparse_pixels / 2) == plan.first_pass_pixels
     assert np.isfinite(frame.radiance).all() and (frame.variance[frame.mask] >= 0).all()
     again = _render(cornell, 4.8)
     np.testing.assert_array_equal(frame.radiance, again.radiance)  # same seed, same frame
@@ -156,11 +156,11 @@ def test_the_choice_follows_the_cost_model_from_a_scenes_first_frame(mi, monkeyp
     monkeypatch.setattr(strategies, "probes_for_placement", lambda *args: False)
     cheap, dear = fixed_costs(sparse_extra=1e-9), fixed_costs(sparse_extra=1e-3)
     sparse = _render(load_scene(CORNELL, resolution=SIZE), 4.8, costs=cheap)
-    assert (sparse.info["budget_choice"], sparse.info["probe"]) == ("sparse", "traced")
-    assert sparse.info["costs"] == cheap.record() and 0 < sparse.info["sparse_time_share"] < 1e-3
+    assert (sparse.info.budget_choice, sparse.info.probe) == ("sparse", "traced")
+    assert sparse.info.costs == cheap.record() and 0 < sparse.info.sparse_time_share < 1e-3
     dense = _render(load_scene(CORNELL, resolution=SIZE), 4.8, costs=dear)
-    assert (dense.info["budget_choice"], dense.info["probe"]) == ("dense", "none")
-    assert dense.mask.all() and dense.info["path_samples"] == round(4.8 * SIZE[0] * SIZE[1])
+    assert (dense.info.budget_choice, dense.info.probe) == ("dense", "none")
+    assert dense.mask.all() and dense.info.path_samples == round(4.8 * SIZE[0] * SIZE[1])
 
 
 def test_a_frame_is_the_same_whatever_frames_came_before(mi):
@@ -187,10 +187,10 @@ def test_every_frame_reads_its_own_probe(mi, monkeypatch):
     monkeypatch.setattr(budget, "SPARSE_GAIN", math.inf)
     scene = load_scene(CORNELL, resolution=SIZE)
     frames = [_render(scene, 4.0) for _ in range(3)]
-    assert [frame.info["probe"] for frame in frames] == ["traced"] * 3
+    assert [frame.info.probe for frame in frames] == ["traced"] * 3
     frame = frames[-1]  # the whole budget in Mitsuba's own render, as even as it gets
-    assert frame.info["budget_choice"] == "dense" and frame.info["path_samples"] == 4 * SIZE[0] * SIZE[1]
-    assert frame.info["relative_variance"] is not None and frame.mask.all()
+    assert frame.info.budget_choice == "dense" and frame.info.path_samples == 4 * SIZE[0] * SIZE[1]
+    assert frame.info.relative_variance is not None and frame.mask.all()
 
 
 def test_a_dense_frame_at_an_integral_budget_is_mitsubas_render_of_its_seed(mi, monkeypatch):
@@ -202,14 +202,14 @@ def test_a_dense_frame_at_an_integral_budget_is_mitsubas_render_of_its_seed(mi, 
     budget_spp = 3  # below ADAPTIVE_FROM_BUDGET: one launch
     frame = _render(scene, float(budget_spp), seed=3)
     native = np.asarray(mi.render(scene, integrator=scene.integrator().integrator, spp=budget_spp, seed=3))[..., :3]
-    assert frame.info["probe"] == "none" and frame.info["path_samples"] == budget_spp * SIZE[0] * SIZE[1]
+    assert frame.info.probe == "none" and frame.info.path_samples == budget_spp * SIZE[0] * SIZE[1]
     np.testing.assert_allclose(frame.radiance, native, rtol=1e-5, atol=1e-6)
 
 
 def test_a_budget_of_16_or_more_traces_every_pixel(cornell):
     frame = _render(cornell, 17.5)
-    assert frame.info["budget_choice"] == "dense" and frame.info["relative_variance"] is None
-    assert frame.mask.all() and frame.info["path_samples"] == round(17.5 * SIZE[0] * SIZE[1])
+    assert frame.info.budget_choice == "dense" and frame.info.relative_variance is None
+    assert frame.mask.all() and frame.info.path_samples == round(17.5 * SIZE[0] * SIZE[1])
 
 
 def test_a_budget_refuses_an_spp_and_other_masks(mi):
@@ -233,7 +233,7 @@ def test_the_integrator_renders_a_budget(mi, cornell):
     integrator = masked_integrator(cornell, budget=4.8, completion="interp")
     image = np.asarray(mi.render(cornell, integrator=integrator))
     assert image.shape[:2] == (SIZE[1], SIZE[0]) and np.isfinite(image).all()
-    assert integrator.last_frame.info["path_samples"] <= round(4.8 * SIZE[0] * SIZE[1])
+    assert integrator.last_frame.info.path_samples <= round(4.8 * SIZE[0] * SIZE[1])
     with pytest.raises(GmcptError, match="not both"):  # (mi.render wraps the error in its own)
         integrator.render(cornell, spp=8)
 
@@ -269,15 +269,15 @@ def test_with_no_rate_no_spp_and_no_budget_the_integrator_spends_the_default_bud
     assert integrator.rate is None and not integrator.budget
     mi.render(cornell, integrator=integrator)
     info = integrator.last_frame.info
-    assert info["budget"] == pytest.approx(DEFAULT_RATE * spp) and info["budget_choice"] in ("sparse", "dense")
-    assert info["path_samples"] <= round(DEFAULT_RATE * spp * pixels)
+    assert info.budget == pytest.approx(DEFAULT_RATE * spp) and info.budget_choice in ("sparse", "dense")
+    assert info.path_samples <= round(DEFAULT_RATE * spp * pixels)
     # an spp given, or a mask other than two_pass: a fixed rate, as before
     integrator.render(cornell, spp=8)
-    assert "budget_choice" not in integrator.last_frame.info
-    assert integrator.last_frame.info["path_samples"] == round(DEFAULT_RATE * pixels) * 8
+    assert integrator.last_frame.info.budget_choice is None
+    assert integrator.last_frame.info.path_samples == round(DEFAULT_RATE * pixels) * 8
     fixed = mi.load_dict({"type": "masked_path", "completion": "interp", "mask": "random"})
     fixed.render(cornell)
-    assert fixed.last_frame.info["path_samples"] == round(DEFAULT_RATE * pixels) * spp
+    assert fixed.last_frame.info.path_samples == round(DEFAULT_RATE * pixels) * spp
 
 
 def test_cli_without_a_rate_spends_the_default_budget(tmp_path):
@@ -325,8 +325,8 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
     launches = record_launches(monkeypatch)
     frame = _render(scene, 10.5)
     pixels = SIZE[0] * SIZE[1]
-    assert frame.info["budget_choice"] == "dense" and frame.info["dense_placement"] == placement
-    assert frame.info["path_samples"] == round(10.5 * pixels) and frame.mask.all()  # the total exact
+    assert frame.info.budget_choice == "dense" and frame.info.dense_placement == placement
+    assert frame.info.path_samples == round(10.5 * pixels) and frame.mask.all()  # the total exact
     assert launches == ([6] if placement == "adaptive" else [6, 4])  # 5/8 of the budget first, then the rest
     launches.clear()
     again = _render(scene, 10.5)  # every frame reads its own concentration: the same seed, the same frame
@@ -350,10 +350,10 @@ def test_below_budget_8_only_a_quiet_scene_places_its_rest_where_the_error_is(mi
     for _ in range(2):
         traced.clear()
         frame = _render(scene, 5.0)
-        assert traced == launches and frame.info["path_samples"] == 5 * SIZE[0] * SIZE[1]
-        assert frame.info["probe"] == "traced" and frame.info["budget_choice"] == "dense"
-        assert frame.info.get("dense_placement") == ("adaptive" if quiet else None)
-    assert _render(scene, 8.0).info["probe"] == "none"  # from 8 the placement needs no probe
+        assert traced == launches and frame.info.path_samples == 5 * SIZE[0] * SIZE[1]
+        assert frame.info.probe == "traced" and frame.info.budget_choice == "dense"
+        assert frame.info.dense_placement == ("adaptive" if quiet else None)
+    assert _render(scene, 8.0).info.probe == "none"  # from 8 the placement needs no probe
 
 
 def test_every_frame_reads_its_own_concentration(mi, monkeypatch):
@@ -387,7 +387,7 @@ def test_a_low_budgets_guides_are_4_rays_in_every_frame(mi, monkeypatch):
     monkeypatch.setattr(trace, "feature_means", lambda *args: passes.append(args[2]) or means(*args))
     for _ in range(2):
         passes.clear()
-        assert _render(scene, 2).info["guide_spp"] == 4 and passes == [2]
+        assert _render(scene, 2).info.guide_spp == 4 and passes == [2]
 
 
 @pytest.mark.parametrize("budget,feature_spp,rays", [(1, 16, 4), (3.9, 16, 4), (6.4, 16, 6), (64, 16, 16),

@@ -103,8 +103,8 @@ def test_a_frame_without_a_model_weighs_with_the_machines_and_its_choice_follows
             machine_costs_path().write_text(json.dumps({"costs": model.record()}))
             scene = load_scene(CORNELL, resolution=SIZE)
             frame, _ = render_sparse_frame(scene, scene.integrator().integrator, settings=RenderSettings(budget=4.8))
-            assert frame.info["costs"] == model.record()
-            choices.append(frame.info["budget_choice"])
+            assert frame.info.costs == model.record()
+            choices.append(frame.info.budget_choice)
     assert choices == ["sparse", "dense"] and not cache[1]  # nothing measured: the stored model was read
 
 

@@ -42,7 +42,7 @@ def test_a_frame_traced_everywhere_tells_oidn_its_guides_rays(monkeypatch, rays)
     from gmcpt.completion import denoised
 
     frame, _ = _noisy_frame()
-    dense = dataclasses.replace(frame, mask=np.ones_like(frame.mask), info={**frame.info, "feature_spp": rays})
+    dense = dataclasses.replace(frame, mask=np.ones_like(frame.mask), info=frame.info.with_values(feature_spp=rays))
     seen = {}
     monkeypatch.setattr(denoised, "denoise_oidn", lambda image, albedo, normal, guide_rays: seen.update(
         rays=guide_rays) or image)

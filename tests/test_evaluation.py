@@ -366,8 +366,10 @@ def test_at_equal_time_both_baselines_draw_the_defaults_seeds(monkeypatch):
         return image, {"path_samples": 16 * int(budget)}, {}
 
     def render_and_complete(scene, integrator, settings, method, options):
+        from gmcpt.frame import FrameInfo
+
         seeds["default"].append(settings.seed)
-        frame = type("Frame", (), {"info": {"path_samples": 16 * settings.budget, "budget_choice": "dense"}})
+        frame = type("Frame", (), {"info": FrameInfo(path_samples=16 * settings.budget, budget_choice="dense")})
         return type("Rendered", (), {"image": image, "frame": frame})
 
     monkeypatch.setattr(measure, "_path_oidn", path_oidn)

@@ -74,10 +74,10 @@ def test_a_dense_frame_takes_its_guides_from_its_render(mi, monkeypatch):
     means = kernels.feature_means
     monkeypatch.setattr(trace, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
     frame = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
-    assert frame.info["guides"] == "render" and frame.info["guide_spp"] == 16 and passes == []
+    assert frame.info.guides == "render" and frame.info.guide_spp == 16 and passes == []
     monkeypatch.setattr(dense, "twin_of", lambda scene, integrator: None)
     passed = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
-    assert passed.info["guides"] == "pass" and passes == [16]
+    assert passed.info.guides == "pass" and passes == [16]
     np.testing.assert_array_equal(frame.radiance, passed.radiance)
     assert np.abs(frame.albedo - passed.albedo).mean() < 0.02 and not np.array_equal(frame.albedo, passed.albedo)
 
@@ -93,8 +93,8 @@ def test_an_adaptive_dense_frame_tops_its_first_launchs_guides_up(mi, monkeypatc
     means = kernels.feature_means
     monkeypatch.setattr(trace, "feature_means", lambda *args, **kw: passes.append(args[2]) or means(*args, **kw))
     frame = render_budget(load_scene(CORNELL, resolution=SIZE), 16)
-    assert frame.info["dense_placement"] == "adaptive" and frame.info["guides"] == "render"
-    assert passes == [6] and frame.info["guide_spp"] == 16  # 10 from the first launch
+    assert frame.info.dense_placement == "adaptive" and frame.info.guides == "render"
+    assert passes == [6] and frame.info.guide_spp == 16  # 10 from the first launch
 
 
 def test_guides_from_the_render_are_topped_up_to_the_rays_the_budget_asks(mi, monkeypatch):
@@ -109,5 +109,5 @@ def test_guides_from_the_render_are_topped_up_to_the_rays_the_budget_asks(mi, mo
     scene = load_scene(CORNELL, resolution=SIZE)
     first, second = render_budget(scene, 1), render_budget(scene, 1)
     assert passes == [3, 3]
-    assert first.info["guides"] == second.info["guides"] == "render"
-    assert first.info["guide_spp"] == second.info["guide_spp"] == 4
+    assert first.info.guides == second.info.guides == "render"
+    assert first.info.guide_spp == second.info.guide_spp == 4

@@ -42,8 +42,8 @@ def test_a_dense_frame_reads_what_the_large_model_buys_and_takes_16_ray_guides_w
     scene = load_scene(CORNELL, resolution=SIZE)
     for seed in (0, 1):
         frame = _render(scene, 3.0, seed=seed)  # below 4: one even launch, split to read
-        assert frame.info["guide_spp"] == rays and frame.info["denoiser_proxy"] > 0
-        assert frame.info["path_samples"] == 3 * SIZE[0] * SIZE[1] and np.isfinite(frame.radiance).all()
+        assert frame.info.guide_spp == rays and frame.info.denoiser_proxy > 0
+        assert frame.info.path_samples == 3 * SIZE[0] * SIZE[1] and np.isfinite(frame.radiance).all()
 
 
 @pytest.mark.parametrize("samples", [3, 2])
@@ -57,12 +57,12 @@ def test_a_dense_frame_that_reads_splits_its_launch(mi, monkeypatch, samples):
     scene = load_scene(CORNELL, resolution=SIZE)
     launches = record_launches(monkeypatch)
     frame = _render(scene, samples)
-    assert launches == [1, 1, samples - 2][:2 + (samples > 2)] and frame.info["denoiser_proxy"] > 0
-    assert frame.info["path_samples"] == samples * SIZE[0] * SIZE[1]
+    assert launches == [1, 1, samples - 2][:2 + (samples > 2)] and frame.info.denoiser_proxy > 0
+    assert frame.info.path_samples == samples * SIZE[0] * SIZE[1]
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)  # too dear: neither read nor taken
     launches.clear()
     frame = _render(scene, samples)
-    assert launches == [samples] and "denoiser_proxy" not in frame.info and frame.info["guide_spp"] == 4
+    assert launches == [samples] and frame.info.denoiser_proxy is None and frame.info.guide_spp == 4
 
 
 def test_a_frame_of_one_sample_a_pixel_or_with_a_first_pass_reads_no_denoiser(mi, monkeypatch):
@@ -72,8 +72,8 @@ def test_a_frame_of_one_sample_a_pixel_or_with_a_first_pass_reads_no_denoiser(mi
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)
     scene = load_scene(CORNELL, resolution=SIZE)
-    assert "denoiser_proxy" not in _render(scene, 1.0).info  # one launch cannot be split in two
-    assert "denoiser_proxy" not in _render(scene, 8.0).info  # nor a first pass that reads the error's concentration
+    assert _render(scene, 1.0).info.denoiser_proxy is None  # one launch cannot be split in two
+    assert _render(scene, 8.0).info.denoiser_proxy is None  # nor a first pass that reads the error's concentration
 
 
 def test_the_large_model_is_priced_with_its_guide_rays_and_the_reading_it_needs():

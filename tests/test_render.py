@@ -158,10 +158,10 @@ def test_feature_placements_spend_the_exact_budget_and_repeat_per_seed(mi, corne
         settings = RenderSettings(rate=rate, pattern=pattern, spp=4, seed=5)
         frame, timings = render_sparse_frame(cornell, path_tracer, settings=settings)
         count = round(rate * frame.mask.size)
-        assert frame.mask.sum() == count and frame.info["path_samples"] == count * 4
+        assert frame.mask.sum() == count and frame.info.path_samples == count * 4
         assert np.all(frame.radiance[~frame.mask] == 0) and frame.radiance[frame.mask].mean() > 0
         halved = pattern == "two_pass" and rate < 1  # at rate 1 every pixel is traced in one pass
-        assert frame.info["first_pass_pixels"] == (round(count / 2) if halved else count)
+        assert frame.info.first_pass_pixels == (round(count / 2) if halved else count)
         assert "mask_s" in timings
     again, _ = render_sparse_frame(cornell, path_tracer, settings=settings)
     assert np.array_equal(again.mask, frame.mask) and np.array_equal(again.radiance, frame.radiance)
@@ -215,7 +215,7 @@ def test_nonfinite_samples_do_not_spread(mi, cornell):
 
     poisoned = _poisoned(mi)
     frame, _ = render_sparse_frame(cornell, poisoned, settings=RenderSettings(rate=0.5, spp=4, seed=1))
-    assert frame.info["nonfinite_samples"] > 0
+    assert frame.info.nonfinite_samples > 0
     assert np.isfinite(frame.radiance).all() and np.isfinite(frame.variance).all()
     result = complete(frame, "interp")
     assert np.isfinite(result.image).all()
@@ -365,3 +365,24 @@ def test_a_shape_moved_through_traverse_is_traced_where_it_is_now(mi):
         ours = render_native(scene, sensor, integrator, 4, 5)
         theirs = np.asarray(mi.render(scene, integrator=integrator, spp=4, seed=5)).reshape(-1, 3)
         np.testing.assert_allclose(ours, theirs, rtol=1e-4, atol=1e-5)
+
+
+def test_the_frame_info_writes_the_sidecars_entries_in_their_order():
+    """:meth:`gmcpt.frame.FrameInfo.to_json`: a budget's readings even where not read (null), a time budget's spent
+    samples, ``two_pass``'s first pass, nothing a strategy did not record; an unknown field is refused."""
+    from gmcpt.frame import FrameInfo
+
+    counts = {"traced_pixels": 4, "path_samples": 8, "nonfinite_samples": 0}
+    rate = FrameInfo(pattern="random", first_pass_pixels=4, **counts)
+    assert list(rate.to_json()) == ["traced_pixels", "path_samples", "nonfinite_samples"]
+    budget = rate.with_values(pattern="two_pass", budget=4.8, budget_choice="dense", probe="none", guide_spp=4,
+                              costs={"path": 1.0})
+    assert budget.to_json() == {**{key: value for key, value in counts.items() if key != "nonfinite_samples"},
+                                "budget_choice": "dense", "probe": "none", "relative_variance": None,
+                                "edge_share": None, "guide_spp": 4, "costs": {"path": 1.0}, "first_pass_pixels": 4,
+                                "nonfinite_samples": 0}
+    timed = rate.with_values(time_budget=0.5, budget=7.0, budget_choice="dense", guide_spp=7, time_spent=0.4)
+    assert list(timed.to_json())[2:] == ["budget_choice", "guide_spp", "time_spent", "spent_budget",
+                                         "nonfinite_samples"]
+    with pytest.raises(TypeError):
+        rate.with_values(guide_aliasing=1.0)

@@ -31,11 +31,11 @@ def test_more_seconds_buy_more_samples_every_pixel_alike(cornell):
     short, long = _render(cornell, 0.05), _render(cornell, 1.5)
     for rendered in (short, long):
         info = rendered.frame.info
-        assert info["budget_choice"] == "dense" and rendered.frame.mask.all() and info["time_budget"] > 0
-        assert info["path_samples"] == info["budget"] * SIZE[0] * SIZE[1]  # the same samples in every pixel
+        assert info.budget_choice == "dense" and rendered.frame.mask.all() and info.time_budget > 0
+        assert info.path_samples == info.budget * SIZE[0] * SIZE[1]  # the same samples in every pixel
         assert np.isfinite(rendered.image).all()
-    assert long.frame.info["budget"] > 4 * short.frame.info["budget"]
-    assert long.frame.info["time_spent"] <= 1.5 * 1.5
+    assert long.frame.info.budget > 4 * short.frame.info.budget
+    assert long.frame.info.time_spent <= 1.5 * 1.5
 
 
 def test_a_time_budgets_passes_are_powers_of_two_that_add_up_to_its_samples(cornell, monkeypatch):
@@ -46,7 +46,7 @@ def test_a_time_budgets_passes_are_powers_of_two_that_add_up_to_its_samples(corn
     sizes = record_launches(monkeypatch)
     rendered = _render(cornell, 0.5)
     assert len(sizes) > 1 and all(size & (size - 1) == 0 for size in sizes)
-    assert sum(sizes) == rendered.frame.info["budget"]
+    assert sum(sizes) == rendered.frame.info.budget
     assert [strategies._pass_size(n) for n in (0, 1, 3, 39, 64)] == [0, 1, 2, 32, 64]
 
 
@@ -70,11 +70,11 @@ def test_a_time_budgets_guides_come_from_its_samples_first_hits(mi, cornell):
     from gmcpt.sampling.strategies import RenderSettings
 
     info = _render(cornell, 0.3).frame.info
-    assert info["guides"] == "render" and info["guide_spp"] == info["budget"] >= 4
+    assert info.guides == "render" and info.guide_spp == info.budget >= 4
     direct = mi.load_dict({"type": "direct"})
     for _ in range(2):  # the first compiles its kernels
         info = render_and_complete(cornell, direct, RenderSettings(time=0.3, costs=fixed_costs()), "interp").frame.info
-    assert info["guides"] == "pass" and info["guide_spp"] < info["budget"]
+    assert info.guides == "pass" and info.guide_spp < info.budget
 
 
 def test_a_time_budget_traces_every_pass_size_through_one_compiled_kernel(mi, cornell, monkeypatch):
@@ -84,15 +84,15 @@ def test_a_time_budget_traces_every_pass_size_through_one_compiled_kernel(mi, co
     calls, plain = [], mi.render
     monkeypatch.setattr(kernels, "FROZEN_FRAME_SAMPLES", 0)
     monkeypatch.setattr(mi, "render", lambda *args, **kwargs: calls.append(kwargs["spp"]) or plain(*args, **kwargs))
-    assert _render(cornell, 0.3).frame.info["budget"] > 1 and calls == []
+    assert _render(cornell, 0.3).frame.info.budget > 1 and calls == []
     kernels.render_native(cornell, cornell.sensors()[0], cornell.integrator().integrator, 2, 0)
     assert calls == [2]
 
 
 def test_a_time_below_one_frame_says_so_and_renders_one_sample(cornell):
     rendered = _render(cornell, 1e-4)
-    assert rendered.frame.info["time_short"] and rendered.frame.info["budget"] == 1
-    assert rendered.frame.info["guides"] == "render" and rendered.frame.info["guide_spp"] >= 1
+    assert rendered.frame.info.time_short and rendered.frame.info.budget == 1
+    assert rendered.frame.info.guides == "render" and rendered.frame.info.guide_spp >= 1
 
 
 @pytest.mark.parametrize("value", ["0", "-1", "nan", "abc", "1e9"])
@@ -130,5 +130,5 @@ def test_a_time_budget_keeps_back_the_cost_models_seconds_for_oidn(cornell):
     model whose OIDN takes the whole budget leaves one sample a pixel, and the sidecar's model says so."""
     slow = fixed_costs(denoise=10.0 / (SIZE[0] * SIZE[1]), denoise_large=20.0 / (SIZE[0] * SIZE[1]))
     rendered = _render(cornell, 1.0, slow)
-    assert rendered.frame.info["time_short"] and rendered.frame.info["budget"] == 1
-    assert rendered.frame.info["costs"] == slow.record()
+    assert rendered.frame.info.time_short and rendered.frame.info.budget == 1
+    assert rendered.frame.info.costs == slow.record()

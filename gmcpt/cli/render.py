@@ -199,8 +199,8 @@ def run(args, say=lambda message: None, extra: dict | None = None,
     settings = integrator.settings(spp=args.spp or 0, sensor=sensor)
 
     def check(frame) -> None:
-        check_nonfinite(frame.info["nonfinite_samples"], args.allow_nonfinite)
-        if frame.info.get("time_short"):
+        check_nonfinite(frame.info.nonfinite_samples, args.allow_nonfinite)
+        if frame.info.time_short:
             print(f"warning: --time {settings.time:g} s is less than one sample a pixel and the completion cost "
                   "here; rendered one sample a pixel", file=sys.stderr)
 
@@ -223,15 +223,7 @@ def run(args, say=lambda message: None, extra: dict | None = None,
                        "integrator": " ".join(str(integrator.integrator).split())},
         "versions": library_versions(),
         "rendered_fraction": frame.rendered_fraction,
-        "traced_pixels": frame.info["traced_pixels"],
-        "path_samples": frame.info["path_samples"],
-        **{key: frame.info[key] for key in ("budget_choice", "probe", "relative_variance", "edge_share", "guide_spp",
-                                            "dense_placement", "error_concentration", "denoiser_proxy", "time_spent",
-                                            "costs")
-           if key in frame.info},
-        **({"spent_budget": frame.info["budget"]} if settings.time else {}),
-        **({"first_pass_pixels": frame.info["first_pass_pixels"]} if settings.pattern == "two_pass" else {}),
-        "nonfinite_samples": frame.info["nonfinite_samples"],
+        **frame.info.to_json(),
         "timings": timings,
     }
     if reference is not None:

@@ -57,7 +57,7 @@ def sanitize(frame: SparseFrame) -> SparseFrame:
     mask = frame.mask & finite
     clean = lambda a: np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0).astype(np.float32)  # noqa: E731
     radiance = np.where(mask[..., None], clean(frame.radiance), 0.0).astype(np.float32)
-    info = dict(frame.info, dropped_nonfinite_pixels=int((frame.mask & ~finite).sum()))
+    info = frame.info.with_values(dropped_nonfinite_pixels=int((frame.mask & ~finite).sum()))
     return replace(frame, radiance=radiance, mask=mask, variance=np.where(mask, clean(frame.variance), 0.0),
                    albedo=clean(frame.albedo), normal=clean(frame.normal), depth=clean(frame.depth),
                    visibility=clean(frame.visibility), info=info)

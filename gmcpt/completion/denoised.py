@@ -30,7 +30,7 @@ from .learned import complete_gan_pawnnm, generator_fill
 def oidn_guide_rays(frame: SparseFrame) -> int:
     """The rays a pixel OIDN is told the frame's guides are the mean of (:func:`gmcpt.image.denoise.denoise_oidn`): the
     feature pass's where every pixel was traced; 0 over a fill, where clean guides lost (docs/experiments.md)."""
-    return frame.info.get("feature_spp", 0) if frame.mask.all() else 0
+    return (frame.info.feature_spp or 0) if frame.mask.all() else 0
 
 
 def denoise_over_fill(frame: SparseFrame, fill: Callable[[], Completion]) -> Completion:

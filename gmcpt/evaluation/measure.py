@@ -384,10 +384,10 @@ def equal_time(loaded: LoadedScene, config: EvalConfig, say: Say, images: dict |
         elif contender == "adaptive+oidn":
             say(f"  {loaded.name} adaptive {row['spp']:g} spp + OIDN: {metrics['psnr']:6.2f} dB ({setting.seconds:.2f} s)")
         else:
-            row["samples_per_pixel"] = info["path_samples"] / image.shape[0] / image.shape[1]
+            row["samples_per_pixel"] = info.path_samples / image.shape[0] / image.shape[1]
             if pattern:
-                row["budget_choice"] = info["budget_choice"]
-            where = (f"budget {row['rate'] * row['spp']:g} ({info['budget_choice']})" if pattern
+                row["budget_choice"] = info.budget_choice
+            where = (f"budget {row['rate'] * row['spp']:g} ({info.budget_choice})" if pattern
                      else f"rate {row['rate']:.3f} x {row['spp']:>2} spp")
             say(f"  {loaded.name} {contender} {where}: {metrics['psnr']:6.2f} dB ({setting.seconds:.2f} s)")
         rows.append({**row, "seconds": setting.seconds, "round_seconds": setting.round_seconds(slots), **metrics})
@@ -439,9 +439,10 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
                     other, _ = sparse_frame(loaded, rate, config.spp, replace(config, seed=seed, repeats=1), pattern)
                     runs.append(run_variant(other, variant, loaded.reference)[1])
             rows.append({"scene": loaded.name, "rate": rate, "variant": pattern, "method": variant.label,
-                         "samples_per_pixel": frame.info["path_samples"] / frame.mask.size, "seeds": len(runs),
+                         "samples_per_pixel": frame.info.path_samples / frame.mask.size, "seeds": len(runs),
                          **_mean_metrics(runs), "completion_s": timings["completion_s"], **_prefixed(render_timings),
-                         **({"budget_choice": frame.info["budget_choice"]} if "budget_choice" in frame.info else {})})
+                         **({"budget_choice": frame.info.budget_choice} if frame.info.budget_choice is not None
+                            else {})})
             say(f"  {loaded.name} rate {rate:.2f} {variant.label} {pattern:<10}: {rows[-1]['psnr']:6.2f} dB "
                 f"(mask {render_timings['mask_s'] * 1000:.0f} ms, render {render_timings['render_s']:.2f} s"
                 + (f", mean of {len(runs)} seeds)" if len(runs) > 1 else ")"))

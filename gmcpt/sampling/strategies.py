@@ -118,9 +118,8 @@ def _budget_passes(trace: FrameTrace, plan: BudgetPlan) -> dict:
             probe = _probe(trace, plan)
             reading = relative_variance(*trace.sums.estimate(probe), PROBE_SPP)
     choice = choose(plan, reading or 0.0, edges or 0.0, pays)
-    trace.record(**{"budget": plan.budget, "budget_choice": choice, "relative_variance": reading,
-                       "probe": "none" if reading is None else "traced", "edge_share": edges,
-                       "sparse_time_share": extra_share})
+    trace.record(budget=plan.budget, budget_choice=choice, relative_variance=reading,
+                 probe="none" if reading is None else "traced", edge_share=edges, sparse_time_share=extra_share)
     signals = [f"relative variance {reading:.3f}" if reading is not None else "",
                f"edge share {edges:.2f}" if edges is not None else "",
                f"sparse time +{extra_share:.0%}" if extra_share is not None else ""]
@@ -195,9 +194,8 @@ def _time_passes(trace: FrameTrace) -> dict:
     if guides is None:  # a frame of fewer samples than guide rays adds the rays it lacks
         guides = topped_up(trace, trace.native_guides, guide_spp(spent, settings.feature_spp), GUIDE_RAYS_SEED_OFFSET)
     trace.mark_all_traced()
-    trace.record(**{"time_budget": seconds, "budget": float(spent), "budget_choice": DENSE,
-                       "guide_spp": guides.spp, "guides": "pass" if trace.twin is None else "render",
-                       "time_short": index == 1 and left < 0})
+    trace.record(time_budget=seconds, budget=float(spent), budget_choice=DENSE, guide_spp=guides.spp,
+                 guides="pass" if trace.twin is None else "render", time_short=index == 1 and left < 0)
     return guides.buffers()
 
 
@@ -271,12 +269,12 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
 
     sums = trace.sums
     radiance, variance, traced = trace.buffers()
-    feature_spp = trace.info.get("guide_spp", settings.feature_spp) if trace.info.get("budget_choice") == DENSE \
-        else settings.feature_spp
-    info = {"mask": settings.pattern, "seed": settings.seed, "feature_spp": feature_spp,
-            "traced_pixels": int(traced.sum()), "path_samples": int(sums.samples + trace.discarded),
-            "nonfinite_samples": int(sums.samples - sums.finite.sum()),
-            "first_pass_pixels": int(trace.first_pass_pixels), **trace.info}
+    dense_guides = trace.info.budget_choice == DENSE and trace.info.guide_spp is not None
+    info = trace.info.with_values(pattern=settings.pattern, seed=settings.seed,
+                                  feature_spp=trace.info.guide_spp if dense_guides else settings.feature_spp,
+                                  traced_pixels=int(traced.sum()), path_samples=int(sums.samples + trace.discarded),
+                                  nonfinite_samples=int(sums.samples - sums.finite.sum()),
+                                  first_pass_pixels=int(trace.first_pass_pixels))
     frame = SparseFrame(radiance=radiance.reshape(height, width, 3), mask=traced.reshape(height, width),
                         variance=variance.reshape(height, width), spp=spp, info=info, **features)
     return frame, trace.timings

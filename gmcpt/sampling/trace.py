@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import mitsuba as mi
 import numpy as np
 
+from ..frame import FrameInfo
 from ..limits import SEED_LIMIT
 from ..render.kernels import FeatureMeans, SampleSums, feature_means
 from .costs import CostModel
@@ -19,7 +20,7 @@ from .settings import RenderSettings, Say
 @dataclass
 class FrameTrace:
     """What one frame's strategy has in hand while it traces: the scene, the sums of its samples, the pixels it
-    traced, its timings, and what it records of its choices (``info``, the frame's sidecar entries). The
+    traced, its timings, and what it records of its choices (``info``, :class:`~gmcpt.frame.FrameInfo`). The
     strategies (:mod:`gmcpt.sampling.strategies`), the dense way (:mod:`gmcpt.sampling.dense`) and OIDN's large
     model's reading (:mod:`gmcpt.sampling.large_model`) change it through its methods alone."""
 
@@ -36,7 +37,7 @@ class FrameTrace:
     costs: CostModel | None = None  # what a budget or a time budget weighs time with (None: a rate weighs none)
     first_pass_pixels: int = 0
     discarded: int = 0  # samples traced and left out of the image (a dense frame's probe)
-    info: dict = field(default_factory=dict)
+    info: FrameInfo = field(default_factory=FrameInfo)  # what it recorded of its choices so far
     twin: mi.SamplingIntegrator | None = None  # the integrator's guided twin, where the render brings the guides
     native_guides: FeatureMeans | None = None  # the guides of the twin's first hits so far
 
@@ -73,8 +74,8 @@ class FrameTrace:
         self.traced[:] = True
 
     def record(self, **values) -> None:
-        """Record ``values`` of the frame's choices (its sidecar entries)."""
-        self.info.update(values)
+        """Record ``values`` of the frame's choices (:class:`~gmcpt.frame.FrameInfo`'s fields)."""
+        self.info = self.info.with_values(**values)
 
     def add_native(self, image: np.ndarray, spp: int, guides: FeatureMeans | None = None) -> None:
         """Add Mitsuba's own render of every pixel at ``spp`` (flat (N, 3)) to the sums, and ``guides`` (its first

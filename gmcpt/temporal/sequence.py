@@ -29,7 +29,7 @@ import mitsuba as mi
 import numpy as np
 
 from ..errors import GmcptError
-from ..frame import DEFAULT_FEATURE_SPP, SparseFrame
+from ..frame import DEFAULT_FEATURE_SPP, FrameInfo, SparseFrame
 from ..image.denoise import denoise_oidn
 from ..limits import SEED_LIMIT, check_seconds, check_seed
 from ..render.guided_path import first_hit_features
@@ -286,16 +286,17 @@ class SequenceFrame:
     timings: dict
 
 
-def _layers(mean: np.ndarray, count: np.ndarray, guides: dict, budget: float) -> SparseFrame:
+def _layers(mean: np.ndarray, count: np.ndarray, guides: dict, budget: float, info: dict) -> SparseFrame:
     """The :class:`~gmcpt.frame.SparseFrame` of a sequence frame: ``mean`` (N, 3) of ``count`` (N,) weighted
-    samples, this frame's and the history's, and the survey's ``guides``; no variance is kept (zeros)."""
+    samples, this frame's and the history's, and the survey's ``guides``; no variance is kept (zeros); ``info``: the
+    sequence frame's record (:attr:`gmcpt.frame.FrameInfo.sequence`)."""
     height, width = guides["albedo"].shape[:2]
     sampled = (count > 0).reshape(height, width)
     radiance = np.where(sampled[..., None], mean.reshape(height, width, 3), 0.0).astype(np.float32)
     return SparseFrame(radiance=radiance, mask=sampled, variance=np.zeros((height, width), np.float32),
                        albedo=guides["albedo"], normal=guides["normal"], depth=guides["depth"],
                        visibility=guides["visibility"], spp=max(1, round(budget)), coverage=guides["coverage"],
-                       info={"sequence": True})
+                       info=FrameInfo(sequence=info))
 
 
 class SequenceRenderer:
@@ -382,7 +383,7 @@ class SequenceRenderer:
                 "nonfinite_samples": int(sums.samples - count.sum()), "guide_rays": guide_rays}
         if settings.time:
             info["time_short"] = budget <= TIMED_BUDGETS[0]
-        layers = _layers(image, count + kept, guides, budget)
+        layers = _layers(image, count + kept, guides, budget, info)
         self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time)
         return SequenceFrame(shown, layers, info, timings)
 
