@@ -30,11 +30,11 @@ def test_rate_one_equals_stock_path(mi, cornell, path_tracer):
 def _plain_pixel_sums(mi, scene, path_tracer, pixels, spp, seed):
     """trace_pixels' sums from the plain (never frozen) function."""
     import drjit as dr
-    from gmcpt.render.kernels import _camera_key, _pixel_sums
+    from gmcpt.render.kernels import camera_key, _pixel_sums
 
     sensor = scene.sensors()[0]
     sums = _pixel_sums(scene, sensor, path_tracer, mi.UInt32(pixels.astype(np.uint32)),
-                       dr.arange(mi.UInt32, pixels.size * spp), mi.UInt32(seed), spp, _camera_key(sensor),
+                       dr.arange(mi.UInt32, pixels.size * spp), mi.UInt32(seed), spp, camera_key(sensor),
                        [dr.zeros(mi.Float, pixels.size) for _ in range(5)])
     return np.stack([np.asarray(column) for column in sums[:3]], axis=1), np.asarray(sums[3])
 
@@ -118,7 +118,7 @@ def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
     path = first.integrator().integrator
     arguments = lambda scene, seed: (lambda: (  # noqa: E731
         scene.sensors()[0], path, mi.UInt32(pixels.astype(np.uint32)), kernels.dr.arange(mi.UInt32, pixels.size * 4),
-        kernels.dr.opaque(mi.UInt32, seed), 4, kernels._camera_key(scene.sensors()[0]),
+        kernels.dr.opaque(mi.UInt32, seed), 4, kernels.camera_key(scene.sensors()[0]),
         [kernels.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
     kernel(first, arguments(first, 1))
     recording = held.scene_state(first)["recordings"][kernel]

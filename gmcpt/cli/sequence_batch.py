@@ -52,7 +52,8 @@ def check(args) -> None:
     SequenceSettings(history=args.history)  # its one rule of the history's length
 
 
-def _settings(args, scene):
+def sequence_settings(args, scene):
+    """The sequence's settings (:class:`~gmcpt.temporal.sequence.SequenceSettings`) from the command's arguments."""
     from ..render.scene import scene_sensor
     from ..temporal.sequence import SequenceSettings, sequence_budget
 
@@ -133,7 +134,7 @@ def run(args, jobs: list[dict], say, bar) -> dict:
         start = time.perf_counter()
         scene, parameters, frame = load_frame(args, job)
         if renderer is None:
-            renderer = SequenceRenderer(_settings(args, scene))
+            renderer = SequenceRenderer(sequence_settings(args, scene))
             if _state_path(args).exists():
                 try:
                     renderer.restore(dict(np.load(_state_path(args))))

@@ -119,7 +119,7 @@ def render_chunk(task: dict) -> dict:
     from .batch_records import crash_once
     from .command import start_mitsuba
     from ..temporal.sequence import SequenceRenderer
-    from .sequence_batch import _settings, frame_row, load_frame, render_frame, write_frame
+    from .sequence_batch import frame_row, load_frame, render_frame, sequence_settings, write_frame
 
     start_mitsuba()
     args, chunk, handed = task["args"], task["chunk"], set(task["handed"])
@@ -133,7 +133,7 @@ def render_chunk(task: dict) -> dict:
     for position in span(owes, args.history):
         started, job = time.perf_counter(), ordered[position]
         scene, parameters, _ = load_frame(args, job)
-        renderer = renderer or SequenceRenderer(_settings(args, scene))
+        renderer = renderer or SequenceRenderer(sequence_settings(args, scene))
         image, record = render_frame(args, renderer, job, scene, parameters)
         if job["name"] in handed:
             role = "tail" if job in chunk.tail else "lead"

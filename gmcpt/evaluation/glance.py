@@ -55,7 +55,7 @@ def glance_table(run: dict) -> str:
     table = []
     for label, where in mean_groups(timed or run.get("placement", [])):
         lead = _equal_samples(run, where)
-        verdict = report.equal_time_verdict(timed, DEFAULT_VARIANT, scenes=report._in_group(timed, where))
+        verdict = report.equal_time_verdict(timed, DEFAULT_VARIANT, scenes=report.in_group(timed, where))
         table.append([_group_name(label), "-" if lead is None else f"{lead:+.2f}",
                       "-" if verdict is None else report._verdict_cell(verdict, False)])
     return report._table(header, table)

@@ -8,7 +8,7 @@ import numpy as np
 from ..image.metrics import flip_map, tonemap
 from ..io.exr import atomic_output
 from .config import DEFAULT_VARIANT
-from .report import BASELINES, best_within, contender_name, contenders, groups, _in_group, one_spp_seconds
+from .report import BASELINES, best_within, contender_name, contenders, groups, in_group, one_spp_seconds
 
 #: the at-a-glance plot: PSNR against time, one panel per group of scenes (real, synthetic)
 GROUPS_PLOT = "psnr_vs_time_groups.png"
@@ -81,7 +81,7 @@ def group_curves(rows: list[dict], where: dict, names: list[str], points: int = 
     """contender -> (times, mean PSNR): over the scenes of one group (:func:`groups`), the best PSNR each of ``names``
     reaches within each time, time in units of each scene's 1-spp render (scenes differ 30-fold in speed, so seconds
     would not average); a time where some scene has no setting that fits is left out."""
-    scenes = _in_group(rows, where)
+    scenes = in_group(rows, where)
     unit = {s: one_spp_seconds(rows, s) for s in scenes}
     end = max(r["seconds"] / unit[r["scene"]] for r in rows if r["scene"] in unit)
     grid = np.geomspace(1.0, end, points)

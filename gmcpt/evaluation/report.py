@@ -53,7 +53,7 @@ def equal_samples_lead(rows: list[dict], default: str, rate: float, **where) -> 
     return None if mine is None or not theirs else mine - max(theirs)
 
 
-def _in_group(rows: list[dict], where: dict) -> list[str]:
+def in_group(rows: list[dict], where: dict) -> list[str]:
     """The scenes of one group."""
     return [s for s in _scenes(rows) if any(r["scene"] == s and all(r.get(k) == v for k, v in where.items())
                                             for r in rows)]
@@ -143,7 +143,7 @@ def budget_table(rows: list[dict], axis: str) -> str:
     header = ["scene", f"budget ({unit})"] + [contender_name(c) for c in names]
     table = []
     for label, where in groups(rows):
-        scenes = _in_group(rows, where)
+        scenes = in_group(rows, where)
         for budget in budgets:
             cells = []
             for name in names:
@@ -365,7 +365,7 @@ def speedup_table(rows: list[dict], default: str) -> str:
                                                                  if len(baselines) > 1 else [])
     table = []
     for label, where in groups(rows):
-        scenes = _in_group(rows, where)
+        scenes = in_group(rows, where)
         for name, chosen in against:
             cells = [_verdict_cell(equal_time_verdict(rows, default, chosen, scenes, setting), len(scenes) == 1)
                      for setting in settings]

@@ -120,7 +120,7 @@ def sensor_film_size(sensor: mi.Sensor) -> tuple[int, int]:
     return int(size[1]), int(size[0])
 
 
-def _primary_rays(sensor: mi.Sensor, sampler: mi.Sampler, pixel: mi.UInt32, width: int,
+def primary_rays(sensor: mi.Sensor, sampler: mi.Sampler, pixel: mi.UInt32, width: int,
                   spp: int) -> tuple[mi.RayDifferential3f, mi.Color3f]:
     """Rays through ``pixel`` (flat index per lane), drawn as Mitsuba's integrators do."""
     film = sensor.film()
@@ -139,7 +139,8 @@ def _primary_rays(sensor: mi.Sensor, sampler: mi.Sampler, pixel: mi.UInt32, widt
     return ray, weight
 
 
-def _seeded_sampler(sensor: mi.Sensor, spp: int, seed: int | mi.UInt32, lanes: int) -> mi.Sampler:
+def seeded_sampler(sensor: mi.Sensor, spp: int, seed: int | mi.UInt32, lanes: int) -> mi.Sampler:
+    """A clone of the sensor's sampler at ``spp`` samples a pixel, seeded with ``seed`` over ``lanes`` lanes."""
     sampler = sensor.sampler().clone()
     sampler.set_sample_count(spp)
     sampler.set_samples_per_wavefront(spp)
@@ -151,14 +152,14 @@ def _feature_means(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, feature_
                    visibility: bool) -> list:
     """Per-pixel means of albedo (3), normal (3), hit distance, hit fraction, coverage and, with ``visibility``,
     light visibility over ``feature_spp`` primary rays (see :func:`render_features`); ``camera``
-    (:func:`_camera_key`) keys the recording of :data:`_frozen_feature_means`."""
+    (:func:`camera_key`) keys the recording of :data:`_frozen_feature_means`."""
     width, height = camera[0]
     lanes = height * width * feature_spp
-    sampler = _seeded_sampler(sensor, feature_spp, seed, lanes)
-    # opaque, as in _primary_rays: one compiled kernel for every feature_spp
+    sampler = seeded_sampler(sensor, feature_spp, seed, lanes)
+    # opaque, as in primary_rays: one compiled kernel for every feature_spp
     pixel = dr.arange(mi.UInt32, lanes) // dr.opaque(mi.UInt32, feature_spp)
     share = dr.opaque(mi.Float, 1 / feature_spp)  # a product, as Dr.Jit made of the division by a literal
-    ray, _ = _primary_rays(sensor, sampler, pixel, width, feature_spp)
+    ray, _ = primary_rays(sensor, sampler, pixel, width, feature_spp)
     si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
     hit = si.is_valid()
     values = first_hit_features(si, si.bsdf(ray))
@@ -224,7 +225,7 @@ def feature_means(scene: mi.Scene, sensor: mi.Sensor, feature_spp: int, seed: in
     height, width = sensor_film_size(sensor)
     feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
     values = _frozen_feature_means(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), feature_spp,
-                                                   _camera_key(sensor), visibility))
+                                                   camera_key(sensor), visibility))
     columns = [np.asarray(value, dtype=np.float32) for value in values]
     return FeatureMeans(tuple(columns[:9]), feature_spp, columns[9] if visibility else None,
                         feature_spp if visibility else 0, (height, width))
@@ -263,8 +264,8 @@ def _unit_normals(planes: list, feature_spp: int) -> np.ndarray:
     return normal
 
 
-def _camera_key(sensor: mi.Sensor) -> tuple:
-    """The sensor's scalar settings that :func:`_primary_rays` bakes into a kernel as constants."""
+def camera_key(sensor: mi.Sensor) -> tuple:
+    """The sensor's scalar settings that :func:`primary_rays` bakes into a kernel as constants."""
     film = sensor.film()
     return (tuple(film.crop_size()), tuple(film.crop_offset()), sensor.shutter_open(), sensor.shutter_open_time(),
             sensor.needs_aperture_sample())
@@ -278,11 +279,11 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     :class:`~gmcpt.render.guided_path.GuidedPath`).
 
     Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
-    pixel count; ``camera`` (:func:`_camera_key`) only keys the recording.
+    pixel count; ``camera`` (:func:`camera_key`) only keys the recording.
     """
-    sampler = _seeded_sampler(sensor, spp, seed, dr.width(lane))
-    lane_pixel = lane // dr.opaque(mi.UInt32, spp)  # as in _primary_rays: one compiled kernel for every spp
-    ray, weight = _primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp)
+    sampler = seeded_sampler(sensor, spp, seed, dr.width(lane))
+    lane_pixel = lane // dr.opaque(mi.UInt32, spp)  # as in primary_rays: one compiled kernel for every spp
+    ray, weight = primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp)
     radiance, _, aovs = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
     radiance = weight * radiance
     finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
@@ -323,7 +324,7 @@ def _traced_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     kernel = _frozen_guided_sums if aovs else _frozen_pixel_sums
     sums = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
                                   dr.arange(mi.UInt32, pixels.size * spp), dr.opaque(mi.UInt32, seed), spp,
-                                  _camera_key(sensor),
+                                  camera_key(sensor),
                                   [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5 + aovs)]))
     return [np.asarray(column) for column in sums]
 

@@ -33,8 +33,8 @@ from ..frame import DEFAULT_FEATURE_SPP, FrameInfo, SparseFrame
 from ..image.denoise import denoise_oidn
 from ..limits import SEED_LIMIT, check_seconds, check_seed
 from ..render.guided_path import first_hit_features
-from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, _camera_key, _primary_rays, _seeded_sampler,
-                              pixel_means, render_native, sensor_film_size)
+from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, camera_key, pixel_means, primary_rays,
+                              render_native, seeded_sampler, sensor_film_size)
 from ..render.scene import path_integrator, scene_sensor
 from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
@@ -175,10 +175,10 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     centre ray."""
     width, height = camera[0]
     lanes = height * width * guide_rays
-    sampler = _seeded_sampler(sensor, guide_rays, seed, lanes)
+    sampler = seeded_sampler(sensor, guide_rays, seed, lanes)
     lane = dr.arange(mi.UInt32, lanes)
     pixel = lane // dr.opaque(mi.UInt32, guide_rays)
-    ray, _ = _primary_rays(sensor, sampler, pixel, width, guide_rays)
+    ray, _ = primary_rays(sensor, sampler, pixel, width, guide_rays)
     si = scene.ray_intersect(ray)
     hit = si.is_valid()
     bsdf = si.bsdf(ray)
@@ -217,7 +217,7 @@ def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 
     feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
     planes = [np.asarray(plane, np.float32) for plane in
               _frozen_survey(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), guide_rays,
-                                             _camera_key(sensor)))]
+                                             camera_key(sensor)))]
     features, lighting = planes[:9], planes[9]
     positions, normals = _hits(planes[10:])
     return Survey(positions, normals, FeatureMeans(tuple(features), guide_rays, None, 0, (height, width)), lighting,
