@@ -413,7 +413,7 @@ def record(args, rows: list[dict], verdicts: list[dict], moving: dict, seconds: 
     (``.png``)."""
     import datetime
 
-    from gmcpt.cli.eval import _versions, machine_line
+    from gmcpt.cli.eval import run_versions, machine_line
     from gmcpt.evaluation.plots import sequence_plot
     from gmcpt.io.exr import atomic_output
     from gmcpt.io.files import json_text
@@ -421,7 +421,7 @@ def record(args, rows: list[dict], verdicts: list[dict], moving: dict, seconds: 
     data = {"command": "python benchmarks/sequence.py " + " ".join(sys.argv[1:]),
             "date": datetime.date.today().isoformat(), "commit": commit, "machine": machine_line(),
             "settings": {key: (str(value) if isinstance(value, Path) else value) for key, value in vars(args).items()},
-            "moving": moving, "versions": _versions(), "seconds": seconds, "rows": rows, "verdicts": verdicts}
+            "moving": moving, "versions": run_versions(), "seconds": seconds, "rows": rows, "verdicts": verdicts}
     with atomic_output(args.record) as temporary:
         Path(temporary).write_text(json_text(data, indent=1))
     sequence_plot(rows, args.record.with_suffix(".png"))

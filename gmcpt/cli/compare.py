@@ -160,7 +160,7 @@ def _validate_frames(args) -> None:
 def _reference(args, size: tuple[int, int], say) -> tuple:
     """(reference, where it came from): ``--reference`` checked for size, or rendered and cached."""
     from ..runtime.progress import Progress
-    from .render import _reference as read_reference
+    from .render import read_reference
     from ..evaluation.reference import cache_dir, render_reference
 
     if args.reference:
@@ -224,7 +224,7 @@ def compare(args, say) -> dict:
     from ..io.files import json_text, make_folder
     from ..render.scene import load_scene, path_integrator, scene_sensor
     from ..evaluation import compare_report, measure, plots
-    from .eval import _versions
+    from .eval import run_versions
 
     start = time.perf_counter()
     out = _validate(args)
@@ -251,7 +251,7 @@ def compare(args, say) -> dict:
               "noise": noise, "verdict_line": line,
               "equal_samples_line": compare_report.equal_samples_line(budgets),
               "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-              "versions": _versions(),
+              "versions": run_versions(),
               "machine": f"{platform.machine()}, {os.cpu_count()} CPU cores, {platform.system()}",
               "measure_seconds": time.perf_counter() - measured}
     make_folder(out / JSON)
@@ -320,7 +320,7 @@ def compare_frames(args, say, out: Path, start: float) -> dict:
     from ..runtime.progress import Progress
     from ..render.scene import path_integrator
     from ..evaluation import plots
-    from .eval import _versions, machine_line
+    from .eval import run_versions, machine_line
     from ..evaluation.sequences import (AOV_GUIDES, XmlFrames, frame_figures, frame_ladder, frames_table,
                                         frames_verdict_line, path_oidn_run, sequence_figures, sequence_run,
                                         sequence_verdict, take_turns, verdict_noise)
@@ -362,7 +362,7 @@ def compare_frames(args, say, out: Path, start: float) -> dict:
               "budgets": budgets, "path_spp": list(ladder), "seed": args.seed, "rows": rows, "verdict": verdict,
               "noise": noise, "verdict_line": line,
               "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-              "versions": _versions(), "machine": machine_line(), "measure_seconds": time.perf_counter() - timed}
+              "versions": run_versions(), "machine": machine_line(), "measure_seconds": time.perf_counter() - timed}
     make_folder(out / JSON)
     plots.sequence_plot(rows, out / PLOT)
     record["movie"] = _movie(measured, rows, truth, out / MOVIE)

@@ -64,7 +64,7 @@ def _commit() -> str:
         return "unknown"
 
 
-def _versions() -> dict:
+def run_versions() -> dict:
     from importlib import metadata
 
     from ..io.outputs import library_versions
@@ -226,7 +226,7 @@ def main(argv: list[str] | None = None) -> int:
         resume = checkpoint.resume_key(config, scenes, checkpoint.code_version(ROOT))
         record = evaluate(config, scenes, out, say, quiet=args.quiet, resume=resume)
         record.update(command="python -m gmcpt eval" + (" --quick" if args.quick else ""),
-                      date=datetime.date.today().isoformat(), commit=commit, versions=_versions(),
+                      date=datetime.date.today().isoformat(), commit=commit, versions=run_versions(),
                       machine=machine_line())
         if args.scenes or args.procedural is not None:
             record["command"] += "".join([f" --scenes {' '.join(args.scenes)}" if args.scenes else "",

@@ -131,7 +131,7 @@ def _weights_record(integrator) -> dict:
             "generator_precision": generator_precision(completion_device())}
 
 
-def _reference(path: str):
+def read_reference(path: str):
     """The reference image, refused (one line) if metrics against it would be NaN."""
     from ..io.exr import read_rgb_exr
     from ..image.metrics import check_reference
@@ -172,7 +172,7 @@ def run(args, say=lambda message: None, extra: dict | None = None,
 
     started = time.perf_counter()
     validate(args)
-    reference = _reference(args.reference) if args.reference else None
+    reference = read_reference(args.reference) if args.reference else None
     parameters = dict(define.split("=", 1) for define in args.defines)
     scene = load_scene(args.scene, tuple(args.res) if args.res else None, parameters)
     # --rate/--spp drop a budget or a time the scene sets, and each of --budget and --time the other

@@ -11,7 +11,7 @@ import numpy as np
 
 from . import report
 from .config import DEFAULT_VARIANT, QUICK, EvalConfig
-from .sequences import NOISE_DRAWS, NOISE_LEVEL, _within
+from .sequences import NOISE_DRAWS, NOISE_LEVEL, within_noise
 
 #: the default budgets: a 128x128 scene takes a minute or two once its reference exists
 DEFAULT_BUDGETS = (2.0, 4.0, 8.0)
@@ -142,7 +142,7 @@ def verdict(rows: list[dict], seed: int = 0) -> tuple[dict | None, dict, str]:
     spread = noise.get("speedup")
     if found is None:
         said = report.verdict_sentence(found, DEFAULT_VARIANT, f"budgets {budgets}")
-    elif _within(spread):
+    elif within_noise(spread):
         count, total = found["bounds"], found["settings"]
         bounds = f"; {count} of {total} ratio{'s' if total > 1 else ''} only {'bounds' if count > 1 else 'a bound'}" \
             if count else ""
@@ -186,7 +186,7 @@ def table(budgets: list[dict]) -> str:
                       f"{mine['psnr']:.2f} ({mine['seconds']:.2f} s, {mine.get('budget_choice', '-')})",
                       *(_psnr(entry["equal_samples"][b]) for b in baselines),
                       *(_psnr(entry["equal_time"][b], True) for b in baselines), _speedup(entry["better_speedup"])])
-    return report._table(header, lines)
+    return report.markdown_table(header, lines)
 
 
 def equal_samples_line(budgets: list[dict]) -> str:

@@ -57,8 +57,8 @@ def glance_table(run: dict) -> str:
         lead = _equal_samples(run, where)
         verdict = report.equal_time_verdict(timed, DEFAULT_VARIANT, scenes=report.in_group(timed, where))
         table.append([_group_name(label), "-" if lead is None else f"{lead:+.2f}",
-                      "-" if verdict is None else report._verdict_cell(verdict, False)])
-    return report._table(header, table)
+                      "-" if verdict is None else report.verdict_cell(verdict, False)])
+    return report.markdown_table(header, table)
 
 
 def glance_section(run: dict) -> list[str]:
@@ -86,7 +86,7 @@ def glance_section(run: dict) -> list[str]:
 
 def _scene_verdicts(rows: list[dict]) -> dict[str, float]:
     """scene -> its equal-time verdict (:func:`report.equal_time_verdict`)."""
-    verdicts = {s: report.equal_time_verdict(rows, DEFAULT_VARIANT, scenes=[s]) for s in report._scenes(rows)}
+    verdicts = {s: report.equal_time_verdict(rows, DEFAULT_VARIANT, scenes=[s]) for s in report.row_scenes(rows)}
     return {s: v["speedup"] for s, v in verdicts.items() if v is not None}
 
 

@@ -19,12 +19,12 @@ def contender_name(label: str) -> str:
     return CONTENDER_NAMES.get(label, label)
 
 
-def _table(header: list[str], rows: list[list[str]]) -> str:
+def markdown_table(header: list[str], rows: list[list[str]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     return "\n".join(lines + ["| " + " | ".join(row) + " |" for row in rows])
 
 
-def _scenes(rows: list[dict]) -> list[str]:
+def row_scenes(rows: list[dict]) -> list[str]:
     return list(dict.fromkeys(row["scene"] for row in rows))
 
 
@@ -36,7 +36,7 @@ def _mean(rows: list[dict], key: str, **where) -> float | None:
 def groups(rows: list[dict]) -> list[tuple[str, dict]]:
     """(label, filter) of each scene, then of the mean over the real scenes and over the synthetic ones (where
     there are both), then of the mean over all; a filter is ``where`` for :func:`_mean`."""
-    scenes = _scenes(rows)
+    scenes = row_scenes(rows)
     real = [scene for scene in scenes if any(r["scene"] == scene and r.get("real") for r in rows)]
     out = [(scene, {"scene": scene}) for scene in scenes]
     if real and len(real) < len(scenes):
@@ -55,7 +55,7 @@ def equal_samples_lead(rows: list[dict], default: str, rate: float, **where) -> 
 
 def in_group(rows: list[dict], where: dict) -> list[str]:
     """The scenes of one group."""
-    return [s for s in _scenes(rows) if any(r["scene"] == s and all(r.get(k) == v for k, v in where.items())
+    return [s for s in row_scenes(rows) if any(r["scene"] == s and all(r.get(k) == v for k, v in where.items())
                                             for r in rows)]
 
 
@@ -89,7 +89,7 @@ def variant_table(rows: list[dict], variants: list[str], metrics: list[str], rat
             cells.append("-" if a is None or b is None else f"{a - b:+.2f}")
         return cells
 
-    return _table(header, _per_scene_and_mean(rows, rates, cell))
+    return markdown_table(header, _per_scene_and_mean(rows, rates, cell))
 
 
 def patch_table(rows: list[dict], sizes, rates) -> str:
@@ -98,11 +98,11 @@ def patch_table(rows: list[dict], sizes, rates) -> str:
     header = ["scene", "rate"] + [f"{size}x{size}" for size in sizes]
     table = _per_scene_and_mean([r for r in rows if r["variant"] in labels], rates,
                                 lambda where, rate: _cells(rows, labels, ["psnr"], where, rate))
-    return _table(header, table)
+    return markdown_table(header, table)
 
 
 def reference_table(noise_rows: list[dict]) -> str:
-    return _table(["scene", "reference spp", "PSNR dB vs second reference", "SSIM", "FLIP"],
+    return markdown_table(["scene", "reference spp", "PSNR dB vs second reference", "SSIM", "FLIP"],
                   [[r["scene"], str(r["reference_spp"]), f"{r['noise_psnr']:.2f}", f"{r['noise_ssim']:.4f}",
                     f"{r['noise_flip']:.4f}"] for r in noise_rows])
 
@@ -160,7 +160,7 @@ def budget_table(rows: list[dict], axis: str) -> str:
             previous = table[-1] if table and table[-1][0] == label else None
             if any(c != "-" for c in cells) and (previous is None or previous[2:] != cells):
                 table.append([label, f"{budget:g}", *cells])
-    return _table(header, table)
+    return markdown_table(header, table)
 
 
 def crossover(rows: list[dict], scene: str, challenger: str, incumbent: str, axis: str) -> str:
@@ -203,7 +203,7 @@ def crossover_lines(rows: list[dict]) -> list[str]:
     """One line per scene, challenger and axis: where each completion variant overtakes, or is overtaken."""
     lines = []
     challengers = [c for c in contenders(rows) if c not in CONTENDER_NAMES]
-    for scene in _scenes(rows):
+    for scene in row_scenes(rows):
         for axis, label in (("samples_per_pixel", "equal samples"), ("seconds", "equal time")):
             parts = [crossover(rows, scene, c, "path+oidn", axis) for c in challengers]
             lines.append(f"- {scene}, {label}: " + "; ".join(parts) + ".")
@@ -221,14 +221,14 @@ def crossover_table(rows: list[dict]) -> str:
     rows = merged(rows)
     header = ["scene", "equal samples", "equal time", "best completion below 1 spp", "path tracing + OIDN at 1 spp"]
     table = []
-    for scene in _scenes(rows):
+    for scene in row_scenes(rows):
         scene_rows = [r for r in rows if r["scene"] == scene]
         below = best_within(scene_rows, "completion", "samples_per_pixel", 0.999)
         one = best_within(scene_rows, "path+oidn", "samples_per_pixel", 1.0)
         cell = lambda r: "-" if r is None else f"{r['psnr']:.2f} dB ({_setting(r)}, {r['seconds']:.2f} s)"  # noqa: E731
         table.append([scene, crossover(rows, scene, "completion", "path+oidn", "samples_per_pixel"),
                       crossover(rows, scene, "completion", "path+oidn", "seconds"), cell(below), cell(one)])
-    return _table(header, table)
+    return markdown_table(header, table)
 
 
 def stage_table(rows: list[dict]) -> str:
@@ -236,7 +236,7 @@ def stage_table(rows: list[dict]) -> str:
             "wiener_s", "denoise_s", "completion_s", "total_s"]
     header = ["resolution", "method", "features", "render", "pre-completion (the fill, or the GAN)",
               "block matching", "SVD", "aggregation", "Wiener pass", "OIDN", "completion (all)", "total"]
-    return _table(header, [[f"{r['resolution']}x{r['resolution']}", r["variant"],
+    return markdown_table(header, [[f"{r['resolution']}x{r['resolution']}", r["variant"],
                             *(f"{r.get(k, 0.0):.3f}" for k in keys)] for r in rows])
 
 
@@ -342,7 +342,7 @@ def _ratio(value: tuple[str, float] | None) -> str:
     return {"=": "", "<": "<", ">": ">"}[value[0]] + f"{value[1]:.2f}x"
 
 
-def _verdict_cell(verdict: dict | None, single: bool) -> str:
+def verdict_cell(verdict: dict | None, single: bool) -> str:
     """A cell of the speed-up table: one scene's one setting keeps its bound sign, a mean counts its bounds."""
     if verdict is None:
         return "-"
@@ -367,11 +367,11 @@ def speedup_table(rows: list[dict], default: str) -> str:
     for label, where in groups(rows):
         scenes = in_group(rows, where)
         for name, chosen in against:
-            cells = [_verdict_cell(equal_time_verdict(rows, default, chosen, scenes, setting), len(scenes) == 1)
+            cells = [verdict_cell(equal_time_verdict(rows, default, chosen, scenes, setting), len(scenes) == 1)
                      for setting in settings]
-            cells.append(_verdict_cell(equal_time_verdict(rows, default, chosen, scenes), False))
+            cells.append(verdict_cell(equal_time_verdict(rows, default, chosen, scenes), False))
             table.append([label, name, *cells])
-    return _table(header, table)
+    return markdown_table(header, table)
 
 
 def full_resolution_table(rows: list[dict], default: str) -> str:
@@ -390,4 +390,4 @@ def full_resolution_table(rows: list[dict], default: str) -> str:
                          f"{best['psnr']:.2f} / {best['flip']:.3f} ({_setting(best)}, {best['seconds']:.2f} s)")
         cells += [_ratio(speedup(rows, setting, baseline)) for baseline in baselines]
         table.append(cells)
-    return _table(header, table)
+    return markdown_table(header, table)

@@ -45,12 +45,12 @@ def frame_ladder(budgets) -> tuple[int, ...]:
 def frames_table(rows: list[dict]) -> str:
     """The sequence table of ``gmcpt compare --frames``: each contender's setting, PSNR, PSNR over the changed
     pixels (and their share), seconds a frame and flicker (along the motion; in place)."""
-    from .report import _table
+    from .report import markdown_table
 
     lines = [[row["contender"], f"{row['spp']:g}", f"{row['psnr']:.2f}",
               "-" if row["psnr_changed"] is None else f"{row['psnr_changed']:.2f} ({row['changed_share']:.1%})",
               f"{row['seconds']:.3f}", f"{row['flicker']:.2f} ({row['screen_flicker']:.2f})"] for row in rows]
-    return _table(["contender", "samples a pixel a frame", "PSNR dB", "PSNR changed pixels dB (share)",
+    return markdown_table(["contender", "samples a pixel a frame", "PSNR dB", "PSNR changed pixels dB (share)",
                    "seconds a frame", "flicker (in place)"], lines)
 
 
@@ -396,7 +396,7 @@ def verdict_noise(rows: list[dict], baseline: str = "path+oidn", draws: int = NO
                for key, values in found.items()}, "draws": draws, "level": level}
 
 
-def _within(interval: tuple[float, float] | None) -> bool:
+def within_noise(interval: tuple[float, float] | None) -> bool:
     return interval is not None and interval[0] <= 1 <= interval[1]
 
 
@@ -407,7 +407,7 @@ def frames_verdict_line(verdict: dict | None, noise: dict, baseline: str = "per-
     if verdict is None:
         return f"verdict: none: the sequence mode or {baseline} did not run"
     ratio, spread = verdict["speedup"], noise.get("speedup")
-    if _within(spread):
+    if within_noise(spread):
         speed = (f"against {baseline} at equal quality: a wash (within the run's noise: a speed-up of {ratio:.2f}x, "
                  f"{spread[0]:.2f}-{spread[1]:.2f}x)")
     else:
@@ -421,7 +421,7 @@ def frames_verdict_line(verdict: dict | None, noise: dict, baseline: str = "per-
     flicker, spread = verdict.get("flicker_ratio"), noise.get("flicker_ratio")
     if flicker is None:
         said = "its flicker not measured"
-    elif _within(spread):
+    elif within_noise(spread):
         said = f"its flicker a wash (within the run's noise: {flicker:.2f}x, {spread[0]:.2f}-{spread[1]:.2f}x)"
     else:
         said = f"its flicker {flicker:.2f}x the baseline's at equal time" + (
