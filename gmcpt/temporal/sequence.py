@@ -381,10 +381,10 @@ class SequenceRenderer:
                 "history_dropped": float((history.offered & ~((history.count > 0) & agrees)).mean()),
                 "dropped": dropped, "carried_pixels": carried,
                 "nonfinite_samples": int(sums.samples - count.sum()), "guide_rays": guide_rays}
-        if settings.time:
+        if settings.time:  # only a timed sequence reads its pace (what follows falls in the next frame's period)
             info["time_short"] = budget <= TIMED_BUDGETS[0]
+            self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time)
         layers = _layers(image, count + kept, guides, budget, info)
-        self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time)
         return SequenceFrame(shown, layers, info, timings)
 
     def _history(self, index: int, found: Survey, marks: Signature) -> History:
