@@ -47,7 +47,7 @@ class FrameInfo:
         and the completion, the seconds the frame took in all.
     dropped_nonfinite_pixels : pixels left out of the mask for non-finite samples
         (:func:`gmcpt.completion.check.sanitize`).
-    sequence : a sequence frame's record (:class:`gmcpt.temporal.sequence.SequenceFrame`'s ``info``).
+    sequence : a sequence frame's record (:class:`gmcpt.temporal.sequence.SequenceRecord`).
     """
 
     pattern: str | None = None
@@ -73,7 +73,9 @@ class FrameInfo:
     time_short: bool | None = None
     time_spent: float | None = None
     dropped_nonfinite_pixels: int | None = None
-    sequence: dict | None = None
+    # a SequenceRecord: named, not imported (a layer above), and not annotated so: mi.render's Dr.Jit resolves the
+    # annotations of the frame it traverses in this module
+    sequence: object | None = None
 
     def with_values(self, **values) -> FrameInfo:
         """A copy with ``values`` recorded (an unknown name raises TypeError)."""

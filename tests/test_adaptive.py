@@ -67,14 +67,14 @@ def test_render_traces_exactly_the_budget_and_repeats_itself(mi, cornell, path_t
 
     settings = AdaptiveSettings(budget=budget, seed=5)
     image, info, timings = render_adaptive(cornell, path_tracer, settings)
-    assert info["path_samples"] == round(budget * 40 * 32) == info["samples"].sum()
-    assert info["samples"].min() >= settings.first_spp >= 1
-    assert info["samples"].max() <= settings.first_spp + settings.max_extra
+    assert info.path_samples == round(budget * 40 * 32) == info.samples.sum()
+    assert info.samples.min() >= settings.first_spp >= 1
+    assert info.samples.max() <= settings.first_spp + settings.max_extra
     assert image.shape == (32, 40, 3) and np.isfinite(image).all() and image.mean() > 0.01
     assert {"features_s", "render_s", "placement_s", "denoise_s"} <= timings.keys()
     again, info_again, _ = render_adaptive(cornell, path_tracer, settings)
     np.testing.assert_array_equal(image, again)
-    np.testing.assert_array_equal(info["samples"], info_again["samples"])
+    np.testing.assert_array_equal(info.samples, info_again.samples)
 
 
 def test_more_samples_land_where_the_first_pass_is_noisy(mi, cornell, path_tracer):
@@ -84,7 +84,7 @@ def test_more_samples_land_where_the_first_pass_is_noisy(mi, cornell, path_trace
 
     settings = AdaptiveSettings(budget=6.0, seed=1)
     _, info, _ = render_adaptive(cornell, path_tracer, settings)
-    extra = info["samples"] - settings.first_spp
+    extra = info.samples - settings.first_spp
     assert extra.max() >= 3 * np.median(extra) and np.percentile(extra, 90) >= 2 * np.percentile(extra, 10) + 2
 
 

@@ -362,8 +362,11 @@ def test_at_equal_time_both_baselines_draw_the_defaults_seeds(monkeypatch):
         return image, image, {"render_s": 0.0}
 
     def adaptive_oidn(loaded, budget, seed, guides):
+        from gmcpt.sampling.adaptive import AdaptiveInfo
+
         seeds["adaptive"].append(seed)
-        return image, {"path_samples": 16 * int(budget)}, {}
+        samples = np.full(image.shape[:2], int(budget))
+        return image, AdaptiveInfo(budget, int(samples.sum()), samples, 0), {}
 
     def render_and_complete(scene, integrator, settings, method, options):
         from gmcpt.frame import FrameInfo

@@ -40,8 +40,8 @@ def test_the_frames_of_a_render_loop_equal_the_batch_sequence(mi, loop, tmp_path
     for frame in range(4):
         cornell_at(mi, scene, params, frame)
         image = np.asarray(mi.render(scene, integrator=integrator))
-        frames.append((image, dict(integrator.last_frame.info.sequence)))
-    assert image.shape == (RES, RES, 17) and frames[3][1]["history_frames"] == 3 and frames[3][1]["history_pixels"] > 0.5
+        frames.append((image, integrator.last_frame.info.sequence))
+    assert image.shape == (RES, RES, 17) and frames[3][1].history_frames == 3 and frames[3][1].history_pixels > 0.5
     bitmap = scene.sensors()[0].film().bitmap()  # the film holds the frame's layers, named
     assert bitmap.channel_count() == 17 and "albedo.R" in [bitmap.struct_()[i].name for i in range(17)]
 
@@ -51,7 +51,7 @@ def test_the_frames_of_a_render_loop_equal_the_batch_sequence(mi, loop, tmp_path
         name = tmp_path / "seq" / f"cornell-box_frame-{frame:04d}"
         record = json.loads(name.with_suffix(".json").read_text())
         for key in ("history_frames", "path_samples", "history_pixels", "history_samples", "dropped", "seed"):
-            assert record.get(key, record["parameters"].get(key)) == info[key], (frame, key)
+            assert record.get(key, record["parameters"].get(key)) == getattr(info, key), (frame, key)
         written = read_rgb_exr(name.with_suffix(".exr"))
         # the same samples and decisions; the batch's kernels are recorded (frozen) for each loaded scene, the
         # loop's run plain once the sphere moved, which rounds differently in the last bits
@@ -62,20 +62,20 @@ def test_reset_another_size_or_another_scene_starts_a_new_sequence(mi, loop):
     scene, integrator, params = loop
     first = np.asarray(mi.render(scene, integrator=integrator))
     mi.render(scene, integrator=integrator)
-    assert integrator.last_frame.info.sequence["history_frames"] == 1
+    assert integrator.last_frame.info.sequence.history_frames == 1
     integrator.reset()
     again = np.asarray(mi.render(scene, integrator=integrator))
-    assert integrator.last_frame.info.sequence["history_frames"] == 0 and np.array_equal(first, again)
+    assert integrator.last_frame.info.sequence.history_frames == 0 and np.array_equal(first, again)
     params["camera.film.size"] = [RES // 2, RES // 2]
     params.update()
     assert np.asarray(mi.render(scene, integrator=integrator)).shape == (RES // 2, RES // 2, 17)
-    assert integrator.last_frame.info.sequence["history_frames"] == 0
+    assert integrator.last_frame.info.sequence.history_frames == 0
     other = mi.load_file(str(CORNELL), res=RES // 2)
     mi.render(other, integrator=integrator)
-    assert integrator.last_frame.info.sequence["history_frames"] == 0
+    assert integrator.last_frame.info.sequence.history_frames == 0
     mi.render(other, integrator=integrator, seed=5)  # a seed given is the frame's number
     record = integrator.last_frame.info.sequence
-    assert record["frame"] == 5 and record["history_frames"] == 1
+    assert record.frame == 5 and record.history_frames == 1
 
 
 @pytest.mark.parametrize("properties, message", [({"rate": 0.3}, "drop rate"), ({"mask": "random"}, "drop mask"),

@@ -23,10 +23,10 @@ def test_a_still_camera_reuses_the_earlier_frames_and_keeps_the_budget(mi):
     renderer = _renderer()
     infos = [renderer.render(scene, index)[1] for index in range(3)]
     pixels = SIZE[0] * SIZE[1]
-    assert [info["path_samples"] for info in infos] == [2 * pixels] * 3
-    assert infos[0]["history_pixels"] == 0 and infos[0]["history_frames"] == 0
-    assert infos[1]["history_pixels"] > 0.8 and infos[2]["history_samples"] > infos[1]["history_samples"]
-    assert infos[0]["carried_pixels"] == 0 and infos[1]["carried_pixels"] > 0.8  # the frame shown before, carried
+    assert [info.path_samples for info in infos] == [2 * pixels] * 3
+    assert infos[0].history_pixels == 0 and infos[0].history_frames == 0
+    assert infos[1].history_pixels > 0.8 and infos[2].history_samples > infos[1].history_samples
+    assert infos[0].carried_pixels == 0 and infos[1].carried_pixels > 0.8  # the frame shown before, carried
 
 
 def test_same_seed_same_frames_and_a_resumed_sequence_gives_the_same_images(mi, tmp_path):
@@ -50,9 +50,9 @@ def test_after_a_cut_the_frame_is_the_single_frame_render(mi):
     renderer = _renderer()
     renderer.render(_scene(CORNELL), 0)
     image, info, _ = renderer.render(_scene(STILL_LIFE), 1)
-    assert info["history_pixels"] < 0.01 and info["carried_pixels"] < 0.01
+    assert info.history_pixels < 0.01 and info.carried_pixels < 0.01
     alone, _, _ = _renderer(history=0).render(_scene(STILL_LIFE), 1)
-    if info["history_pixels"] == 0:
+    if info.history_pixels == 0:
         np.testing.assert_array_equal(image, alone)
     else:  # a stray pixel on the same spot of both scenes
         assert np.mean(np.abs(image - alone)) < 1e-3
@@ -67,7 +67,7 @@ def test_a_changed_light_drops_the_history_that_disagrees(mi):
     parameters[key] = parameters[key] * 8
     parameters.update()
     _, info, _ = renderer.render(scene, 1)
-    assert info["history_dropped"] > 0.5 * (info["history_dropped"] + info["history_pixels"])
+    assert info.history_dropped > 0.5 * (info.history_dropped + info.history_pixels)
 
 
 @pytest.mark.parametrize("settings, message", [({"history": -1}, "history"), ({"history": 2.5}, "history"),
@@ -109,7 +109,7 @@ def test_a_moving_shapes_old_shadow_is_gone_within_one_frame(mi):
     image, info, _ = renderer.render(scene, 4, integrator)
     reference = sum(render_native(scene, sensor, integrator, 64, 900 + i) for i in range(4)) / 4
     luminance = image.reshape(-1, 3).mean(axis=1)
-    assert info["dropped"]["lighting"] > 0.25 * old_shadow.mean()
+    assert info.dropped["lighting"] > 0.25 * old_shadow.mean()
     # the old shadow's pixels are as bright as they are now, not darkened by the history of the shadow
     assert luminance[old_shadow].mean() > 0.9 * reference.mean(axis=1)[old_shadow].mean()
 
@@ -125,11 +125,11 @@ def test_a_light_switched_off_or_on_drops_its_history(mi):
     parameters.update()
     image, info, _ = renderer.render(scene, 3)
     # the directly lit pixels drop for their lighting, the rest (the ceiling, the shadows) as they disagree
-    assert image.mean() < 0.02 * np.mean(lit) and info["history_dropped"] > 0.95 and info["dropped"]["lighting"] > 0.5
+    assert image.mean() < 0.02 * np.mean(lit) and info.history_dropped > 0.95 and info.dropped["lighting"] > 0.5
     parameters[key] = radiance
     parameters.update()
     image, info, _ = renderer.render(scene, 4)  # the dark frame's history goes, the lit frames' before it stays
-    assert abs(image.mean() / np.mean(lit) - 1) < 0.1 and info["dropped"]["lighting"] > 0.5
+    assert abs(image.mean() / np.mean(lit) - 1) < 0.1 and info.dropped["lighting"] > 0.5
 
 
 def test_the_jit_gather_keeps_what_the_numpy_tests_keep(mi):
@@ -190,6 +190,6 @@ def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():
 def test_a_timed_sequence_records_its_time_and_each_frame_its_own_budget(mi):
     scene = _scene()
     renderer = _renderer(time=0.5)
-    budgets = [renderer.render(scene, index)[1]["budget"] for index in range(3)]
+    budgets = [renderer.render(scene, index)[1].budget for index in range(3)]
     assert budgets[0] == 2 and budgets[1] != 2 and budgets[2] != 2
-    assert "time_short" in renderer.render(scene, 3)[1]
+    assert renderer.render(scene, 3)[1].time_short is not None

@@ -83,15 +83,15 @@ def render_frame(args, renderer, job: dict, scene, parameters: dict) -> tuple[np
     frame = int(parameters["frame"])
     try:
         image, info, timings = renderer.render(scene, frame)
-        check_nonfinite(info["nonfinite_samples"], args.allow_nonfinite)
+        check_nonfinite(info.nonfinite_samples, args.allow_nonfinite)
     except GmcptError as error:  # the frame's name on the one line: the frames before it are written
         raise GmcptError(f"frame {frame} ({job['name']}): {error}") from None
     settings = renderer.settings
     record = {"scene": job["scene"], "output": str(Path(job["out"]).resolve()),
-              "parameters": {"sequence": True, "budget": settings.budget, "seed": info["seed"],
+              "parameters": {"sequence": True, "budget": settings.budget, "seed": info.seed,
                              "history": settings.history, "decay": settings.decay, "time": settings.time or None,
                              "resolution": [image.shape[1], image.shape[0]], "scene_parameters": parameters},
-              "versions": library_versions(), **{k: v for k, v in info.items() if k != "seed"},
+              "versions": library_versions(), **info.to_json(),
               "timings": timings, "batch": {"key": job["key"], "name": job["name"]}}
     return image, record
 

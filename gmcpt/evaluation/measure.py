@@ -425,7 +425,7 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
         for seed in seeds:
             image, info, _ = adaptive_oidn(loaded, rate * config.spp, seed + BASELINE_SEED_OFFSET, guides)
             runs.append(all_metrics(image, loaded.reference))
-            spent = info["path_samples"] / image.shape[0] / image.shape[1]
+            spent = info.path_samples / image.shape[0] / image.shape[1]
         rows.append({"scene": loaded.name, "rate": rate, "variant": "adaptive+oidn", "samples_per_pixel": spent,
                      "seeds": len(seeds), **_mean_metrics(runs)})
         say(f"  {loaded.name} rate {rate:.2f} path {samples} spp + OIDN: {rows[-2]['psnr']:6.2f} dB, adaptive "

@@ -77,6 +77,24 @@ class AdaptiveSettings:
         return max(1, int(self.first_share * self.budget))
 
 
+@dataclass(frozen=True, eq=False)
+class AdaptiveInfo:
+    """What :func:`render_adaptive` traced (no sidecar records it; compared by identity: ``samples`` is an array).
+
+    Attributes
+    ----------
+    budget : the mean path samples a pixel it was given (:attr:`AdaptiveSettings.budget`).
+    path_samples : samples traced, both passes: exactly ``round(budget * W * H)``.
+    samples : (H, W) int64, the samples each pixel got.
+    nonfinite_samples : those that were NaN/Inf (left out of the image).
+    """
+
+    budget: float
+    path_samples: int
+    samples: np.ndarray
+    nonfinite_samples: int
+
+
 def _box3(plane: np.ndarray) -> np.ndarray:
     """3x3 mean with edge replication."""
     padded = np.pad(plane, 1, mode="edge")
@@ -143,12 +161,12 @@ def allocate(weights: np.ndarray, total: int, cap: int) -> np.ndarray:
 
 
 def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
-                    features: dict | None = None, guide_rays: int = 0) -> tuple[np.ndarray, dict, dict]:
+                    features: dict | None = None, guide_rays: int = 0) -> tuple[np.ndarray, AdaptiveInfo, dict]:
     """Adaptive path tracing + OIDN (``features``: OIDN's guides, the mean of ``guide_rays`` primary rays a
     pixel; by default a feature pass of ``settings.feature_spp``).
 
-    Returns ``(image (H, W, 3) float32, info, timings)``: ``info`` has ``path_samples`` (exactly
-    ``round(budget * W * H)``), ``samples`` (the (H, W) count map) and ``nonfinite_samples``; ``timings`` has
+    Returns ``(image (H, W, 3) float32, info, timings)``: ``info`` (:class:`AdaptiveInfo`) has ``path_samples``
+    (exactly ``round(budget * W * H)``), ``samples`` (the (H, W) count map) and ``nonfinite_samples``; ``timings`` has
     ``features_s`` (0 when ``features`` are given), ``render_s`` (both passes), ``placement_s`` and
     ``denoise_s``.
     """
@@ -188,6 +206,6 @@ def render_adaptive(scene, integrator, settings: AdaptiveSettings, sensor=None,
     denoised = denoise_oidn(image, features["albedo"], features["normal"], guide_rays)
     timings["denoise_s"] = time.perf_counter() - start
     samples = (first + extra).reshape(height, width)
-    info = {"budget": settings.budget, "path_samples": int(samples.sum()), "samples": samples,
-            "nonfinite_samples": int(samples.sum() - finite.sum())}
+    info = AdaptiveInfo(budget=settings.budget, path_samples=int(samples.sum()), samples=samples,
+                        nonfinite_samples=int(samples.sum() - finite.sum()))
     return denoised, info, timings

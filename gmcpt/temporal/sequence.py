@@ -275,18 +275,66 @@ class History:
 
 
 @dataclass(frozen=True)
+class SequenceRecord:
+    """What a sequence frame records of how it was made (:meth:`SequenceRenderer.render_frame`); a single frame's
+    layers carry it as :attr:`gmcpt.frame.FrameInfo.sequence`. :meth:`to_json` gives the frame's entries of the
+    sidecar.
+
+    Attributes
+    ----------
+    frame : the frame's index. seed : its samples' seed (:meth:`SequenceSettings.frame_seed`).
+    budget : the samples a pixel it spent (a timed sequence's: read from the pace of the frames before).
+    path_samples : samples traced; nonfinite_samples : those that were NaN/Inf (left out).
+    history_frames : past frames used. history_pixels : the share of pixels that kept some history;
+        history_samples : the weighted history samples kept, a pixel; history_dropped : the share of pixels whose
+        past frames saw their surface but whose history was left out.
+    dropped : reason (``lighting``, ``material``, ``unseen``, ``disagreement``) -> the share of pixels that lost a
+        past frame's samples for it.
+    carried_pixels : the share of pixels blended with the frame shown before (:data:`SHOWN_CARRY`).
+    guide_rays : the guides' rays a pixel.
+    time_short : a timed sequence's: whether its time bought the fewest samples a frame spends
+        (:data:`TIMED_BUDGETS`) or fewer; None: not timed.
+    """
+
+    frame: int
+    seed: int
+    budget: float
+    path_samples: int
+    history_frames: int
+    history_pixels: float
+    history_samples: float
+    history_dropped: float
+    dropped: dict
+    carried_pixels: float
+    nonfinite_samples: int
+    guide_rays: int
+    time_short: bool | None = None
+
+    def to_json(self) -> dict:
+        """The frame's entries of the sidecar JSON, in its order (its seed is one of the sidecar's parameters, so
+        not here; ``time_short`` only where timed)."""
+        return {"frame": self.frame, "budget": self.budget, "path_samples": self.path_samples,
+                "history_frames": self.history_frames, "history_pixels": self.history_pixels,
+                "history_samples": self.history_samples, "history_dropped": self.history_dropped,
+                "dropped": self.dropped, "carried_pixels": self.carried_pixels,
+                "nonfinite_samples": self.nonfinite_samples, "guide_rays": self.guide_rays,
+                **({"time_short": self.time_short} if self.time_short is not None else {})}
+
+
+@dataclass(frozen=True)
 class SequenceFrame:
     """One frame of a sequence: the image shown (H, W, 3) float32; its layers as a single frame's
     (:class:`~gmcpt.frame.SparseFrame`: the samples' mean, this frame's and the history's, where there were any;
-    the guides); the frame's figures (history kept and dropped, samples) and its stage timings in seconds."""
+    the guides); the frame's figures (:class:`SequenceRecord`: history kept and dropped, samples) and its stage
+    timings in seconds."""
 
     image: np.ndarray
     layers: SparseFrame
-    info: dict
+    info: SequenceRecord
     timings: dict
 
 
-def _layers(mean: np.ndarray, count: np.ndarray, guides: dict, budget: float, info: dict) -> SparseFrame:
+def _layers(mean: np.ndarray, count: np.ndarray, guides: dict, budget: float, info: SequenceRecord) -> SparseFrame:
     """The :class:`~gmcpt.frame.SparseFrame` of a sequence frame: ``mean`` (N, 3) of ``count`` (N,) weighted
     samples, this frame's and the history's, and the survey's ``guides``; no variance is kept (zeros); ``info``: the
     sequence frame's record (:attr:`gmcpt.frame.FrameInfo.sequence`)."""
@@ -311,8 +359,8 @@ class SequenceRenderer:
         self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
-               sensor: mi.Sensor | None = None) -> tuple[np.ndarray, dict, dict]:
-        """Frame ``index`` of ``scene``: (image (H, W, 3) float32, info, timings in seconds)."""
+               sensor: mi.Sensor | None = None) -> tuple[np.ndarray, SequenceRecord, dict]:
+        """Frame ``index`` of ``scene``: (image (H, W, 3) float32, its :class:`SequenceRecord`, timings in seconds)."""
         frame = self.render_frame(scene, index, integrator, sensor)
         return frame.image, frame.info, frame.timings
 
@@ -375,14 +423,14 @@ class SequenceRenderer:
                                        found.normals, found.projection, marks))
             self.shown = (index, shown)
         dropped = dict(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
-        info = {"frame": index, "seed": seed, "budget": budget, "path_samples": int(counts.sum()),
-                "history_frames": history.frames,
-                "history_pixels": float((kept > 0).mean()), "history_samples": float(kept.mean()),
-                "history_dropped": float((history.offered & ~((history.count > 0) & agrees)).mean()),
-                "dropped": dropped, "carried_pixels": carried,
-                "nonfinite_samples": int(sums.samples - count.sum()), "guide_rays": guide_rays}
+        info = SequenceRecord(frame=index, seed=seed, budget=budget, path_samples=int(counts.sum()),
+                              history_frames=history.frames, history_pixels=float((kept > 0).mean()),
+                              history_samples=float(kept.mean()),
+                              history_dropped=float((history.offered & ~((history.count > 0) & agrees)).mean()),
+                              dropped=dropped, carried_pixels=carried,
+                              nonfinite_samples=int(sums.samples - count.sum()), guide_rays=guide_rays,
+                              time_short=budget <= TIMED_BUDGETS[0] if settings.time else None)
         if settings.time:  # only a timed sequence reads its pace (what follows falls in the next frame's period)
-            info["time_short"] = budget <= TIMED_BUDGETS[0]
             self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time)
         layers = _layers(image, count + kept, guides, budget, info)
         return SequenceFrame(shown, layers, info, timings)
