@@ -44,6 +44,8 @@ THRESHOLD_MAP_SEED = 0x7B1E
 FRAME_SEED_STEP = 0x9E37
 #: a sequence frame's samples above the level every pixel gets
 SEQUENCE_TOP_UP_SEED_OFFSET = 1
+#: a timed sequence frame's pass k (k >= 1) of one sample a pixel after its first draws from this offset + k
+SEQUENCE_PASS_SEED_OFFSET = 0x100
 
 # --- training (gmcpt.gan) ---
 #: the training data's order, beside the run's seed

@@ -167,7 +167,7 @@ def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():
         nonlocal clock
         started = clock + gap
         clock = started + fixed + per_sample * budget
-        pace.record(started, clock, per_sample * budget, budget, 1.0)
+        pace.record(started, clock, per_sample * budget, budget, 1.0, traced=clock - fixed / 2)
 
     frame(3.0)
     assert pace.budget(1.0, first=3.0) == pytest.approx(8.0)  # (1 - 0.2) / 0.1
@@ -180,11 +180,40 @@ def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():
     frame(8.0, per_sample=0.3)  # slower for good: the budget follows
     assert pace.budget(1.0, first=3.0) == pytest.approx(0.8 / 0.3)
     assert pace.budget(0.01, first=3.0) == 0.25  # the fewest a timed frame spends
+    # the tracing ends where the period ends less the least time a frame took after its tracing (0.1 s here)
+    assert pace.deadline(1.0, clock + 0.3) == pytest.approx(clock + 0.9)
+    assert pace.deadline(1.0, clock + 5.0) is None  # after a pause the frame traces what it planned
+    assert FramePace().deadline(1.0, 0.0) is None
 
     pace, clock = FramePace(), 0.0
     for budget in (4.0, 20.0):  # a launch of 0.05 s besides 0.01 s a sample: the ramp at the start of a sequence
         frame(budget, fixed=0.1, per_sample=0.01 + 0.05 / budget)
     assert pace.budget(1.0, first=3.0) == pytest.approx((1 - 0.1 - 0.05) / 0.01)
+
+
+def test_a_timed_frame_traces_in_passes_up_to_its_deadline(mi):
+    import time
+
+    from gmcpt.render.kernels import SampleSums
+    from gmcpt.render.scene import path_integrator, scene_sensor
+    from gmcpt.temporal.sequence import _trace
+
+    scene = _scene()
+    where = (scene, scene_sensor(scene), path_integrator(scene))
+    counts = np.full(SIZE[0] * SIZE[1], 3)
+    counts[:10] = 5  # pixels without history get more
+    untimed = SampleSums(counts.size)
+    _trace(untimed, where, counts, 7, None, timed=True)
+    assert untimed.samples == counts.sum()
+    late = SampleSums(counts.size)
+    _trace(late, where, counts, 7, time.perf_counter() - 1.0, timed=True)  # past its deadline: the first pass and
+    assert late.samples == counts.size + 2 * 10  # the pixels without history, no more
+    deadline = time.perf_counter() + 0.5
+    ample = SampleSums(counts.size)
+    _trace(ample, where, counts, 7, deadline, timed=True)  # time to spare: passes past the plan
+    assert ample.samples > counts.sum() and time.perf_counter() < deadline + 0.2
+    assert (ample.finite[10:] <= ample.finite[10]).all() and ample.finite[10:].mean() > 3
+    assert (ample.finite[:10] <= ample.finite[10] + 2).all()
 
 
 def test_a_timed_sequence_records_its_time_and_each_frame_its_own_budget(mi):

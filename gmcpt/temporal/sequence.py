@@ -38,7 +38,8 @@ from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, camera_key
 from ..render.scene import path_integrator, scene_sensor
 from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
-from ..seeds import FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_TOP_UP_SEED_OFFSET, stream
+from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_PASS_SEED_OFFSET, SEQUENCE_TOP_UP_SEED_OFFSET,
+                     stream)
 from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, cubic_sample, fit_projection,
                       history_weights, signature)
 from .reprojection import JitFrame, gather_history, jit_frame
@@ -72,7 +73,8 @@ class SequenceSettings:
     decay : weight of a past frame's samples per frame of age, in (0, 1].
     time : seconds a frame, from one frame's end to the next's (0: none, every frame spends ``budget``). With a
         time, ``budget`` is the first frame's, and each later frame's is read from the pace of the ones before
-        (:class:`FramePace`); the guides keep ``budget``'s rays, so a still surface keeps its signature.
+        (:class:`FramePace`), and its path tracing stops at the frame's deadline (:meth:`FramePace.deadline`); the guides
+        keep ``budget``'s rays, so a still surface keeps its signature.
     """
 
     budget: float = 2.0
@@ -108,11 +110,24 @@ class FramePace:
     compiling its kernels or one in a busy moment, would starve the next of samples). The path tracing's seconds
     are a line in the samples, read from those frames: where their budgets lie apart (a sequence still finding
     its pace) the line through them, whose launch cost a small budget's seconds a sample would count as samples;
-    else the median seconds a sample."""
+    else the median seconds a sample.
+
+    The plan is a guess at what the frame will cost; the frame holds to its time by a deadline (:meth:`deadline`):
+    its path tracing goes in passes and stops where the next would end past it, or goes on while there is time, so
+    that a moment the machine runs slower or faster moves the frame's samples, not its seconds."""
 
     ended: float | None = None  # perf_counter() at the end of the last frame
     fixed: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # seconds a frame besides its samples
     traced: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # (budget, seconds tracing it)
+    tails: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # seconds from the tracing's end to the frame's
+
+    def deadline(self, seconds: float, now: float) -> float | None:
+        """When (perf_counter) a frame of ``seconds`` that is tracing at ``now`` should end its path tracing: its
+        period's end less the least time the last frames took after their tracing. None before a frame was measured,
+        or after a pause (as :meth:`record` reads one)."""
+        if self.ended is None or not self.tails or now - self.ended > 2 * seconds:
+            return None
+        return self.ended + seconds - min(self.tails)
 
     def budget(self, seconds: float, first: float) -> float:
         """Samples a pixel for a frame of ``seconds``; ``first`` until a frame has been measured."""
@@ -131,16 +146,19 @@ class FramePace:
                 return max(float(launch), 0.0), float(per_sample)
         return 0.0, max(float(np.median(spent / budgets)), 1e-9)
 
-    def record(self, started: float, ended: float, render_s: float, budget: float, seconds: float) -> None:
+    def record(self, started: float, ended: float, render_s: float, budget: float, seconds: float,
+               traced: float) -> None:
         """A frame that ran from ``started`` to ``ended`` (perf_counter), ``render_s`` of it tracing ``budget``
-        samples a pixel, in a sequence of ``seconds`` a frame. A gap of more than twice that before the frame is
-        a pause (the caller waited on something else), not the caller's share of a frame: it is left out."""
+        samples a pixel up to ``traced`` (perf_counter), in a sequence of ``seconds`` a frame. A gap of more than
+        twice that before the frame is a pause (the caller waited on something else), not the caller's share of a
+        frame: it is left out."""
         period = ended - started
         if self.ended is not None and started - self.ended <= 2 * seconds:
             period += started - self.ended
         self.ended = ended
         self.fixed.append(period - render_s)
         self.traced.append((budget, render_s))
+        self.tails.append(ended - traced)
 
 
 #: Frames whose costs :class:`FramePace` reads
@@ -389,14 +407,13 @@ class SequenceRenderer:
         timings["placement_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        sums, level = SampleSums(pixels), int(counts.min())
-        if level:
-            # a timed sequence's level changes every frame: the frozen kernel serves any, where mi.render compiles
-            sums.add_native(render_native(scene, sensor, integrator, level, seed, any_size=bool(settings.time)), level)
-        if (counts > level).any():
-            sums.trace_counts(scene, sensor, integrator, counts - level, stream(seed, SEQUENCE_TOP_UP_SEED_OFFSET))
+        sums = SampleSums(pixels)
+        deadline = self.pace.deadline(settings.time, start) if settings.time else None
+        _trace(sums, (scene, sensor, integrator), counts, seed, deadline, timed=bool(settings.time))
         total, count = sums.total, sums.finite  # NaN/Inf samples left out
-        timings["render_s"] = time.perf_counter() - start
+        traced = time.perf_counter()
+        timings["render_s"] = traced - start
+        budget = sums.samples / pixels if deadline is not None else budget  # what the deadline let it trace
 
         start = time.perf_counter()
         own = total / np.maximum(count, 1)[:, None]
@@ -423,7 +440,7 @@ class SequenceRenderer:
                                        found.normals, found.projection, marks))
             self.shown = (index, shown)
         dropped = dict(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
-        info = SequenceRecord(frame=index, seed=seed, budget=budget, path_samples=int(counts.sum()),
+        info = SequenceRecord(frame=index, seed=seed, budget=budget, path_samples=sums.samples,
                               history_frames=history.frames, history_pixels=float((kept > 0).mean()),
                               history_samples=float(kept.mean()),
                               history_dropped=float((history.offered & ~((history.count > 0) & agrees)).mean()),
@@ -431,7 +448,7 @@ class SequenceRenderer:
                               nonfinite_samples=int(sums.samples - count.sum()), guide_rays=guide_rays,
                               time_short=budget <= TIMED_BUDGETS[0] if settings.time else None)
         if settings.time:  # only a timed sequence reads its pace (what follows falls in the next frame's period)
-            self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time)
+            self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time, traced)
         layers = _layers(image, count + kept, guides, budget, info)
         return SequenceFrame(shown, layers, info, timings)
 
@@ -542,6 +559,34 @@ class RenderLoop:
         frame = self.renderer.render_frame(scene, index, integrator, sensor)
         self.next_index = index + 1
         return frame
+
+
+def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadline: float | None,
+           timed: bool) -> None:
+    """Trace ``counts`` samples a pixel (flat) into ``sums`` (``where``: scene, sensor, integrator): the level every
+    pixel gets through Mitsuba's own render, the rest a pixel-list pass. ``timed``: through the frozen kernel, which
+    serves any spp (a timed sequence's level changes every frame, and ``mi.render`` compiles a kernel for each).
+
+    With a ``deadline`` (perf_counter) the level goes in passes of one sample a pixel: the first and the rest of
+    ``counts`` always (every pixel's one sample checks its history; the pixels without history need theirs), then each
+    further pass while the last one's seconds say it ends by the deadline, past the level too while there is time."""
+    scene, sensor, integrator = where
+    level = int(counts.min())
+    first = 1 if deadline is not None and level else level
+    start = time.perf_counter()
+    if first:
+        sums.add_native(render_native(scene, sensor, integrator, first, seed, any_size=timed), first)
+    pass_seconds = time.perf_counter() - start
+    if (counts > level).any():
+        sums.trace_counts(scene, sensor, integrator, counts - level, stream(seed, SEQUENCE_TOP_UP_SEED_OFFSET))
+    if deadline is None or not level:
+        return
+    passes = 1
+    while sums.samples < MAX_BUDGET * sums.size and time.perf_counter() + pass_seconds <= deadline:
+        start = time.perf_counter()
+        sums.add_native(render_native(scene, sensor, integrator, 1, stream(seed, SEQUENCE_PASS_SEED_OFFSET + passes),
+                                      any_size=True), 1)
+        pass_seconds, passes = time.perf_counter() - start, passes + 1
 
 
 def _placement(history_count: np.ndarray, samples: int, budget: float, shape: tuple[int, int],
