@@ -109,7 +109,7 @@ def test_a_moving_shapes_old_shadow_is_gone_within_one_frame(mi):
     image, info, _ = renderer.render(scene, 4, integrator)
     reference = sum(render_native(scene, sensor, integrator, 64, 900 + i) for i in range(4)) / 4
     luminance = image.reshape(-1, 3).mean(axis=1)
-    assert info.dropped["lighting"] > 0.25 * old_shadow.mean()
+    assert info.dropped.lighting > 0.25 * old_shadow.mean()
     # the old shadow's pixels are as bright as they are now, not darkened by the history of the shadow
     assert luminance[old_shadow].mean() > 0.9 * reference.mean(axis=1)[old_shadow].mean()
 
@@ -125,11 +125,11 @@ def test_a_light_switched_off_or_on_drops_its_history(mi):
     parameters.update()
     image, info, _ = renderer.render(scene, 3)
     # the directly lit pixels drop for their lighting, the rest (the ceiling, the shadows) as they disagree
-    assert image.mean() < 0.02 * np.mean(lit) and info.history_dropped > 0.95 and info.dropped["lighting"] > 0.5
+    assert image.mean() < 0.02 * np.mean(lit) and info.history_dropped > 0.95 and info.dropped.lighting > 0.5
     parameters[key] = radiance
     parameters.update()
     image, info, _ = renderer.render(scene, 4)  # the dark frame's history goes, the lit frames' before it stays
-    assert abs(image.mean() / np.mean(lit) - 1) < 0.1 and info.dropped["lighting"] > 0.5
+    assert abs(image.mean() / np.mean(lit) - 1) < 0.1 and info.dropped.lighting > 0.5
 
 
 def test_the_jit_gather_keeps_what_the_numpy_tests_keep(mi):

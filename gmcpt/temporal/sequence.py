@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import drjit as dr
 import mitsuba as mi
@@ -280,6 +280,29 @@ def _columns(vector, dtype=np.float64) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class DroppedShares:
+    """The shares of pixels whose history was dropped, a reason (:attr:`SequenceRecord.dropped`).
+
+    Attributes
+    ----------
+    lighting : the lighting signature changed. material : the material signature changed.
+    unseen : no past frame saw the pixel's surface (0 without past frames).
+    disagreement : kept history that disagreed with this frame's samples
+        (:func:`~gmcpt.temporal.history.agreement`).
+    """
+
+    lighting: float
+    material: float
+    unseen: float
+    disagreement: float = 0.0
+
+    def to_json(self) -> dict:
+        """The sidecar's ``dropped`` entry, in its order."""
+        return {"lighting": self.lighting, "material": self.material, "unseen": self.unseen,
+                "disagreement": self.disagreement}
+
+
+@dataclass(frozen=True)
 class History:
     """What the past frames give the current one (:meth:`SequenceRenderer._history`), flat over its pixels."""
 
@@ -289,7 +312,7 @@ class History:
     latest_seen: np.ndarray  # (N,) bool: the frame shown last saw it, unchanged
     latest_film: np.ndarray  # (N, 2) where on that frame's film
     frames: int  # past frames used
-    dropped: dict  # reason -> share of pixels that lost a past frame's samples for it
+    dropped: DroppedShares  # the shares of pixels that lost a past frame's samples, a reason (disagreement: 0 here)
 
 
 @dataclass(frozen=True)
@@ -306,8 +329,7 @@ class SequenceRecord:
     history_frames : past frames used. history_pixels : the share of pixels that kept some history;
         history_samples : the weighted history samples kept, a pixel; history_dropped : the share of pixels whose
         past frames saw their surface but whose history was left out.
-    dropped : reason (``lighting``, ``material``, ``unseen``, ``disagreement``) -> the share of pixels that lost a
-        past frame's samples for it.
+    dropped : the shares of pixels that lost a past frame's samples, a reason (:class:`DroppedShares`).
     carried_pixels : the share of pixels blended with the frame shown before (:data:`SHOWN_CARRY`).
     guide_rays : the guides' rays a pixel.
     time_short : a timed sequence's: whether its time bought the fewest samples a frame spends
@@ -322,7 +344,7 @@ class SequenceRecord:
     history_pixels: float
     history_samples: float
     history_dropped: float
-    dropped: dict
+    dropped: DroppedShares
     carried_pixels: float
     nonfinite_samples: int
     guide_rays: int
@@ -334,7 +356,7 @@ class SequenceRecord:
         return {"frame": self.frame, "budget": self.budget, "path_samples": self.path_samples,
                 "history_frames": self.history_frames, "history_pixels": self.history_pixels,
                 "history_samples": self.history_samples, "history_dropped": self.history_dropped,
-                "dropped": self.dropped, "carried_pixels": self.carried_pixels,
+                "dropped": self.dropped.to_json(), "carried_pixels": self.carried_pixels,
                 "nonfinite_samples": self.nonfinite_samples, "guide_rays": self.guide_rays,
                 **({"time_short": self.time_short} if self.time_short is not None else {})}
 
@@ -439,7 +461,7 @@ class SequenceRenderer:
             self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), found.positions,
                                        found.normals, found.projection, marks))
             self.shown = (index, shown)
-        dropped = dict(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
+        dropped = replace(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
         info = SequenceRecord(frame=index, seed=seed, budget=budget, path_samples=sums.samples,
                               history_frames=history.frames, history_pixels=float((kept > 0).mean()),
                               history_samples=float(kept.mean()),
@@ -464,9 +486,9 @@ class SequenceRenderer:
         latest = self.shown[0] if self.shown is not None else None
         frames = [(self._jit_frame(past), weight, past.index == latest) for past, weight in zip(usable, weights)]
         gathered = gather_history(frames, found.positions, found.normals, marks, floor)
-        shares = {"lighting": float(gathered.lighting_dropped.mean()),
-                  "material": float(gathered.material_dropped.mean()),
-                  "unseen": float((~gathered.offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0}
+        shares = DroppedShares(
+            lighting=float(gathered.lighting_dropped.mean()), material=float(gathered.material_dropped.mean()),
+            unseen=float((~gathered.offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0)
         return History(gathered.summed[:, :3], gathered.summed[:, 3], gathered.offered, gathered.latest_seen,
                        gathered.latest_film, len(usable), shares)
 
