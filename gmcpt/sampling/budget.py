@@ -88,14 +88,14 @@ SPARSE_GAIN = 1.4
 #: :data:`DENSE_ABOVE`, as the sparse way needs too) may place part of its samples adaptively: first passes of
 #: 2-4 spp read where the error is; below it the reading did not tell the scenes that gain from those that lose
 #: (docs/experiments.md).
-ADAPTIVE_FROM_BUDGET = 4
+ADAPTIVE_FROM_BUDGET = 3
 #: From this budget a dense frame of any scene may (the probe's reading aside): the concentrated real interiors
-#: gained there (docs/experiments.md).
-ADAPTIVE_NOISY_FROM_BUDGET = 8
+#: gained there; below it their first pass of 2 spp reads noise as concentration (docs/experiments.md).
+ADAPTIVE_NOISY_FROM_BUDGET = 4.5
 #: The share of the first pass's display error held by its noisiest :data:`TOP_SHARE` of pixels above which
 #: adaptive placement pays: it parts the evaluation scenes that gained from those that did not
 #: (docs/experiments.md).
-ADAPTIVE_ABOVE = 0.18
+ADAPTIVE_ABOVE = 0.16
 TOP_SHARE = 0.05
 #: The largest budget, as the largest spp of a masked render.
 MAX_BUDGET = 4096
