@@ -126,10 +126,13 @@ def test_a_light_switched_off_or_on_drops_its_history(mi):
     image, info, _ = renderer.render(scene, 3)
     # the directly lit pixels drop for their lighting, the rest (the ceiling, the shadows) as they disagree
     assert image.mean() < 0.02 * np.mean(lit) and info.history_dropped > 0.95 and info.dropped.lighting > 0.5
+    assert info.history_decay > 0.85  # the light held in the frame before
     parameters[key] = radiance
     parameters.update()
     image, info, _ = renderer.render(scene, 4)  # the dark frame's history goes, the lit frames' before it stays
     assert abs(image.mean() / np.mean(lit) - 1) < 0.1 and info.dropped.lighting > 0.5
+    # the light changed over most of the frame before: older frames count less (their indirect light is stale)
+    assert info.history_decay < 0.5 * renderer.settings.decay
 
 
 def test_the_jit_gather_keeps_what_the_numpy_tests_keep(mi):

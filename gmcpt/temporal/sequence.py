@@ -338,7 +338,8 @@ class SequenceRecord:
     frame : the frame's index. seed : its samples' seed (:meth:`SequenceSettings.frame_seed`).
     budget : the samples a pixel it spent (a timed sequence's: read from the pace of the frames before).
     path_samples : samples traced; nonfinite_samples : those that were NaN/Inf (left out).
-    history_frames : past frames used. history_pixels : the share of pixels that kept some history;
+    history_frames : past frames used. history_decay : the weight of their samples per frame of age
+        (:attr:`SequenceRenderer.decay`). history_pixels : the share of pixels that kept some history;
         history_samples : the weighted history samples kept, a pixel; history_dropped : the share of pixels whose
         past frames saw their surface but whose history was left out.
     dropped : the shares of pixels that lost a past frame's samples, a reason (:class:`DroppedShares`).
@@ -353,6 +354,7 @@ class SequenceRecord:
     budget: float
     path_samples: int
     history_frames: int
+    history_decay: float
     history_pixels: float
     history_samples: float
     history_dropped: float
@@ -366,7 +368,8 @@ class SequenceRecord:
         """The frame's entries of the sidecar JSON, in its order (its seed is one of the sidecar's parameters, so
         not here; ``time_short`` only where timed)."""
         return {"frame": self.frame, "budget": self.budget, "path_samples": self.path_samples,
-                "history_frames": self.history_frames, "history_pixels": self.history_pixels,
+                "history_frames": self.history_frames, "history_decay": self.history_decay,
+                "history_pixels": self.history_pixels,
                 "history_samples": self.history_samples, "history_dropped": self.history_dropped,
                 "dropped": self.dropped.to_json(), "carried_pixels": self.carried_pixels,
                 "nonfinite_samples": self.nonfinite_samples, "guide_rays": self.guide_rays,
@@ -409,6 +412,7 @@ class SequenceRenderer:
         self.shown: tuple[int, np.ndarray] | None = None  # (frame, image) of the last frame shown
         self._jit: dict[int, tuple[PastFrame, JitFrame]] = {}  # the past frames in Dr.Jit, by id
         self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
+        self.light_changed = 0.0  # the share of the last frame's pixels whose light changed (DroppedShares.lighting)
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
                sensor: mi.Sensor | None = None) -> tuple[np.ndarray, SequenceRecord, dict]:
@@ -475,9 +479,11 @@ class SequenceRenderer:
             self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), found.positions,
                                        found.normals, found.projection, marks))
             self.shown = (index, shown)
+        decay, self.light_changed = self.decay, history.dropped.lighting  # the decay this frame's history had
         dropped = replace(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
         info = SequenceRecord(frame=index, seed=seed, budget=budget, path_samples=sums.samples,
-                              history_frames=history.frames, history_pixels=float((kept > 0).mean()),
+                              history_frames=history.frames, history_decay=decay,
+                              history_pixels=float((kept > 0).mean()),
                               history_samples=float(kept.mean()),
                               history_dropped=float((history.offered & ~((history.count > 0) & agrees)).mean()),
                               dropped=dropped, carried_pixels=carried,
@@ -494,7 +500,7 @@ class SequenceRenderer:
         the same light and material (:func:`~gmcpt.temporal.history.unchanged`)."""
         pixels = found.lighting.size
         usable = [past for past in self.past if past.index < index and past.total.shape[0] == pixels]
-        weights = history_weights([index - past.index for past in usable], self.settings.decay)
+        weights = history_weights([index - past.index for past in usable], self.decay)
         hits = found.lighting[np.isfinite(found.positions[:, 0])]
         floor = LIGHTING_FLOOR * float(hits.mean()) if hits.size else 0.0
         latest = self.shown[0] if self.shown is not None else None
@@ -505,6 +511,14 @@ class SequenceRenderer:
             unseen=float((~gathered.offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0)
         return History(gathered.summed[:, :3], gathered.summed[:, 3], gathered.offered, gathered.latest_seen,
                        gathered.latest_film, len(usable), shares)
+
+    @property
+    def decay(self) -> float:
+        """The weight of a past frame's samples per frame of age in the next frame: the settings' decay times the
+        share of the last frame's pixels whose light held. Where the light changes over much of the frame (a sun
+        that moves), the light it brings to the rest, which no signature sees, changes too, and older history is
+        stale there (docs/experiments.md)."""
+        return self.settings.decay * (1.0 - self.light_changed)
 
     def _jit_frame(self, past: PastFrame) -> JitFrame:
         """``past`` in Dr.Jit, made once (kept while the frame is in the history)."""
@@ -537,6 +551,7 @@ class SequenceRenderer:
             state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
         if self.shown is not None:
             state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
+        state["light_changed"] = np.array(self.light_changed)
         return state
 
     def restore(self, state) -> None:
@@ -553,6 +568,7 @@ class SequenceRenderer:
                                        signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height)))
             slot += 1
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
+        self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
 
 
 def sequence_budget(budget: float | None, sensor: mi.Sensor) -> float:
