@@ -429,8 +429,9 @@ def record(args, rows: list[dict], verdicts: list[dict], moving: dict, seconds: 
 
 
 def merge(target: Path, parts: list[Path]) -> None:
-    """One record of several runs on other scenes (each a ``--record``): their rows, verdicts and what moved, the
-    commands joined, the seconds summed, the settings of the first with every scene; and its plot."""
+    """One record of several runs (each a ``--record``), on other scenes or other motions of a scene: their rows,
+    verdicts and what moved, the commands joined, the seconds summed, the settings of the first with every scene;
+    and its plot."""
     import json
 
     from gmcpt.evaluation.plots import sequence_plot
@@ -438,11 +439,15 @@ def merge(target: Path, parts: list[Path]) -> None:
     from gmcpt.io.files import json_text
 
     records = [json.loads(part.read_text()) for part in parts]
-    scenes = [scene for r in records for scene in r["settings"]["scenes"]]
+    scenes = list(dict.fromkeys(scene for r in records for scene in r["settings"]["scenes"]))
+    moving = {}
+    for r in records:
+        for scene, motions in r["moving"].items():
+            moving[scene] = {**moving.get(scene, {}), **motions}
     merged = dict(records[0], command=" && ".join(r["command"] for r in records),
                   seconds=sum(r["seconds"] for r in records),
                   settings=dict(records[0]["settings"], scenes=scenes, record=str(target)),
-                  moving={k: v for r in records for k, v in r["moving"].items()},
+                  moving=moving,
                   rows=[row for r in records for row in r["rows"]],
                   verdicts=[verdict for r in records for verdict in r["verdicts"]])
     with atomic_output(target) as temporary:

@@ -86,3 +86,29 @@ def test_the_results_section_has_a_table_and_verdicts_per_motion_and_the_glance_
     run = {"sequences": SEQUENCES, "config": {"rates": [], "spp": 16}, "equal_time": [], "placement": []}
     opening = glance_section(run)
     assert opening[0] == "## At a glance" and opening[2] == glance_line(SEQUENCES)
+
+
+def test_merged_records_keep_every_scenes_motions(tmp_path):
+    """Two runs of one scene's other motions join into one record that still says what moved in each."""
+    import json
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from sequence import merge
+
+    light = dict(SEQUENCES, command="second", settings=dict(SEQUENCES["settings"], motion=["light"]),
+                 moving={"dining-room": {"light": "the sun, 1 degrees a frame"}},
+                 verdicts=[_verdict("light", 1.1, 0.6)])
+    parts = []
+    for index, record in enumerate((dict(SEQUENCES, verdicts=SEQUENCES["verdicts"][:3]), light)):
+        parts.append(tmp_path / f"part{index}.json")
+        parts[-1].write_text(json.dumps(dict(record, seconds=10.0 * (index + 1),
+                                             settings=dict(record["settings"], scenes=["dining-room"]))))
+    merge(tmp_path / "merged.json", parts)
+    merged = json.loads((tmp_path / "merged.json").read_text())
+    assert merged["moving"]["dining-room"] == {"pan": "the camera, 0.5 degrees a frame", "object": "Mesh010.obj",
+                                               "light": "the sun, 1 degrees a frame"}
+    assert merged["settings"]["scenes"] == ["dining-room"] and len(merged["verdicts"]) == 4
+    assert merged["command"].endswith(" && second") and merged["seconds"] == 30.0
+    assert (tmp_path / "merged.png").exists()
