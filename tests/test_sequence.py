@@ -219,6 +219,11 @@ def test_a_timed_frame_traces_in_passes_up_to_its_deadline(mi):
     rest = ample.finite[10:]  # whole passes, then one sample more on a share of the pixels with the time left
     assert rest.max() - rest.min() <= 1 and rest.mean() > 3
     assert (ample.finite[:10] >= rest.min() + 2).all() and (ample.finite[:10] <= rest.max() + 2).all()
+    sparse = np.zeros_like(counts)
+    sparse[::4] = 1  # a plan of a quarter sample a pixel (read from frames that compiled kernels): made up for
+    starved = SampleSums(counts.size)
+    _trace(starved, where, sparse, 7, time.perf_counter() + 0.3, timed=True)
+    assert starved.finite.min() >= 1 and starved.samples > 2 * counts.size
 
 
 def test_a_timed_sequence_records_its_time_and_each_frame_its_own_budget(mi):

@@ -621,7 +621,8 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
 
     With a ``deadline`` (perf_counter) the level goes in passes of one sample a pixel: the first and the rest of
     ``counts`` always (every pixel's one sample checks its history; the pixels without history need theirs), then each
-    further pass while the last one's seconds say it ends by the deadline, past the level too while there is time,
+    further pass while the last one's seconds say it ends by the deadline, past the level too while there is time
+    (a plan of less than a sample a pixel, read from frames that compiled their kernels, is made up for there),
     and what is left, less than a pass, on one sample of a share of the pixels (:data:`PARTIAL_LAUNCH`)."""
     scene, sensor, integrator = where
     level = int(counts.min())
@@ -631,8 +632,11 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
         sums.add_native(render_native(scene, sensor, integrator, first, seed, any_size=timed), first)
     pass_seconds = time.perf_counter() - start
     if (counts > level).any():
+        start = time.perf_counter()
         sums.trace_counts(scene, sensor, integrator, counts - level, stream(seed, SEQUENCE_TOP_UP_SEED_OFFSET))
-    if deadline is None or not level:
+        if not first:  # no whole pass timed yet: the pixel-list pass's seconds a sample, for every pixel (dearer)
+            pass_seconds = (time.perf_counter() - start) * sums.size / int((counts - level).sum())
+    if deadline is None:
         return
     passes = 1
     while sums.samples < MAX_BUDGET * sums.size and time.perf_counter() + pass_seconds <= deadline:
