@@ -645,7 +645,7 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
                                       any_size=True), 1)
         pass_seconds, passes = time.perf_counter() - start, passes + 1
     # what is left of the time, less than a pass, goes to one sample of as many pixels (spread) as it pays for
-    share = ((deadline - time.perf_counter()) / pass_seconds - PARTIAL_LAUNCH) / (1 - PARTIAL_LAUNCH)
+    share = ((deadline - time.perf_counter()) / max(pass_seconds, 1e-6) - PARTIAL_LAUNCH) / (1 - PARTIAL_LAUNCH)
     if 0 < share < 1 and sums.samples < MAX_BUDGET * sums.size:
         chosen = even_fill(np.zeros(sensor_film_size(sensor), np.int64), int(share * sums.size),
                            stream(seed, SEQUENCE_PASS_SEED_OFFSET + passes)).ravel()
