@@ -308,9 +308,9 @@ def test_error_concentration_is_the_share_of_the_noisiest_pixels():
     ramp = np.arange(2000.0).reshape(40, 50)
     assert TOP_SHARE < error_concentration(ramp) < error_concentration(ramp ** 4) < 1
     quiet, noisy = DENSE_ABOVE / 2, DENSE_ABOVE * 2
-    assert [adaptive_first_spp(budget, quiet) for budget in (2.9, 3.2, 4, 4.8, 8, 16, 100)] == [0, 2, 2, 3, 5, 10, 62]
-    for noise in (noisy, None):  # a noisy scene, or one never probed: from budget 4.5
-        assert [adaptive_first_spp(budget, noise) for budget in (3.2, 4.4, 4.8, 8, 16)] == [0, 0, 3, 5, 10]
+    assert [adaptive_first_spp(budget, quiet) for budget in (3.1, 3.2, 4, 4.8, 8, 16, 100)] == [0, 2, 2, 3, 5, 10, 62]
+    for noise in (noisy, None):  # a noisy scene, or one never probed: from budget 4.8 (a first pass of 3 spp)
+        assert [adaptive_first_spp(budget, noise) for budget in (3.2, 4.7, 4.8, 8, 16)] == [0, 0, 3, 5, 10]
 
 
 @pytest.mark.parametrize("threshold,placement", [(0.0, "adaptive"), (math.inf, "even")])
@@ -335,8 +335,8 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
 
 
 @pytest.mark.parametrize("noise,launches", [(0.01, [2]), (1.0, [3])])  # the probe's samples are left out
-def test_below_budget_4_5_only_a_quiet_scene_places_its_rest_where_the_error_is(mi, monkeypatch, noise, launches):
-    """Every frame of a budget from 3 to 4.5 probes for its placement, dense or not: its own probe says whether it is
+def test_below_budget_4_8_only_a_quiet_scene_places_its_rest_where_the_error_is(mi, monkeypatch, noise, launches):
+    """Every frame of a budget from 3.2 to 4.8 probes for its placement, dense or not: its own probe says whether it is
     quiet."""
     from gmcpt.sampling import budget, strategies
     from gmcpt.render.scene import load_scene
@@ -354,7 +354,7 @@ def test_below_budget_4_5_only_a_quiet_scene_places_its_rest_where_the_error_is(
         assert traced == launches and frame.info.path_samples == 4 * SIZE[0] * SIZE[1]
         assert frame.info.probe == "traced" and frame.info.budget_choice == "dense"
         assert frame.info.dense_placement == ("adaptive" if quiet else None)
-    assert _render(scene, 4.8).info.probe == "none"  # from 4.5 the placement needs no probe
+    assert _render(scene, 4.8).info.probe == "none"  # from 4.8 the placement needs no probe
 
 
 def test_every_frame_reads_its_own_concentration(mi, monkeypatch):

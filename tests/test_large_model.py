@@ -39,10 +39,9 @@ def test_a_dense_frame_reads_what_the_large_model_buys_and_takes_16_ray_guides_w
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)  # the time never stands in the way
     monkeypatch.setattr(budget, "LARGE_MODEL_PROXY_ABOVE", above)
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", math.inf)  # even placement
-    monkeypatch.setattr(budget, "ADAPTIVE_FROM_BUDGET", 4)  # no first pass to place from at 3
     scene = load_scene(CORNELL, resolution=SIZE)
     for seed in (0, 1):
-        frame = _render(scene, 3.0, seed=seed)  # one even launch, split to read
+        frame = _render(scene, 3.0, seed=seed)  # below 3.2: one even launch, split to read
         assert frame.info.guide_spp == rays and frame.info.denoiser_proxy > 0
         assert frame.info.path_samples == 3 * SIZE[0] * SIZE[1] and np.isfinite(frame.radiance).all()
 
@@ -55,7 +54,6 @@ def test_a_dense_frame_that_reads_splits_its_launch(mi, monkeypatch, samples):
 
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)
-    monkeypatch.setattr(budget, "ADAPTIVE_FROM_BUDGET", 4)  # no first pass to place from at 3
     scene = load_scene(CORNELL, resolution=SIZE)
     launches = record_launches(monkeypatch)
     frame = _render(scene, samples)

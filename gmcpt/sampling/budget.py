@@ -86,12 +86,13 @@ DENSE_GAIN_PER_DOUBLING = 2.0
 SPARSE_GAIN = 1.4
 #: From this budget a dense frame of a quiet scene (its probe's :func:`relative_variance` at most
 #: :data:`DENSE_ABOVE`, as the sparse way needs too) may place part of its samples adaptively: first passes of
-#: 2-4 spp read where the error is; below it the reading did not tell the scenes that gain from those that lose
-#: (docs/experiments.md).
-ADAPTIVE_FROM_BUDGET = 3
+#: 2-4 spp read where the error is; below it (a first pass of 1 spp) the reading did not tell the scenes that gain
+#: from those that lose (docs/experiments.md). 3.2: the least budget whose first pass is 2 spp.
+ADAPTIVE_FROM_BUDGET = 3.2
 #: From this budget a dense frame of any scene may (the probe's reading aside): the concentrated real interiors
-#: gained there; below it their first pass of 2 spp reads noise as concentration (docs/experiments.md).
-ADAPTIVE_NOISY_FROM_BUDGET = 4.5
+#: gained there; below it their first pass of 2 spp reads noise as concentration (docs/experiments.md). 4.8: the
+#: least budget whose first pass is 3 spp.
+ADAPTIVE_NOISY_FROM_BUDGET = 4.8
 #: The share of the first pass's display error held by its noisiest :data:`TOP_SHARE` of pixels above which
 #: adaptive placement pays: it parts the evaluation scenes that gained from those that did not
 #: (docs/experiments.md).

@@ -71,7 +71,7 @@ def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: f
     """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
     render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
     that no pixel has more than ``ceil(budget)``. Where :func:`~gmcpt.sampling.budget.adaptive_first_spp` allows it
-    (from budget 3 on a scene whose probe read it quiet, from 4.5 on any) the bulk is two renders, and where the first
+    (from budget 3.2 on a scene whose probe read it quiet, from 4.8 on any) the bulk is two renders, and where the first
     finds the error concentrated (:func:`~gmcpt.sampling.budget.adaptive_pays`) the second is adaptive path tracing's
     placement instead (:func:`_adaptive_rest`); ``noise`` is the frame's probe reading (None: no probe), and every
     such frame reads its own concentration. With ``split``, an even launch of 2 samples a pixel or more is traced
