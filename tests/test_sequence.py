@@ -184,7 +184,7 @@ def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():
     assert pace.budget(1.0, first=3.0) == pytest.approx(0.8 / 0.3)
     assert pace.budget(0.01, first=3.0) == 0.25  # the fewest a timed frame spends
     # the tracing ends where the period ends less the least time a frame took after its tracing (0.1 s here)
-    assert pace.deadline(1.0, clock + 0.3) == pytest.approx(clock + 0.9)
+    assert pace.deadline(1.0, clock + 0.3) == pytest.approx(clock + 0.9)  # a frame that started 0.3 s after
     assert pace.budget_until(clock + 0.9, clock + 0.4) == pytest.approx(0.5 / 0.3)  # what is left buys the samples
     assert pace.deadline(1.0, clock + 5.0) is None  # after a pause the frame traces what it planned
     assert FramePace().deadline(1.0, 0.0) is None

@@ -121,14 +121,19 @@ class FramePace:
     traced: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # (budget, seconds tracing it)
     tails: deque = field(default_factory=lambda: deque(maxlen=PACE_FRAMES))  # seconds from the tracing's end to the frame's
 
-    def deadline(self, seconds: float, now: float) -> float | None:
-        """When (perf_counter) a frame of ``seconds`` that is tracing at ``now`` should end its path tracing: its
+    def deadline(self, seconds: float, started: float) -> float | None:
+        """When (perf_counter) a frame of ``seconds`` that started at ``started`` should end its path tracing: its
         period's end less the lower median of the times the last frames took after their tracing (the least left
         frames of a quarter second 2% long on the mean; the mean of two counts a first frame's cold start). None
-        before a frame was measured, or after a pause (as :meth:`record` reads one)."""
-        if self.ended is None or not self.tails or now - self.ended > 2 * seconds:
+        before a frame was measured, or after a pause (:meth:`_follows`)."""
+        if not self.tails or not self._follows(started, seconds):
             return None
         return self.ended + seconds - sorted(self.tails)[(len(self.tails) - 1) // 2]
+
+    def _follows(self, started: float, seconds: float) -> bool:
+        """Whether a frame that started at ``started`` follows the last one within its period: a gap of more than
+        twice ``seconds`` is a pause (the caller waited on something else), not the caller's share of a frame."""
+        return self.ended is not None and started - self.ended <= 2 * seconds
 
     def budget(self, seconds: float, first: float) -> float:
         """Samples a pixel for a frame of ``seconds``; ``first`` until a frame has been measured."""
@@ -158,11 +163,10 @@ class FramePace:
     def record(self, started: float, ended: float, render_s: float, budget: float, seconds: float,
                traced: float) -> None:
         """A frame that ran from ``started`` to ``ended`` (perf_counter), ``render_s`` of it tracing ``budget``
-        samples a pixel up to ``traced`` (perf_counter), in a sequence of ``seconds`` a frame. A gap of more than
-        twice that before the frame is a pause (the caller waited on something else), not the caller's share of a
-        frame: it is left out."""
+        samples a pixel up to ``traced`` (perf_counter), in a sequence of ``seconds`` a frame; the gap before it
+        counts, but for a pause (:meth:`_follows`)."""
         period = ended - started
-        if self.ended is not None and started - self.ended <= 2 * seconds:
+        if self._follows(started, seconds):
             period += started - self.ended
         self.ended = ended
         self.fixed.append(period - render_s)
@@ -440,7 +444,7 @@ class SequenceRenderer:
 
         start = time.perf_counter()
         history = self._history(index, found, marks)
-        deadline = self.pace.deadline(settings.time, start) if settings.time else None
+        deadline = self.pace.deadline(settings.time, started) if settings.time else None
         if deadline is not None:  # what the frame's first part left of its time: the samples it places are those
             budget = min(budget, self.pace.budget_until(deadline, start))
         samples = int(round(budget * pixels))
