@@ -1,5 +1,7 @@
 """Sequences (gmcpt.temporal.sequence): reuse on a still camera, no smear after a cut or a changed light, resuming,
 seeds."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -135,15 +137,18 @@ def test_a_light_switched_off_or_on_drops_its_history(mi):
     assert info.history_decay < 0.5 * renderer.settings.decay
 
 
-def test_the_jit_gather_keeps_what_the_numpy_tests_keep(mi):
+def test_the_jit_gather_keeps_what_the_numpy_tests_keep_and_edges_a_neighbour_s(mi):
     from gmcpt.temporal.reprojection import gather_history, jit_frame
-    from gmcpt.temporal.history import matches, surfaces, unchanged
+    from gmcpt.temporal.history import DEPTH_TOLERANCE, matches, surfaces, unchanged
 
     renderer = _renderer()
     renderer.render(_scene(frame=0), 0)
     scene = _scene(frame=2)  # the camera turned two degrees
     renderer.render(scene, 1)
     past, current = renderer.past[0], renderer.past[1]  # frame 1's survey, as the next frame would see it
+    lighting = past.signature.lighting.copy()
+    lighting[::3] = 4 * lighting[::3] + 0.1  # a light that changed on a third of the past pixels
+    past = replace(past, signature=replace(past.signature, lighting=lighting))
     floor = 0.01
     seen, source, film = matches(past, surfaces(current.positions, current.normals))
     lit, same = unchanged(past.signature, source, current.signature, seen, film, floor)
@@ -152,12 +157,28 @@ def test_the_jit_gather_keeps_what_the_numpy_tests_keep(mi):
     expected = np.zeros(current.count.size, bool)
     expected[seen[lit & same]] = True
     assert 0.3 < expected.mean() < 0.99 and (lit & same).mean() < 1  # some kept, some not
-    assert np.mean(gathered.latest_seen != expected) < 1e-3  # float rounding may flip a pixel on a boundary
+    nearest = np.zeros(current.count.size, bool)
+    nearest[seen] = True
+    # where the past pixel the point lands in saw its surface, it decides, as the numpy tests do
+    assert np.mean(gathered.latest_seen[nearest] != expected[nearest]) < 1e-3  # float rounding may flip a pixel
     both = expected & gathered.latest_seen
     rows = np.zeros(current.count.size, np.int64)
     rows[seen] = source
     np.testing.assert_allclose(gathered.summed[both, 3], 0.5 * past.count[rows[both]], rtol=1e-6)
     np.testing.assert_allclose(gathered.latest_film[both], film[np.isin(seen, np.flatnonzero(both))], atol=1e-3)
+    # where it saw another surface (an edge), another of the four past pixels around the point serves
+    edges = np.flatnonzero(gathered.latest_seen & ~nearest)
+    assert 0 < edges.size < 0.1 * current.count.size
+    landed = gathered.latest_film[edges] - 0.5
+    left, top = np.floor(landed[:, 0]).astype(int), np.floor(landed[:, 1]).astype(int)
+    width = past.projection.width
+    candidates = np.stack([(top + dy) * width + left + dx for dy in (0, 1) for dx in (0, 1)], axis=1)
+    distance = np.linalg.norm(past.positions[np.clip(candidates, 0, past.count.size - 1)]
+                              - current.positions[edges][:, None], axis=2)
+    served = np.abs(0.5 * past.total[np.clip(candidates, 0, past.count.size - 1)]
+                    - gathered.summed[edges, None, :3]).max(axis=2) < 1e-5
+    away = np.linalg.norm(current.positions[edges] - past.projection.centre, axis=1)
+    assert (served & (distance <= DEPTH_TOLERANCE * away[:, None])).any(axis=1).all()  # one of the four, same surface
 
 
 def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():

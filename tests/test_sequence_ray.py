@@ -60,7 +60,7 @@ def _reference(frame):
                          any_size=True).reshape(16, 16, 3)
 
 
-def test_chunks_write_the_frames_of_one_process_within_a_tenth_of_a_db(runs):
+def test_chunks_write_the_frames_of_one_process_within_0_15_db(runs):
     from gmcpt.image.metrics import mse
 
     folder, summary = runs
@@ -76,7 +76,9 @@ def test_chunks_write_the_frames_of_one_process_within_a_tenth_of_a_db(runs):
     references = [_reference(frame) for frame in range(8)]
     psnrs = {run: 10 * np.log10(1 / np.mean([mse(_image(run, name), reference)
                                              for name, reference in zip(NAMES, references)])) for run in (one, ray)}
-    assert abs(psnrs[ray] - psnrs[one]) < 0.1, psnrs
+    # 0.04 dB apart while edges dropped their history; keeping it (issue 75) raised one process by 0.28 dB and the
+    # chunks by 0.19: a warm-up rebuilds history, not the image carried before it
+    assert abs(psnrs[ray] - psnrs[one]) < 0.15, psnrs
 
 
 def test_a_killed_worker_s_chunk_runs_again_keeping_the_frame_it_wrote(runs):

@@ -121,15 +121,22 @@ def test_a_still_camera_keeps_a_static_edge_and_drops_one_that_moved():
     np.testing.assert_array_equal(~lit, pixels % 6 == 2)
 
 
-def test_half_a_pixel_off_the_past_centre_excuses_what_a_sub_pixel_shift_changes_across_an_edge():
+def test_a_shift_off_the_past_centre_excuses_what_a_sub_pixel_shift_changes_across_an_edge():
     from gmcpt.temporal.history import unchanged
 
     pixels = np.arange(24)
     half = np.stack([pixels % 6 + 1.0, pixels // 6 + 0.5], axis=1).astype(np.float32)  # half a pixel off
     lit, _ = unchanged(_edge(at=3), pixels, _edge(at=2), pixels, half, 0.0)
     assert lit.all()
-    quarter = half - np.float32([0.25, 0.0])  # a quarter off: half the spread excused, the full step is not
+    # a quarter off: the current pixel's own spread is excused whole (any shift changes which of a signature's few
+    # guide rays fall on either side of an edge), the past pixel's by half: an edge that moved two pixels is seen
+    quarter = half - np.float32([0.25, 0.0])
     lit, _ = unchanged(_edge(at=3), pixels, _edge(at=2), pixels, quarter, 0.0)
+    assert lit.all()
+    lit, _ = unchanged(_edge(at=4), pixels, _edge(at=2), pixels, quarter, 0.0)
+    assert not lit[pixels % 6 == 3].any() and lit[pixels % 6 != 3].all()
+    centred = half - np.float32([0.5, 0.0])  # a still camera: no excuse at all
+    lit, _ = unchanged(_edge(at=3), pixels, _edge(at=2), pixels, centred, 0.0)
     assert not lit[pixels % 6 == 2].any()
 
 

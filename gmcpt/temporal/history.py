@@ -39,6 +39,9 @@ OUTLIER_RATIO = 8.0
 #: shadow that moved, a light switched or moved, a highlight that slid.
 LIGHTING_RATIO = 0.08
 LIGHTING_FLOOR = 0.02
+#: A point that lands this far (pixels) or more off a past pixel's centre was seen by a camera that moved
+#: (:func:`unchanged`); a still camera's land on the centres to float rounding.
+SHIFT_SEEN = 0.01
 #: The same test on the guides' albedo (a changed material, the edge of an object that moved over its background),
 #: with an absolute margin: albedos are within [0, 1].
 ALBEDO_MARGIN = 0.05
@@ -181,15 +184,21 @@ def unchanged(past: Signature, source: np.ndarray, current: Signature, pixels: n
     albedo), by ``lighting_floor`` (:data:`LIGHTING_FLOOR` x the current frame's mean, so that the dark does not
     count its rounding), and by as much of their neighbourhoods' spread as the point landed off the past pixel's
     centre (none at the centre, all of it half a pixel off): a still camera compares like with like, and a moving
-    one allows what a sub-pixel shift across an edge changes. A neighbourhood's range alone let the trailing edge
-    of a light that moved by less than a pixel a frame keep its light."""
+    one allows what a sub-pixel shift across an edge changes. Where the point landed off the centre at all
+    (:data:`SHIFT_SEEN`), the current pixel's own spread is allowed whole: a signature is the mean of a few guide
+    rays, and any shift changes which of them fall on either side of an edge (2-5% of a pan's pixels a past frame
+    failed for it, its edges). The past pixel's spread stays weighted by the shift: a neighbourhood's range alone
+    let the trailing edge of a light that moved by less than a pixel a frame keep its light."""
     offset = np.abs(film - np.floor(film) - np.float32(0.5)).max(axis=1)
     shifted = np.minimum(np.float32(2) * offset, np.float32(1)).astype(np.float32)
+    moved = offset > SHIFT_SEEN
     held = []
     for name, ratio, margin in (("lighting", LIGHTING_RATIO, lighting_floor), ("albedo", 0.0, ALBEDO_MARGIN)):
         mine, theirs = getattr(current, name)[pixels], getattr(past, name)[source]
-        spread = np.maximum(getattr(current, f"{name}_spread")[pixels], getattr(past, f"{name}_spread")[source])
-        allowed = shifted * spread + np.float32(ratio) * np.maximum(mine, theirs) + np.float32(margin)
+        own_spread = getattr(current, f"{name}_spread")[pixels]
+        spread = np.maximum(shifted * np.maximum(own_spread, getattr(past, f"{name}_spread")[source]),
+                            np.where(moved, own_spread, np.float32(0)))
+        allowed = spread + np.float32(ratio) * np.maximum(mine, theirs) + np.float32(margin)
         held.append(np.abs(mine - theirs) <= allowed)
     return held[0], held[1]
 

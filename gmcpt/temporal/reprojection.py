@@ -2,7 +2,8 @@
 :func:`gmcpt.temporal.history.unchanged` for every pixel, one kernel a past frame.
 
 The same tests as the numpy functions (which stay the reference: the stability figures and the tests read them),
-fused: on 2 cores the numpy reprojection of 8 past frames took 0.15-0.2 s of a 256x256 frame, the largest fixed
+fused, plus one the numpy functions do not make: where the past pixel a point lands in saw another surface (an
+edge), another of the four past pixels around the point may serve (:func:`_match`). On 2 cores the numpy reprojection of 8 past frames took 0.15-0.2 s of a 256x256 frame, the largest fixed
 cost of a sequence frame (docs/experiments.md). A past frame's arrays move to Dr.Jit once (:func:`jit_frame`), and
 its camera, weight and the frame's floor are opaque, so one kernel serves every frame of a sequence.
 """
@@ -14,7 +15,12 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from .history import ALBEDO_MARGIN, DEPTH_TOLERANCE, LIGHTING_RATIO, NORMAL_COSINE, PastFrame, Signature
+from .history import (ALBEDO_MARGIN, DEPTH_TOLERANCE, LIGHTING_RATIO, NORMAL_COSINE, SHIFT_SEEN, PastFrame,
+                      Signature)
+
+
+#: Bytes the arrays handed to Dr.Jit are aligned to (:func:`_float`)
+ALIGNMENT = 64
 
 
 @dataclass(frozen=True)
@@ -44,7 +50,14 @@ class Gathered:
 
 
 def _float(values: np.ndarray) -> mi.Float:
-    return mi.Float(np.ascontiguousarray(values, np.float32))
+    """``values`` as a Dr.Jit array on 64-byte aligned memory: Dr.Jit reads a numpy array in place and compiles its
+    alignment into the kernel, so arrays that land on other alignments each compile another kernel (70-90 ms)."""
+    values = np.asarray(values, np.float32).ravel()
+    buffer = np.empty(values.size + ALIGNMENT // 4, np.float32)
+    start = (-buffer.ctypes.data % ALIGNMENT) // 4
+    aligned = buffer[start:start + values.size]
+    aligned[...] = values
+    return mi.Float(aligned)
 
 
 def _vector(values: np.ndarray, kind):
@@ -79,14 +92,13 @@ def gather_history(frames: list[tuple[JitFrame, float, bool]], positions: np.nda
     offered, lighting_dropped, material_dropped = (dr.zeros(mi.Bool, pixels) for _ in range(3))
     latest_seen, latest_film = np.zeros(pixels, bool), np.zeros((pixels, 2), np.float32)
     for frame, weight, latest in frames:
-        same, lit, same_material, u, v, source = _match(frame, point, normal, current, floor)
-        held = same & lit & same_material
+        held, source, same, lit, same_material, u, v = _match(frame, point, normal, current, floor)
         scale = dr.opaque(mi.Float, float(weight))
         summed = [total + dr.select(held, dr.gather(mi.Float, values, source, held) * scale, 0.0)
                   for total, values in zip(summed, frame.samples)]
         offered |= same
-        lighting_dropped |= same & ~lit
-        material_dropped |= same & lit & ~same_material
+        lighting_dropped |= ~held & ~lit
+        material_dropped |= ~held & lit & ~same_material
         outputs = [*summed, offered, lighting_dropped, material_dropped] + ([held, u, v] if latest else [])
         dr.eval(*outputs)  # one kernel a past frame, all its outputs together
         if latest:
@@ -98,7 +110,14 @@ def gather_history(frames: list[tuple[JitFrame, float, bool]], positions: np.nda
 
 
 def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tuple, floor: mi.Float) -> tuple:
-    """(same surface, lighting held, albedo held, past film x, y, past pixel) of every current pixel."""
+    """(history held, the past pixel it comes from, some past pixel of the four around the point saw its surface,
+    the nearest such one's lighting held, and its albedo, past film x, y) of every current pixel.
+
+    The past pixel the point lands in decides where it saw the same surface (:func:`~gmcpt.temporal.history.matches`,
+    :func:`~gmcpt.temporal.history.unchanged`); where it saw another surface (the point is near an edge), the
+    nearest other of the four past pixels around the point that saw this one and passes the same tests serves. An
+    edge then keeps its history as a still camera's does (nearest-pixel alone dropped it on every edge of a pan,
+    where the error concentrates); changed light or albedo at the nearest past pixel is never outvoted by another."""
     m = frame.matrix
     x = m[0] * point.x + m[1] * point.y + m[2] * point.z + m[3]
     y = m[4] * point.x + m[5] * point.y + m[6] * point.z + m[7]
@@ -106,20 +125,41 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
     front = depth > 1e-9
     safe = dr.select(front, depth, 1.0)
     u, v = x / safe, y / safe
-    column, row = dr.floor(u), dr.floor(v)
-    inside = front & (column >= 0) & (column < frame.width) & (row >= 0) & (row < frame.height)
-    source = dr.select(inside, mi.UInt32(row) * frame.width + mi.UInt32(column), 0)
-    past_point = dr.gather(mi.Point3f, frame.positions, source, inside)
-    past_normal = dr.gather(mi.Vector3f, frame.normals, source, inside)
-    step, away = past_point - point, point - frame.centre
-    same = inside & (dr.squared_norm(step) <= DEPTH_TOLERANCE ** 2 * dr.squared_norm(away)) & \
-        (dr.dot(past_normal, normal) >= NORMAL_COSINE)
-    shifted = dr.minimum(2 * dr.maximum(dr.abs(u - column - 0.5), dr.abs(v - row - 0.5)), 1.0)
-    held = []
-    for mine, theirs, my_spread, their_spread, ratio, margin in (
-            (current[0], frame.marks[0], current[2], frame.marks[2], LIGHTING_RATIO, floor),
-            (current[1], frame.marks[1], current[3], frame.marks[3], 0.0, ALBEDO_MARGIN)):
-        theirs = dr.gather(mi.Float, theirs, source, same)
-        spread = dr.maximum(my_spread, dr.gather(mi.Float, their_spread, source, same))
-        held.append(dr.abs(mine - theirs) <= shifted * spread + ratio * dr.maximum(mine, theirs) + margin)
-    return same, held[0], held[1], u, v, source
+    left, top = dr.floor(u - 0.5), dr.floor(v - 0.5)  # the 2x2 past pixels whose centres surround the point
+    fx, fy = u - 0.5 - left, v - 0.5 - top
+    lanes = dr.width(point.x)
+    near_same, near_lit, near_material = (dr.zeros(mi.Bool, lanes) for _ in range(3))
+    any_same, near_source = dr.zeros(mi.Bool, lanes), dr.zeros(mi.UInt32, lanes)
+    other_weight, other_source = dr.zeros(mi.Float, lanes), dr.zeros(mi.UInt32, lanes)
+    for dx, dy in ((0, 0), (1, 0), (0, 1), (1, 1)):
+        column, row = left + dx, top + dy
+        inside = front & (column >= 0) & (column < frame.width) & (row >= 0) & (row < frame.height)
+        source = dr.select(inside, mi.UInt32(dr.maximum(row, 0)) * frame.width + mi.UInt32(dr.maximum(column, 0)), 0)
+        past_point = dr.gather(mi.Point3f, frame.positions, source, inside)
+        past_normal = dr.gather(mi.Vector3f, frame.normals, source, inside)
+        step, away = past_point - point, point - frame.centre
+        same = inside & (dr.squared_norm(step) <= DEPTH_TOLERANCE ** 2 * dr.squared_norm(away)) & \
+            (dr.dot(past_normal, normal) >= NORMAL_COSINE)
+        offset = dr.maximum(dr.abs(u - column - 0.5), dr.abs(v - row - 0.5))
+        shifted, moved = dr.minimum(2 * offset, 1.0), offset > SHIFT_SEEN
+        held = []
+        for mine, theirs, my_spread, their_spread, ratio, margin in (
+                (current[0], frame.marks[0], current[2], frame.marks[2], LIGHTING_RATIO, floor),
+                (current[1], frame.marks[1], current[3], frame.marks[3], 0.0, ALBEDO_MARGIN)):
+            theirs = dr.gather(mi.Float, theirs, source, same)
+            spread = dr.maximum(shifted * dr.maximum(my_spread, dr.gather(mi.Float, their_spread, source, same)),
+                                dr.select(moved, my_spread, 0.0))
+            held.append(dr.abs(mine - theirs) <= spread + ratio * dr.maximum(mine, theirs) + margin)
+        weight = (fx if dx else 1 - fx) * (fy if dy else 1 - fy)
+        nearest = ((fx >= 0.5) if dx else (fx < 0.5)) & ((fy >= 0.5) if dy else (fy < 0.5))
+        near_same |= nearest & same
+        near_lit |= nearest & same & held[0]
+        near_material |= nearest & same & held[1]
+        near_source = dr.select(nearest, source, near_source)
+        closer = ~nearest & same & held[0] & held[1] & (weight > other_weight)
+        other_weight, other_source = dr.select(closer, weight, other_weight), dr.select(closer, source, other_source)
+        any_same |= same
+    held = dr.select(near_same, near_lit & near_material, other_weight > 0)
+    lit = dr.select(near_same, near_lit, True)
+    same_material = dr.select(near_same, near_material, True)
+    return held, dr.select(near_same, near_source, other_source), any_same, lit, same_material, u, v
