@@ -354,7 +354,8 @@ def main() -> int:
 
 def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> list[dict]:
     """The rows of every contender on one scene in one motion (printed as they come)."""
-    from gmcpt.evaluation.sequences import Run, Truth, path_oidn_run, sequence_figures, sequence_run, take_turns
+    from gmcpt.evaluation.sequences import (Run, Truth, path_oidn_run, sequence_figures, sequence_run, stage_means,
+                                            take_turns)
     from gmcpt.evaluation.stability import FrameGeometry
     from gmcpt.temporal.sequence import geometry
 
@@ -370,7 +371,8 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
 
     def accumulation_run(spp):
         accumulation = Accumulation()
-        return Run("accumulation+oidn", spp, lambda frame, seed: accumulation.render(scene, integrator, aov, spp, seed))
+        return Run("accumulation+oidn", spp,
+                   lambda frame, seed: (accumulation.render(scene, integrator, aov, spp, seed), {}))
 
     runs = [path_oidn_run(scene, integrator, aov, spp) for spp in args.path_spp] \
         + [accumulation_run(spp) for spp in args.path_spp] \
@@ -379,7 +381,8 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
     rows = []
     for run in runs:
         row = {"scene": name, "motion": changes.motion, "contender": run.contender, "rate": 1.0, "spp": run.amount,
-               **sequence_figures(run.images, run.seconds, truth)}
+               **sequence_figures(run.images, run.seconds, truth),
+               "stages": stage_means(run.stages, run.seconds, args.warm)}
         rows.append(row)
         on_changed = "-" if row["psnr_changed"] is None else f"{row['psnr_changed']:6.2f}"
         print(f"{name:20s} {changes.motion:6s} {run.contender:18s} {run.amount:4g}: {row['psnr']:6.2f} dB "

@@ -88,6 +88,31 @@ def test_the_results_section_has_a_table_and_verdicts_per_motion_and_the_glance_
     assert opening[0] == "## At a glance" and opening[2] == glance_line(SEQUENCES)
 
 
+def test_a_runs_stages_are_its_warm_frames_means_and_what_no_stage_holds():
+    from gmcpt.evaluation.sequences import stage_means
+
+    stages = [{"render_s": 5.0}, {"render_s": 1.0, "denoise_s": 2.0}, {"render_s": 3.0, "denoise_s": 4.0}]
+    means = stage_means(stages, [9.0, 4.0, 8.0], warm=1)
+    assert means == pytest.approx({"render_s": 2.0, "denoise_s": 3.0, "other_s": 1.0})
+    assert stage_means([{}, {}], [1.0, 1.0], warm=0) == {}  # a run that timed no stages
+
+
+def test_the_results_section_says_where_a_frames_time_goes_at_the_sequences_budgets():
+    from gmcpt.evaluation.document import sequence_section
+
+    sequence = {"features_s": 0.030, "render_s": 0.060, "denoise_s": 0.040, "other_s": 0.005}
+    baseline = {"render_s": 0.050, "guides_s": 0.010, "denoise_s": 0.040, "other_s": 0.0}
+    rows = [_row("sequence", 1, 0.135, psnr=21.0, flicker=3.0, stages=sequence),
+            _row("path+oidn", 1, 0.1, psnr=19.0, flicker=8.0, stages=baseline),
+            _row("path+oidn", 8, 0.4, psnr=22.0, flicker=5.0, stages=baseline)]  # no sequence at 8: left out
+    text = "\n".join(sequence_section(dict(SEQUENCES, rows=rows, verdicts=[])))
+    assert "| scene | contender | samples a pixel a frame | survey | path tracing | aov guides | OIDN | other | total |" \
+        in text
+    assert "| living-room | sequence | 1 | 30 | 60 | - | 40 | 5 | 135 |" in text
+    assert "| living-room | path+oidn | 1 | - | 50 | 10 | 40 | 0 | 100 |" in text and "| path+oidn | 8 | -" not in text
+    assert "time goes" not in "\n".join(sequence_section(SEQUENCES))  # a record without stages: no table
+
+
 def test_merged_records_keep_every_scenes_motions(tmp_path):
     """Two runs of one scene's other motions join into one record that still says what moved in each."""
     import json

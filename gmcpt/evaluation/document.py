@@ -126,8 +126,32 @@ def sequence_section(sequences: dict | None) -> list[str]:
         lines += [f"| {v['scene']} | {v['baseline']} | {v['speedup']:.2f}x | "
                   f"{_figure(v, 'flicker_ratio', '.2f')}{_in_place(v, 'screen_flicker_ratio')} | "
                   f"{_figure(v, 'changed_gap_db', '+.2f')} |" for v in verdicts]
-        lines.append("")
+        lines += ["", *_stage_table(rows)]
     return [*lines, "![sequences: PSNR against seconds a frame, per scene and motion](sequences.png)", ""]
+
+
+#: A frame's stages as the sequence benchmark records them (``stages`` of a row), in the order a frame runs them
+FRAME_STAGES = (("features_s", "survey"), ("placement_s", "history"), ("render_s", "path tracing"),
+                ("guides_s", "aov guides"), ("combine_s", "combine"), ("denoise_s", "OIDN"), ("carry_s", "carry"),
+                ("other_s", "other"))
+
+
+def _stage_table(rows: list[dict]) -> list[str]:
+    """Where a frame's time goes: milliseconds a frame in each stage of the sequence at its budgets and of per-frame
+    path tracing + OIDN at the same samples a pixel; nothing for a record without stages."""
+    budgets = {r["spp"] for r in rows if r["contender"] == "sequence"}
+    timed = [r for r in rows if r.get("stages") and (r["contender"] == "sequence"
+                                                      or (r["contender"] == "path+oidn" and r["spp"] in budgets))]
+    if not timed:
+        return []
+    stages = [(key, label) for key, label in FRAME_STAGES if any(key in r["stages"] for r in timed)]
+    lines = ["Where a frame's time goes, milliseconds (warm frames' means):", "",
+             "| scene | contender | samples a pixel a frame | " + " | ".join(label for _, label in stages) + " | total |",
+             "|---|---|---|" + "---|" * (len(stages) + 1)]
+    lines += [f"| {r['scene']} | {r['contender']} | {r['spp']:g} | "
+              + " | ".join(f"{1000 * r['stages'][key]:.0f}" if key in r["stages"] else "-" for key, _ in stages)
+              + f" | {1000 * r['seconds']:.0f} |" for r in timed]
+    return [*lines, ""]
 
 
 def _changed(row: dict) -> str:

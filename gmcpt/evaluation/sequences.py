@@ -149,38 +149,57 @@ AOV_GUIDES = {"type": "aov", "aovs": "a:albedo,n:sh_normal"}
 
 
 def denoised_with_aov_guides(scene, aov, noisy: np.ndarray, spp: int, seed: int) -> np.ndarray:
-    """``noisy`` (N, 3) through OIDN with the guides of one pass of Mitsuba's ``aov`` integrator at ``spp``: its
-    albedo clipped to [0, 1] (OIDN's range; Mitsuba's albedo of a rough metal reaches 18 in the dining room) and
-    its shading normal in world space, a pixel's mean of unit normals (0 on a miss), as OIDN takes them and as
-    :func:`gmcpt.render.kernels.render_features` gives them but for the renormalising, which OIDN does not need."""
+    """``noisy`` (N, 3) through OIDN with the guides of one pass of Mitsuba's ``aov`` integrator at ``spp``
+    (:func:`aov_guides`, :func:`denoised_with`)."""
+    return denoised_with(noisy, aov_guides(scene, aov, spp, seed), spp)
+
+
+def aov_guides(scene, aov, spp: int, seed: int) -> np.ndarray:
+    """One pass of ``aov`` (:data:`AOV_GUIDES`) at ``spp``: (H, W, 6) albedo and shading normal."""
     import mitsuba as mi
 
+    return np.asarray(mi.render(scene, integrator=aov, spp=spp, seed=seed), dtype=np.float32)
+
+
+def denoised_with(noisy: np.ndarray, guides: np.ndarray, spp: int) -> np.ndarray:
+    """``noisy`` (N, 3) through OIDN with :func:`aov_guides`' ``guides``: the albedo clipped to [0, 1] (OIDN's range;
+    Mitsuba's albedo of a rough metal reaches 18 in the dining room) and the shading normal in world space, a pixel's
+    mean of unit normals (0 on a miss), as OIDN takes them and as :func:`gmcpt.render.kernels.render_features` gives
+    them but for the renormalising, which OIDN does not need."""
     from ..image.denoise import denoise_oidn
 
-    guides = np.asarray(mi.render(scene, integrator=aov, spp=spp, seed=seed), dtype=np.float32)
     return denoise_oidn(noisy.reshape(*guides.shape[:2], 3), np.clip(guides[..., 0:3], 0, 1), guides[..., 3:6], spp)
 
 
-def path_oidn(scene, integrator, aov, spp: int, seed: int) -> np.ndarray:
+def path_oidn(scene, integrator, aov, spp: int, seed: int) -> tuple[np.ndarray, dict]:
     """A frame on its own, as a Mitsuba user denoises it: Mitsuba's render of every pixel at ``spp``
-    (:func:`gmcpt.render.kernels.render_native`), one pass of ``aov`` (:data:`AOV_GUIDES`) at as many samples for OIDN's
-    guides, then OIDN (:func:`denoised_with_aov_guides`). All three are what :func:`take_turns` charges it."""
+    (:func:`gmcpt.render.kernels.render_native`), one pass of ``aov`` at as many samples for OIDN's guides
+    (:func:`aov_guides`), then OIDN (:func:`denoised_with`). All three are what :func:`take_turns` charges it: (the
+    image, each stage's seconds: ``render_s``, ``guides_s``, ``denoise_s``)."""
     from ..render.kernels import render_native
 
+    started = time.perf_counter()
     noisy = render_native(scene, scene.sensors()[0], integrator, spp, seed)
-    return denoised_with_aov_guides(scene, aov, noisy, spp, seed)
+    rendered = time.perf_counter()
+    guides = aov_guides(scene, aov, spp, seed)
+    guided = time.perf_counter()
+    image = denoised_with(noisy, guides, spp)
+    return image, {"render_s": rendered - started, "guides_s": guided - rendered,
+                   "denoise_s": time.perf_counter() - guided}
 
 
 @dataclass
 class Run:
-    """One contender at one setting through a sequence: ``render(frame, seed)`` gives a frame's image, and all it
-    does is charged to it; the images and seconds of the frames so far."""
+    """One contender at one setting through a sequence: ``render(frame, seed)`` gives a frame's image and its stages'
+    seconds (a dict, empty where it has none), and all it does is charged to it; the images, seconds and stages of
+    the frames so far."""
 
     contender: str
     amount: float  # samples a pixel a frame: spp, or the sequence's budget
-    render: Callable[[int, int], np.ndarray]
+    render: Callable[[int, int], tuple[np.ndarray, dict]]
     images: list = field(default_factory=list)
     seconds: list = field(default_factory=list)
+    stages: list = field(default_factory=list)
 
 
 def path_oidn_run(scene, integrator, aov, spp: int) -> Run:
@@ -194,7 +213,11 @@ def sequence_run(scene, integrator, budget: float, seed: int) -> Run:
     from ..temporal.sequence import SequenceRenderer, SequenceSettings
 
     renderer = SequenceRenderer(SequenceSettings(budget=budget, seed=seed))
-    return Run("sequence", budget, lambda frame, _: renderer.render(scene, frame, integrator)[0])
+
+    def render(frame: int, _) -> tuple[np.ndarray, dict]:
+        image, _, timings = renderer.render(scene, frame, integrator)
+        return image, timings
+    return Run("sequence", budget, render)
 
 
 def take_turns(runs: list[Run], frames, at: Callable[[int], None], seed: Callable[[int], int]) -> None:
@@ -204,9 +227,21 @@ def take_turns(runs: list[Run], frames, at: Callable[[int], None], seed: Callabl
         at(frame)
         for run in runs:
             start = time.perf_counter()
-            image = run.render(frame, seed(frame))
+            image, stages = run.render(frame, seed(frame))
             run.seconds.append(time.perf_counter() - start)
             run.images.append(image)
+            run.stages.append(stages)
+
+
+def stage_means(stages: list[dict], seconds: list, warm: int) -> dict:
+    """Each stage's mean seconds a frame over the frames after ``warm``, and ``other_s``: the frame's seconds that no
+    stage holds (Python between the stages, the record). Empty where the run timed no stages."""
+    kept = [(timings, total) for timings, total in zip(stages[warm:], seconds[warm:]) if timings]
+    if not kept:
+        return {}
+    names = list(dict.fromkeys(name for timings, _ in kept for name in timings))
+    means = {name: float(np.mean([timings.get(name, 0.0) for timings, _ in kept])) for name in names}
+    return {**means, "other_s": max(0.0, float(np.mean([total for _, total in kept])) - sum(means.values()))}
 
 
 def _plain(value) -> np.ndarray:
