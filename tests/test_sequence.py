@@ -181,6 +181,36 @@ def test_the_jit_gather_keeps_what_the_numpy_tests_keep_and_edges_a_neighbour_s(
     assert (served & (distance <= DEPTH_TOLERANCE * away[:, None])).any(axis=1).all()  # one of the four, same surface
 
 
+def test_a_neighbour_serves_an_edge_only_where_the_camera_moved(mi):
+    """Where the past pixel a point lands in saw another surface, a still camera's is an object that moved: no
+    neighbour serves (the light around a moved object changes unseen); a moving camera's is an edge, and one does."""
+    from gmcpt.temporal.history import PastFrame, Projection, signature
+    from gmcpt.temporal.reprojection import gather_history, jit_frame
+
+    size, depth, focal = 8, 10.0, 100.0  # a pixel 1% of the distance across: neighbours on one surface
+    column, row = np.meshgrid(np.arange(size) + 0.5, np.arange(size) + 0.5)
+    film = np.stack([column.ravel(), row.ravel()], axis=1)
+    positions = np.concatenate([(film - size / 2) * depth / focal, np.full((size * size, 1), depth)], axis=1)
+    normals = np.tile([0.0, 0.0, -1.0], (size * size, 1))
+    marks = signature(np.ones(size * size, np.float32), np.full(size * size, 0.5, np.float32), size, size)
+    edge = 3 * size + 3
+    moved_away = positions.copy()
+    moved_away[edge] *= 0.5  # the past pixel saw a nearer surface there
+
+    def gathered(shift: float) -> np.ndarray:
+        matrix = np.array([[focal, 0, size / 2 + shift, 0], [0, focal, size / 2, 0], [0, 0, 1, 0]], np.float64)
+        past = PastFrame(0, np.ones((size * size, 3), np.float32), np.ones(size * size, np.float32),
+                         moved_away.astype(np.float32), normals.astype(np.float32), Projection(matrix, size, size),
+                         marks)
+        return gather_history([(jit_frame(past), 1.0, True)], positions.astype(np.float32),
+                              normals.astype(np.float32), marks, 0.0).latest_seen
+
+    still, panned = gathered(1e-3), gathered(0.25)  # a still camera's points land on the centres to rounding
+    assert not still[edge] and still.sum() == size * size - 1
+    # a quarter pixel off: the point lands in the past pixel beside (edge + 1) or at the edge; its neighbours serve
+    assert panned[edge] and panned[edge - 1]
+
+
 def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():
     from gmcpt.temporal.sequence import FramePace
 
