@@ -146,7 +146,8 @@ def _stage_table(rows: list[dict]) -> list[str]:
         return []
     stages = [(key, label) for key, label in FRAME_STAGES if any(key in r["stages"] for r in timed)]
     lines = ["Where a frame's time goes, milliseconds (warm frames' means):", "",
-             "| scene | contender | samples a pixel a frame | " + " | ".join(label for _, label in stages) + " | total |",
+             "| scene | contender | samples a pixel a frame | " + " | ".join(label for _, label in stages)
+             + " | total |",
              "|---|---|---|" + "---|" * (len(stages) + 1)]
     lines += [f"| {r['scene']} | {r['contender']} | {r['spp']:g} | "
               + " | ".join(f"{1000 * r['stages'][key]:.0f}" if key in r["stages"] else "-" for key, _ in stages)

@@ -2,9 +2,10 @@
 :func:`gmcpt.temporal.history.unchanged` for every pixel, one kernel a past frame.
 
 The same tests as the numpy functions (which stay the reference: the stability figures and the tests read them),
-fused, plus one the numpy functions do not make: where the past pixel a point lands in saw another surface (an
-edge), another of the four past pixels around the point may serve (:func:`_match`). On 2 cores the numpy reprojection of 8 past frames took 0.15-0.2 s of a 256x256 frame, the largest fixed
-cost of a sequence frame (docs/experiments.md). A past frame's arrays move to Dr.Jit once (:func:`jit_frame`), and
+fused, plus one the numpy functions do not make: where the past pixel a point lands in saw another surface and the
+camera moved (an edge), another of the four past pixels around the point may serve (:func:`_match`). On 2 cores the
+numpy reprojection of 8 past frames took 0.15-0.2 s of a 256x256 frame, the largest fixed cost of a sequence frame
+(docs/experiments.md). A past frame's arrays move to Dr.Jit once (:func:`jit_frame`), and
 its camera, weight and the frame's floor are opaque, so one kernel serves every frame of a sequence.
 """
 from __future__ import annotations
