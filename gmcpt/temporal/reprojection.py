@@ -132,7 +132,8 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
     fx, fy = u - 0.5 - left, v - 0.5 - top
     # how far the camera moved the point off the nearest past centre: every one of the four is judged by it, so a
     # still camera's neighbour (at a moved object's edge) gets no allowance for a shift that did not happen
-    offset = dr.maximum(dr.abs(u - dr.floor(u) - 0.5), dr.abs(v - dr.floor(v) - 0.5))
+    landed_column, landed_row = dr.floor(u), dr.floor(v)  # the past pixel the point lands in: the nearest centre
+    offset = dr.maximum(dr.abs(u - landed_column - 0.5), dr.abs(v - landed_row - 0.5))
     shifted, moved = dr.minimum(2 * offset, 1.0), offset > SHIFT_SEEN
     lanes = dr.width(point.x)
     near_same, near_lit, near_material = (dr.zeros(mi.Bool, lanes) for _ in range(3))
@@ -156,7 +157,7 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
                                 dr.select(moved, my_spread, 0.0))
             held.append(dr.abs(mine - theirs) <= spread + ratio * dr.maximum(mine, theirs) + margin)
         weight = (fx if dx else 1 - fx) * (fy if dy else 1 - fy)
-        nearest = ((fx >= 0.5) if dx else (fx < 0.5)) & ((fy >= 0.5) if dy else (fy < 0.5))
+        nearest = (column == landed_column) & (row == landed_row)
         near_same |= nearest & same
         near_lit |= nearest & same & held[0]
         near_material |= nearest & same & held[1]
