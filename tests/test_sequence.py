@@ -256,7 +256,8 @@ def test_a_timed_frame_traces_in_passes_up_to_its_deadline(mi, monkeypatch):
 
     starts = []  # when each pass began: a stall inside a pass (a loaded machine) is not a pass begun too late
     native, counted = sequence.render_native, SampleSums.trace_counts
-    monkeypatch.setattr(sequence, "render_native", lambda *a, **k: starts.append(time.perf_counter()) or native(*a, **k))
+    monkeypatch.setattr(sequence, "render_native",
+                        lambda *a, **k: starts.append(time.perf_counter()) or native(*a, **k))
     monkeypatch.setattr(SampleSums, "trace_counts",
                         lambda self, *a: starts.append(time.perf_counter()) or counted(self, *a))
 
