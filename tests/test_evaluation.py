@@ -92,7 +92,7 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
                         budget_variants=("interp", "gan_oidn"), timing_resolutions=(32,), timing_scene="cornell-box",
                         repeats=1, full_scene="cornell-box", full_size=(48, 32), full_reference_spp=16,
                         full_budgets=(1, 2), full_path_spp=(1, 2), full_adaptive_budgets=(1.5, 2),
-                        default_budgets=(1, 4))
+                        default_budgets=(1, 4), placement_seeds=2)
     out = tmp_path / "docs"
     out.mkdir()
     record = evaluate(config, [replace(CORNELL, real=True), ProceduralScene(2_000_003)], out, lambda message: None)
@@ -125,11 +125,11 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
     chosen = [r for r in record["equal_time"] if r["contender"] == "gan_oidn"]
     assert len(chosen) == 2 * 2 and {r["budget_choice"] for r in chosen} <= {"sparse", "dense"}
     averaged = {r["variant"]: r["seeds"] for r in record["placement"] if r["variant"] in ("path+oidn", "budget")}
-    assert averaged == {"path+oidn": 3, "budget": 3}  # the baselines and the default: means of 3 seeds
+    assert averaged == {"path+oidn": 2, "budget": 2}  # the baselines and the default: means of the 2 seeds
     assert {r["seeds"] for r in record["placement"] if r["variant"] == "random"} == {1}
     markdown = results_markdown(record)
     assert "Sample placement at equal samples" in markdown and "budget - path+oidn dB" in markdown
-    assert "the means of 3 seeds" in markdown
+    assert "the means of 2 seeds" in markdown
     assert "budget - adaptive+oidn dB" in markdown and "budget 4" in markdown
     assert "**mean of 1 real**" in markdown and "**mean of 1 synthetic**" in markdown
     assert "Speed-up at equal quality" in markdown and "Full resolution: cornell-box at 48x32" in markdown

@@ -409,7 +409,8 @@ def _mean_metrics(runs: list[dict]) -> dict:
 def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     """Equal samples: ``config.placement_variant`` with each mask pattern, and path tracing at the same total
     sample count (``round(rate * spp)`` per pixel, full frame) + OIDN, at every rate. Both baselines and the
-    default are the means over ``config.placement_seeds`` seeds: one seed's PSNR moves by 0.1-0.4 dB a scene."""
+    default are the means over ``config.placement_seeds`` seeds: one seed's PSNR moves by tenths of a dB
+    (docs/experiments.md)."""
     rows = []
     variant = VARIANTS[config.placement_variant]
     seeds = [config.seed + offset for offset in range(max(1, config.placement_seeds))]
