@@ -115,8 +115,8 @@ def test_tiny_evaluation_end_to_end(mi, tmp_path, monkeypatch):
     placements = {r["variant"] for r in record["placement"]}
     assert placements == {"path+oidn", "adaptive+oidn", "random", "stratified", "adaptive", "two_pass", "budget"}
     for row in record["placement"]:  # equal samples: the masks spend round(rate * pixels) x spp, path tracing
-        # round(rate * spp) a pixel, adaptive path tracing round(rate * spp * pixels) in all, the budget at most that
-        expected = {"path+oidn": round(row["rate"] * 16), "adaptive+oidn": round(row["rate"] * 16 * 32 * 32) / 1024}
+        # rate * spp a pixel, adaptive path tracing round(rate * spp * pixels) in all, the budget at most that
+        expected = {"path+oidn": row["rate"] * 16, "adaptive+oidn": round(row["rate"] * 16 * 32 * 32) / 1024}
         if row["variant"] == "budget":
             assert row["rate"] * 16 - 16 / 1024 <= row["samples_per_pixel"] <= round(row["rate"] * 16 * 1024) / 1024
         else:
@@ -436,3 +436,26 @@ def test_a_checkpoint_needs_committed_code(tmp_path):
     from gmcpt.evaluation.checkpoint import code_version
 
     assert code_version(tmp_path) is None  # no git here
+
+
+def test_path_tracing_at_equal_samples_reads_between_whole_counts(monkeypatch):
+    """Between two whole sample counts the uniform baseline's metrics are read linearly in log samples; at a whole
+    count it is that count's render alone."""
+    from gmcpt.evaluation import measure
+
+    rendered = []
+
+    def render_full(scene, integrator, spp, seed):
+        rendered.append((spp, seed))
+        return np.full((2, 2, 3), float(spp) + seed / 100, np.float32)
+
+    monkeypatch.setattr(measure, "render_full", render_full)
+    monkeypatch.setattr(measure, "baseline_guides", lambda loaded, spp, seed: {"albedo": None, "normal": None})
+    monkeypatch.setattr(measure, "denoise_oidn", lambda image, albedo, normal, rays: image)
+    monkeypatch.setattr(measure, "all_metrics", lambda image, reference: {"psnr": float(image.mean())})
+    loaded = measure.LoadedScene("s", None, None, np.zeros((2, 2, 3), np.float32))
+    assert [run["psnr"] for run in measure.path_oidn_at(loaded, 4.0, [0, 1])] == pytest.approx([4.0, 4.01])
+    assert sorted(rendered) == [(4, 0), (4, 1)]
+    weight = np.log(4.8 / 4) / np.log(5 / 4)
+    assert measure.path_oidn_at(loaded, 4.8, [0])[0]["psnr"] == pytest.approx(4 + weight)
+    assert measure.path_oidn_at(loaded, 0.5, [0])[0]["psnr"] == pytest.approx(1.0)  # below one: one sample a pixel

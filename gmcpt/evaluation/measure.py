@@ -16,6 +16,7 @@ of Mitsuba's ``aov`` pass (albedo, normal) at those samples (:func:`guide_pass_s
 from __future__ import annotations
 
 import functools
+import math
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -406,22 +407,40 @@ def _mean_metrics(runs: list[dict]) -> dict:
     return {key: float(np.mean([run[key] for run in runs])) for key in runs[0]}
 
 
+def path_oidn_at(loaded: LoadedScene, samples: float, seeds: list[int]) -> list[dict]:
+    """Metrics of full-frame path tracing + OIDN at ``samples`` a pixel, one dict for each of ``seeds``: a
+    renderer traces whole samples a pixel, so between two whole counts each metric is read between theirs, linearly
+    in log samples (the other contenders of the equal-samples table trace exactly ``samples``). The guides are a
+    pass of as many rays as each count's samples, at the first seed."""
+    low = max(1, math.floor(samples))
+    high = max(low, math.ceil(samples))
+    at = {}
+    for count in {low, high}:
+        guides = baseline_guides(loaded, count, seeds[0])
+        at[count] = [all_metrics(denoise_oidn(render_full(loaded.scene, loaded.integrator, count, seed),
+                                              guides["albedo"], guides["normal"], baseline_guide_rays(count)),
+                                 loaded.reference) for seed in seeds]
+    if high == low:
+        return at[low]
+    weight = math.log(samples / low) / math.log(high / low)
+    return [{key: (1 - weight) * below[key] + weight * above[key] for key in below}
+            for below, above in zip(at[low], at[high])]
+
+
 def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
-    """Equal samples: ``config.placement_variant`` with each mask pattern, and path tracing at the same total
-    sample count (``round(rate * spp)`` per pixel, full frame) + OIDN, at every rate. Both baselines and the
+    """Equal samples: ``config.placement_variant`` with each mask pattern, and path tracing at the same samples a
+    pixel (full frame, :func:`path_oidn_at`) + OIDN, at every rate. Both baselines and the
     default are the means over ``config.placement_seeds`` seeds: one seed's PSNR moves by tenths of a dB
     (docs/experiments.md)."""
     rows = []
     variant = VARIANTS[config.placement_variant]
     seeds = [config.seed + offset for offset in range(max(1, config.placement_seeds))]
     for rate in config.rates:
-        samples = max(1, round(rate * config.spp))
-        guides = baseline_guides(loaded, samples, config.seed + BASELINE_SEED_OFFSET)
-        albedo, normal = guides["albedo"], guides["normal"]
-        runs = [all_metrics(denoise_oidn(render_full(loaded.scene, loaded.integrator, samples, seed + BASELINE_SEED_OFFSET), albedo,
-                                         normal, baseline_guide_rays(samples)), loaded.reference) for seed in seeds]
+        samples = max(1.0, rate * config.spp)
+        runs = path_oidn_at(loaded, samples, [seed + BASELINE_SEED_OFFSET for seed in seeds])
         rows.append({"scene": loaded.name, "rate": rate, "variant": "path+oidn", "samples_per_pixel": samples,
                      "seeds": len(seeds), **_mean_metrics(runs)})
+        guides = baseline_guides(loaded, samples, config.seed + BASELINE_SEED_OFFSET)
         runs, spent = [], 0
         for seed in seeds:
             image, info, _ = adaptive_oidn(loaded, rate * config.spp, seed + BASELINE_SEED_OFFSET, guides)
@@ -429,7 +448,7 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
             spent = info.path_samples / image.shape[0] / image.shape[1]
         rows.append({"scene": loaded.name, "rate": rate, "variant": "adaptive+oidn", "samples_per_pixel": spent,
                      "seeds": len(seeds), **_mean_metrics(runs)})
-        say(f"  {loaded.name} rate {rate:.2f} path {samples} spp + OIDN: {rows[-2]['psnr']:6.2f} dB, adaptive "
+        say(f"  {loaded.name} rate {rate:.2f} path {samples:g} spp + OIDN: {rows[-2]['psnr']:6.2f} dB, adaptive "
             f"{rate * config.spp:g} spp + OIDN: {rows[-1]['psnr']:6.2f} dB (means of {len(seeds)} seeds)")
         for pattern in config.placements:
             frame, render_timings = sparse_frame(loaded, rate, config.spp, config, pattern)
