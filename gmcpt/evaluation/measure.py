@@ -407,19 +407,24 @@ def _mean_metrics(runs: list[dict]) -> dict:
     return {key: float(np.mean([run[key] for run in runs])) for key in runs[0]}
 
 
-def path_oidn_at(loaded: LoadedScene, samples: float, seeds: list[int]) -> list[dict]:
-    """Metrics of full-frame path tracing + OIDN at ``samples`` a pixel, one dict for each of ``seeds``: a
-    renderer traces whole samples a pixel, so between two whole counts each metric is read between theirs, linearly
-    in log samples (the other contenders of the equal-samples table trace exactly ``samples``). The guides are a
-    pass of as many rays as each count's samples, at the first seed."""
+def whole_counts(samples: float) -> tuple[int, int]:
+    """The whole samples a pixel at and above ``samples``, at least 1 each: the counts :func:`path_oidn_at` renders,
+    among them ``baseline_guide_rays(samples)``."""
     low = max(1, math.floor(samples))
-    high = max(low, math.ceil(samples))
+    return low, max(low, math.ceil(samples))
+
+
+def path_oidn_at(loaded: LoadedScene, samples: float, seeds: list[int], guides: dict[int, dict]) -> list[dict]:
+    """Metrics of full-frame path tracing + OIDN at ``samples`` a pixel, one dict for each of ``seeds``: a
+    renderer traces whole samples a pixel, so between two whole counts (:func:`whole_counts`) each metric is read
+    between theirs, linearly in log samples (the other contenders of the equal-samples table trace exactly
+    ``samples``). ``guides``: each count's :func:`baseline_guides`, by count."""
+    low, high = whole_counts(samples)
     at = {}
     for count in {low, high}:
-        guides = baseline_guides(loaded, count, seeds[0])
         at[count] = [all_metrics(denoise_oidn(render_full(loaded.scene, loaded.integrator, count, seed),
-                                              guides["albedo"], guides["normal"], baseline_guide_rays(count)),
-                                 loaded.reference) for seed in seeds]
+                                              guides[count]["albedo"], guides[count]["normal"],
+                                              baseline_guide_rays(count)), loaded.reference) for seed in seeds]
     if high == low:
         return at[low]
     weight = math.log(samples / low) / math.log(high / low)
@@ -437,10 +442,13 @@ def placement(loaded: LoadedScene, config: EvalConfig, say: Say) -> list[dict]:
     seeds = [config.seed + offset for offset in range(max(1, config.placement_seeds))]
     for rate in config.rates:
         samples = max(1.0, rate * config.spp)
-        runs = path_oidn_at(loaded, samples, [seed + BASELINE_SEED_OFFSET for seed in seeds])
+        # one guide pass a count, shared: adaptive path tracing's rays are one of the two counts
+        passes = {count: baseline_guides(loaded, count, config.seed + BASELINE_SEED_OFFSET)
+                  for count in set(whole_counts(samples))}
+        runs = path_oidn_at(loaded, samples, [seed + BASELINE_SEED_OFFSET for seed in seeds], passes)
         rows.append({"scene": loaded.name, "rate": rate, "variant": "path+oidn", "samples_per_pixel": samples,
                      "seeds": len(seeds), **_mean_metrics(runs)})
-        guides = baseline_guides(loaded, samples, config.seed + BASELINE_SEED_OFFSET)
+        guides = passes[baseline_guide_rays(samples)]
         runs, spent = [], 0
         for seed in seeds:
             image, info, _ = adaptive_oidn(loaded, rate * config.spp, seed + BASELINE_SEED_OFFSET, guides)
