@@ -46,6 +46,8 @@ FRAME_SEED_STEP = 0x9E37
 SEQUENCE_TOP_UP_SEED_OFFSET = 1
 #: a timed sequence frame's pass k (k >= 1) of one sample a pixel after its first draws from this offset + k
 SEQUENCE_PASS_SEED_OFFSET = 0x100
+#: a sequence frame's guard band beyond the film (gmcpt.temporal.guard): its samples and the pixels that get a fraction
+SEQUENCE_BAND_SEED_OFFSET = 0x200
 
 # --- training (gmcpt.gan) ---
 #: the training data's order, beside the run's seed

@@ -152,3 +152,40 @@ def test_a_switched_light_or_a_changed_material_is_no_longer_the_same():
     assert not unchanged(off, pixels, on, pixels, centred, 0.02)[0].any()
     lit, same = unchanged(on, pixels, dimmer, pixels, centred, 0.02)  # 5% dimmer light: within the ratio
     assert lit.all() and not same.any()
+
+
+def _moved(shape, motion):
+    """Where each pixel's surface was on the last frame: its centre moved by ``motion`` (a function of the centres)."""
+    height, width = shape
+    columns, rows = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+    centres = np.stack([columns.ravel(), rows.ravel()], axis=1)
+    return motion(centres).astype(np.float32), np.ones(height * width, bool)
+
+
+def test_the_sides_a_camera_reveals_are_read_from_its_motion():
+    from gmcpt.temporal.guard import Sides, revealed
+
+    shape, history = (30, 40), 8
+    # a pan: every surface was 1.5 pixels further right, so new ones come in on the right, 1.5 a frame
+    assert revealed(*_moved(shape, lambda c: c + [1.5, 0.0]), shape, history) == Sides(right=12)
+    assert revealed(*_moved(shape, lambda c: c - [0.0, 0.5]), shape, history) == Sides(top=4)
+    # backing away: every side reveals; moving ahead or standing still, none
+    backing = revealed(*_moved(shape, lambda c: [20, 15] + (c - [20, 15]) * 1.05), shape, history)
+    assert backing.left and backing.right and backing.top and backing.bottom
+    assert not revealed(*_moved(shape, lambda c: [20, 15] + (c - [20, 15]) * 0.95), shape, history)
+    assert not revealed(*_moved(shape, lambda c: c), shape, history)
+    film, _ = _moved(shape, lambda c: c + [1.5, 0.0])
+    assert not revealed(film, np.zeros(film.shape[0], bool), shape, history)  # nothing seen: nothing read
+
+
+def test_a_guard_band_traces_the_budget_beyond_the_revealed_sides_only():
+    from gmcpt.temporal.guard import GuardBand, Sides
+
+    band = GuardBand(None, (4, 0), (6, 10))
+    counts = band.band_counts(Sides(right=3), 1.5, seed=7).reshape(band.wide_shape)
+    assert counts[:, 14:17].mean() == 1.5 and counts[:, 14:17].min() == 1
+    assert counts[:, :14].sum() == 0 and counts[:, 17:].sum() == 0
+    inner = np.arange(60, dtype=np.float32)
+    wide = band.embed(inner, np.full(band.wide_shape[0] * band.wide_shape[1], -1.0, np.float32))
+    np.testing.assert_array_equal(band.inner(wide), inner)
+    assert (wide.reshape(band.wide_shape)[:, :4] == -1).all()

@@ -1,8 +1,8 @@
 """``gmcpt batch SCENE --frames A:B --history N --ray ADDRESS``: a sequence's frames in chunks of consecutive
 frames, one Ray task a chunk.
 
-A task first renders, without writing them, the ``N`` frames before its chunk (the warm-up): their samples are the
-history of the chunk's first frame. Then it renders and writes the chunk's frames, with the files and records of
+A task first renders, without writing them, the ``N + 2`` frames before its chunk (the warm-up,
+:func:`warm_up_frames`): their samples are the history of the chunk's first frame. Then it renders and writes the chunk's frames, with the files and records of
 the one-process path (:mod:`gmcpt.cli.sequence_batch`). A frame's samples are seeded by its index, but where they fall
 follows the history, so two tasks' renders of a frame draw different samples: at a chunk's first frame the noise
 would change all at once, where inside a chunk each frame shares most of its samples and a share of its image
@@ -11,7 +11,7 @@ would change all at once, where inside a chunk each frame shares most of its sam
 the next chunk: the change is spread over those frames, and the driver writes them when both halves are in.
 
 Resuming is per frame, through the frames' records (:func:`gmcpt.cli.batch_records.finished_record`, made with the same
-history): the state file ``.sequence-state.npz`` belongs to the one-process path. A task renders from ``N`` frames
+history): the state file ``.sequence-state.npz`` belongs to the one-process path. A task renders from its warm-up
 before the first frame it still owes (a stopped batch, or a task Ray runs again after its worker died) to the last.
 """
 from __future__ import annotations
@@ -49,6 +49,13 @@ def check(args) -> None:
         raise GmcptError("--chunk splits a sequence into Ray tasks: give --ray too")
     if chunk < 1:
         raise GmcptError(f"--chunk must be >= 1, got {chunk}")
+
+
+def warm_up_frames(history: int) -> int:
+    """Frames a task renders before its first owed one: the history's, and two more before them, so that the
+    history's frames trace a moving camera's guard band as one process's do (:mod:`gmcpt.temporal.guard`: the band
+    follows the motion read on a frame that had history itself)."""
+    return history + 2 if history else 0
 
 
 def blend_frames(history: int) -> int:
@@ -130,7 +137,7 @@ def render_chunk(task: dict) -> dict:
     ordered = chunk.warm + chunk.frames
     owes = [job["name"] in handed or (job in owned and job["name"] not in written) for job in ordered]
     renderer = None
-    for position in span(owes, args.history):
+    for position in span(owes, warm_up_frames(args.history)):
         started, job = time.perf_counter(), ordered[position]
         scene, parameters, _ = load_frame(args, job)
         renderer = renderer or SequenceRenderer(sequence_settings(args, scene))
@@ -149,7 +156,7 @@ def _tasks(args, jobs: list[dict], size: int, done: set) -> list[dict]:
     """The tasks of the chunks with frames not in ``done`` (names): each owes those of its frames, and hands over
     its tail and lead where they are not."""
     tasks = []
-    for chunk in chunks(jobs, size, args.history, blend_frames(args.history)):
+    for chunk in chunks(jobs, size, warm_up_frames(args.history), blend_frames(args.history)):
         owed = [job["name"] for job in chunk.frames if job["name"] not in done]
         handed = [job["name"] for job in chunk.tail + chunk.lead if job["name"] not in done]
         if owed or handed:

@@ -113,6 +113,12 @@ class PastFrame:
     normals: np.ndarray  # (N, 3)
     projection: Projection
     signature: "Signature | None" = None  # its lighting and albedo (for :func:`unchanged`)
+    margin: tuple[int, int] = (0, 0)  # (x, y) pixels of guard band on each side of the frame's own film
+
+    @property
+    def own_shape(self) -> tuple[int, int]:
+        """(height, width) of the frame's own film, its guard band (:mod:`gmcpt.temporal.guard`) left out."""
+        return self.projection.height - 2 * self.margin[1], self.projection.width - 2 * self.margin[0]
 
     @functools.cached_property
     def gatherable(self) -> np.ndarray:

@@ -13,7 +13,8 @@ least, so the history can be checked against it); the history left out where it 
 OIDN over the sums; then the frame shown before, carried along the motion (Catmull-Rom, where the history
 held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every frame
 (the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after
-it. :meth:`SequenceRenderer.state` and :meth:`SequenceRenderer.restore` carry the history across processes,
+it, and where the camera's motion reveals a side of the film, also those of a guard band beyond that side
+(:mod:`gmcpt.temporal.guard`), so that what comes into view arrives with a history. :meth:`SequenceRenderer.state` and :meth:`SequenceRenderer.restore` carry the history across processes,
 so a stopped sequence resumes with the images an uninterrupted run gives.
 
 With no history (the first frame, after a cut), a frame is the budget's samples spread evenly, then OIDN.
@@ -22,7 +23,7 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, astuple, dataclass, field, replace
 
 import drjit as dr
 import mitsuba as mi
@@ -34,12 +35,13 @@ from ..image.denoise import denoise_oidn
 from ..limits import SEED_LIMIT, check_seconds, check_seed
 from ..render.guided_path import first_hit_features
 from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, camera_key, pixel_means, primary_rays,
-                              render_native, seeded_sampler, sensor_film_size)
+                              render_native, seeded_sampler, sensor_film_size, trace_counts)
 from ..render.scene import path_integrator, scene_sensor
 from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
-from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_PASS_SEED_OFFSET, SEQUENCE_TOP_UP_SEED_OFFSET,
-                     stream)
+from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_BAND_SEED_OFFSET, SEQUENCE_PASS_SEED_OFFSET,
+                     SEQUENCE_TOP_UP_SEED_OFFSET, stream)
+from .guard import GuardBand, Sides, guard_band, revealed
 from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, cubic_sample, fit_projection,
                       history_weights, signature)
 from .reprojection import JitFrame, gather_history, jit_frame
@@ -349,6 +351,8 @@ class SequenceRecord:
     dropped : the shares of pixels that lost a past frame's samples, a reason (:class:`DroppedShares`).
     carried_pixels : the share of pixels blended with the frame shown before (:data:`SHOWN_CARRY`).
     guide_rays : the guides' rays a pixel.
+    band_samples : samples traced beyond the film, on the guard band of the sides the camera's motion reveals
+        (:mod:`gmcpt.temporal.guard`), for the frames after it.
     time_short : a timed sequence's: whether its time bought the fewest samples a frame spends
         (:data:`TIMED_BUDGETS`) or fewer; None: not timed.
     """
@@ -366,6 +370,7 @@ class SequenceRecord:
     carried_pixels: float
     nonfinite_samples: int
     guide_rays: int
+    band_samples: int = 0
     time_short: bool | None = None
 
     def to_json(self) -> dict:
@@ -377,6 +382,7 @@ class SequenceRecord:
                 "history_samples": self.history_samples, "history_dropped": self.history_dropped,
                 "dropped": self.dropped.to_json(), "carried_pixels": self.carried_pixels,
                 "nonfinite_samples": self.nonfinite_samples, "guide_rays": self.guide_rays,
+                "band_samples": self.band_samples,
                 **({"time_short": self.time_short} if self.time_short is not None else {})}
 
 
@@ -417,6 +423,8 @@ class SequenceRenderer:
         self._jit: dict[int, tuple[PastFrame, JitFrame]] = {}  # the past frames in Dr.Jit, by id
         self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
         self.light_changed = 0.0  # the share of the last frame's pixels whose light changed (DroppedShares.lighting)
+        self.reveal = Sides()  # the film's sides the last frame's motion revealed (:func:`~gmcpt.temporal.guard.revealed`)
+        self._bands: dict = {}  # guard bands by sensor and margin (:func:`~gmcpt.temporal.guard.guard_band`)
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
                sensor: mi.Sensor | None = None) -> tuple[np.ndarray, SequenceRecord, dict]:
@@ -437,9 +445,13 @@ class SequenceRenderer:
 
         start = time.perf_counter()
         guide_rays = guide_spp(settings.budget, DEFAULT_FEATURE_SPP)
-        found = survey(scene, sensor, guide_rays, settings.seed)  # one seed: a still camera's survey stays put
+        # a timed frame's time goes to its own pixels (its deadline has no room for a band)
+        band = guard_band(sensor, self.reveal, self._bands) if settings.history and not settings.time else None
+        # one seed: a still camera's survey stays put
+        wide = survey(scene, band.sensor if band is not None else sensor, guide_rays, settings.seed)
+        found, wide_marks = _inner(wide, band)
         guides = found.features.buffers()
-        marks = signature(found.lighting, guides["albedo"].mean(axis=-1).ravel(), width, height)
+        marks = _crop_signature(wide_marks, band)
         timings["features_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
@@ -478,11 +490,18 @@ class SequenceRenderer:
         shown, carried = self._carried(denoised, history.latest_film, history.latest_seen & agrees, budget)
         timings["carry_s"] = time.perf_counter() - start
 
+        band_samples = 0
         if settings.history:
+            start = time.perf_counter()
+            own_total, own_count, band_samples = _with_band(total, count, band, (scene, integrator), self.reveal,
+                                                            budget, seed)
             # float32, as the samples were traced: 8 past frames' gathers a frame at half float64's traffic
-            self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), found.positions,
-                                       found.normals, found.projection, marks))
+            self.past.append(PastFrame(index, own_total.astype(np.float32), own_count.astype(np.float32),
+                                       wide.positions, wide.normals, wide.projection, wide_marks,
+                                       band.margin if band is not None else (0, 0)))
             self.shown = (index, shown)
+            self.reveal = revealed(history.latest_film, history.latest_seen, (height, width), settings.history)
+            timings["band_s"] = time.perf_counter() - start
         decay, self.light_changed = self.decay, history.dropped.lighting  # the decay this frame's history had
         dropped = replace(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
         info = SequenceRecord(frame=index, seed=seed, budget=budget, path_samples=sums.samples,
@@ -492,7 +511,7 @@ class SequenceRenderer:
                               history_dropped=float((history.offered & ~((history.count > 0) & agrees)).mean()),
                               dropped=dropped, carried_pixels=carried,
                               nonfinite_samples=int(sums.samples - count.sum()), guide_rays=guide_rays,
-                              time_short=budget <= TIMED_BUDGETS[0] if settings.time else None)
+                              band_samples=band_samples, time_short=budget <= TIMED_BUDGETS[0] if settings.time else None)
         if settings.time:  # only a timed sequence reads its pace (what follows falls in the next frame's period)
             self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time, traced)
         layers = _layers(image, count + kept, guides, budget, info)
@@ -502,8 +521,8 @@ class SequenceRenderer:
         """The past frames' samples reprojected into this frame (``found``: its :func:`survey`; ``marks``: its
         :class:`~gmcpt.temporal.history.Signature`), weighted by age, where each past pixel saw the same surface under
         the same light and material (:func:`~gmcpt.temporal.history.unchanged`)."""
-        pixels = found.lighting.size
-        usable = [past for past in self.past if past.index < index and past.total.shape[0] == pixels]
+        shape = found.features.shape
+        usable = [past for past in self.past if past.index < index and past.own_shape == shape]
         weights = history_weights([index - past.index for past in usable], self.decay)
         hits = found.lighting[np.isfinite(found.positions[:, 0])]
         floor = LIGHTING_FLOOR * float(hits.mean()) if hits.size else 0.0
@@ -513,8 +532,11 @@ class SequenceRenderer:
         shares = DroppedShares(
             lighting=float(gathered.lighting_dropped.mean()), material=float(gathered.material_dropped.mean()),
             unseen=float((~gathered.offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0)
+        # where on the latest frame's own film (its guard band off it): the carry reads the image it showed
+        margin = next((past.margin for past in usable if past.index == latest), (0, 0))
+        latest_film = np.where(gathered.latest_seen[:, None], gathered.latest_film - np.float32(margin), 0)
         return History(gathered.summed[:, :3], gathered.summed[:, 3], gathered.offered, gathered.latest_seen,
-                       gathered.latest_film, len(usable), shares)
+                       latest_film.astype(np.float32), len(usable), shares)
 
     @property
     def decay(self) -> float:
@@ -536,6 +558,9 @@ class SequenceRenderer:
         """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`),
         read along the motion at ``film`` (N, 2, its film coordinates) where ``where`` (N,) says its surface was
         seen and its history held; the share of pixels blended)."""
+        height, width = denoised.shape[:2]
+        # a surface the last frame saw on its guard band only was never shown
+        where = where & (film[:, 0] >= 0) & (film[:, 0] <= width) & (film[:, 1] >= 0) & (film[:, 1] <= height)
         if self.shown is None or not where.any():
             return denoised, 0.0
         carry = SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / budget)
@@ -553,9 +578,11 @@ class SequenceRenderer:
             state[f"{slot}_index"] = np.array(past.index)
             state[f"{slot}_matrix"] = past.projection.matrix
             state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
+            state[f"{slot}_margin"] = np.array(past.margin)
         if self.shown is not None:
             state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
         state["light_changed"] = np.array(self.light_changed)
+        state["reveal"] = np.array(astuple(self.reveal))
         return state
 
     def restore(self, state) -> None:
@@ -569,10 +596,48 @@ class SequenceRenderer:
             self.past.append(PastFrame(int(state[f"{slot}_index"]), state[f"{slot}_total"], state[f"{slot}_count"],
                                        state[f"{slot}_positions"], state[f"{slot}_normals"],
                                        Projection(state[f"{slot}_matrix"], width, height),
-                                       signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height)))
+                                       signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height),
+                                       tuple(int(value) for value in state.get(f"{slot}_margin", (0, 0)))))
             slot += 1
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
         self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
+        self.reveal = Sides(*(int(value) for value in state["reveal"])) if "reveal" in state else Sides()
+
+
+def _inner(wide: Survey, band: GuardBand | None) -> tuple[Survey, Signature]:
+    """(the frame's own :class:`Survey`, the wide film's :class:`~gmcpt.temporal.history.Signature`) of a survey over
+    ``band``'s wide film (None: the frame's film, as it is)."""
+    shape = wide.features.shape if band is None else band.wide_shape
+    albedo = (wide.features.planes[0] + wide.features.planes[1] + wide.features.planes[2]) / np.float32(3)
+    marks = signature(wide.lighting, albedo, shape[1], shape[0])
+    if band is None:
+        return wide, marks
+    features = FeatureMeans(tuple(band.inner(plane) for plane in wide.features.planes), wide.features.spp, None, 0,
+                            band.shape)
+    return Survey(band.inner(wide.positions), band.inner(wide.normals), features, band.inner(wide.lighting),
+                  band.inner_projection(wide.projection)), marks
+
+
+def _crop_signature(marks: Signature, band: GuardBand | None) -> Signature:
+    """The frame's own pixels of a wide film's signature (its spreads read with the band's pixels beside them)."""
+    if band is None:
+        return marks
+    return Signature(*(band.inner(values) for values in (marks.lighting, marks.albedo, marks.lighting_spread,
+                                                          marks.albedo_spread)))
+
+
+def _with_band(total: np.ndarray, count: np.ndarray, band: GuardBand | None, where: tuple, sides: Sides,
+               budget: float, seed: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """The frame's sums (``total`` (N, 3), ``count`` (N,)) over ``band``'s wide film, with the budget's samples traced
+    on the band beyond the revealed ``sides`` (``where``: scene, integrator), and how many were traced there; as
+    they are without a band."""
+    if band is None:
+        return total, count, 0
+    scene, integrator = where
+    counts = band.band_counts(sides, budget, stream(seed, SEQUENCE_BAND_SEED_OFFSET))
+    band_total, _, band_count = trace_counts(scene, band.sensor, integrator, counts,
+                                             stream(seed, SEQUENCE_BAND_SEED_OFFSET))
+    return band.embed(total, band_total), band.embed(count, band_count), int(counts.sum())
 
 
 def sequence_budget(budget: float | None, sensor: mi.Sensor) -> float:
