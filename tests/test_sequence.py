@@ -345,6 +345,8 @@ def test_a_pan_brings_surfaces_into_view_with_history_from_the_guard_band(mi, mo
         return gathered
 
     monkeypatch.setattr(sequence, "gather_history", spied)
+    # whether a band pays is read from the noise along the side (tests/test_temporal.py): here it always does
+    monkeypatch.setattr(sequence, "worth_a_band", lambda sides, *frame: sides)
 
     def pan():
         scene = _scene(STILL_LIFE)  # a room all round: the Cornell box's sides reveal the void

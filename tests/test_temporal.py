@@ -189,3 +189,16 @@ def test_a_guard_band_traces_the_budget_beyond_the_revealed_sides_only():
     wide = band.embed(inner, np.full(band.wide_shape[0] * band.wide_shape[1], -1.0, np.float32))
     np.testing.assert_array_equal(band.inner(wide), inner)
     assert (wide.reshape(band.wide_shape)[:, :4] == -1).all()
+
+
+def test_a_band_is_traced_only_where_what_comes_into_view_is_noisy():
+    from gmcpt.temporal.guard import Sides, worth_a_band
+
+    rng = np.random.default_rng(3)
+    shape = (32, 32)
+    clean = np.full((*shape, 3), 0.3, np.float32)
+    noisy_left = clean + rng.normal(0, 0.02, clean.shape).astype(np.float32)
+    noisy_left[:, :4] += rng.normal(0, 0.2, (shape[0], 4, 3)).astype(np.float32)
+    assert worth_a_band(Sides(left=5), noisy_left.reshape(-1, 3), clean, shape) == Sides(left=5)
+    assert not worth_a_band(Sides(right=5), noisy_left.reshape(-1, 3), clean, shape)  # the quiet side
+    assert not worth_a_band(Sides(), noisy_left.reshape(-1, 3), clean, shape)

@@ -6,7 +6,7 @@ columns a pan brought in within the history's length were 5-8% of the pixels and
 (:func:`revealed`), a frame surveys a wider film (:class:`GuardBand`: the same camera, a wider field of view, the
 same pixel pitch) and traces the budget's samples on the band of it beyond the revealing sides: a few frames later
 those surfaces enter the view with a history like any other pixel's. A still camera, or one moving straight ahead,
-reveals nothing and traces no band.
+reveals nothing and traces no band; nor does a side whose surfaces are no noisier than the rest (:func:`worth_a_band`).
 """
 from __future__ import annotations
 
@@ -25,6 +25,10 @@ from .history import Projection
 BAND_SHARE = 1 / 16
 #: The least motion (pixels a frame at the film's border) that counts as revealing a side.
 REVEAL_SHIFT = 0.05
+#: A band is traced only where the strips along the revealed sides are this many times as noisy as the whole frame
+#: (:func:`worth_a_band`): a band costs 8-10% of a frame at budget 1, and what comes into view pays it back only
+#: where it is noisier than the rest (docs/experiments.md).
+BAND_NOISE_RATIO = 1.1
 
 
 @dataclass(frozen=True)
@@ -161,3 +165,28 @@ def revealed(film: np.ndarray, seen: np.ndarray, shape: tuple[int, int], history
                  right=depth((every, slice(width - near_x, width)), 0, 1.0),
                  top=depth((slice(0, near_y), every), 1, -1.0),
                  bottom=depth((slice(height - near_y, height), every), 1, 1.0))
+
+
+def worth_a_band(sides: Sides, own: np.ndarray, denoised: np.ndarray, shape: tuple[int, int]) -> Sides:
+    """``sides``, or none where a band would not pay: the noise of the frame's own samples ``own`` (N, 3, linear)
+    along the revealed sides (strips as wide as the band) against the whole frame's, read as their squared distance
+    from the ``denoised`` frame (H, W, 3) in displayed values, at least :data:`BAND_NOISE_RATIO` times it."""
+    if not sides:
+        return sides
+    height, width = shape
+    own, denoised = own.reshape(height, width, 3), denoised.reshape(height, width, 3)
+
+    def noise(where: tuple) -> float:
+        shown = [np.clip(image[where], 0.0, 1.0) ** (1 / 2.2) for image in (own, denoised)]
+        return float(((shown[0] - shown[1]) ** 2).mean())
+
+    margin_x, margin_y = band_margin(shape, sides)
+    every = slice(None)
+    strips = [strip for strip, side in (((every, slice(0, margin_x)), sides.left),
+                                        ((every, slice(width - margin_x, width)), sides.right),
+                                        ((slice(0, margin_y), every), sides.top),
+                                        ((slice(height - margin_y, height), every), sides.bottom)) if side]
+    along = np.mean([noise(strip) for strip in strips])
+    # the frame's own noise from every other pixel of every other row: a quarter of the work, the same mean
+    return sides if along >= BAND_NOISE_RATIO * max(noise((slice(None, None, 2), slice(None, None, 2))), 1e-12) \
+        else Sides()

@@ -41,7 +41,7 @@ from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
 from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_BAND_SEED_OFFSET, SEQUENCE_PASS_SEED_OFFSET,
                      SEQUENCE_TOP_UP_SEED_OFFSET, stream)
-from .guard import GuardBand, Sides, guard_band, revealed
+from .guard import GuardBand, Sides, guard_band, revealed, worth_a_band
 from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, cubic_sample, fit_projection,
                       history_weights, signature)
 from .reprojection import JitFrame, gather_history, jit_frame
@@ -500,7 +500,8 @@ class SequenceRenderer:
                                        wide.positions, wide.normals, wide.projection, wide_marks,
                                        band.margin if band is not None else (0, 0)))
             self.shown = (index, shown)
-            self.reveal = revealed(history.latest_film, history.latest_seen, (height, width), settings.history)
+            self.reveal = worth_a_band(revealed(history.latest_film, history.latest_seen, (height, width),
+                                                settings.history), own, denoised, (height, width))
             timings["band_s"] = time.perf_counter() - start
         decay, self.light_changed = self.decay, history.dropped.lighting  # the decay this frame's history had
         dropped = replace(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
