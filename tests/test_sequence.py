@@ -370,3 +370,15 @@ def test_a_pan_brings_surfaces_into_view_with_history_from_the_guard_band(mi, mo
     for index in range(3):
         still.render(scene, index)
     assert not still.reveal and still.past[-1].margin == (0, 0)
+
+
+def test_a_perspective_camera_s_projection_in_closed_form_is_its_fit(mi):
+    from gmcpt.temporal.sequence import camera_projection, fitted_projection
+
+    for path in (CORNELL, STILL_LIFE):
+        sensor = _scene(path).sensors()[0]
+        _turn(mi, sensor, 7.0)
+        closed, fitted = camera_projection(sensor), fitted_projection(sensor)
+        assert (closed.width, closed.height) == (fitted.width, fitted.height) == SIZE
+        np.testing.assert_allclose(closed.matrix / closed.matrix[2, 3], fitted.matrix / fitted.matrix[2, 3],
+                                   atol=1e-4 * np.abs(fitted.matrix / fitted.matrix[2, 3]).max())

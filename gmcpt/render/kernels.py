@@ -264,6 +264,11 @@ def _unit_normals(planes: list, feature_spp: int) -> np.ndarray:
     return normal
 
 
+def scalar_parameter(value) -> float:
+    """A scene parameter as a Python float (``mi.traverse`` gives floats or one-lane Dr.Jit arrays)."""
+    return float(value) if isinstance(value, (int, float)) else float(np.asarray(value).ravel()[0])
+
+
 def camera_key(sensor: mi.Sensor) -> tuple:
     """The sensor's scalar settings that :func:`primary_rays` bakes into a kernel as constants."""
     film = sensor.film()

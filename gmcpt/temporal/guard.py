@@ -17,7 +17,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from ..render.kernels import sensor_film_size
+from ..render.kernels import scalar_parameter, sensor_film_size
 from .history import Projection
 
 #: The band's width beyond each side of the film, a share of the film's size: room for the history's frames of a
@@ -97,6 +97,18 @@ class GuardBand:
         return counts
 
 
+def centred_perspective(parameters) -> bool:
+    """Whether ``parameters`` (``mi.traverse`` of a sensor) are a perspective camera's with its principal point at the
+    film's centre and no crop window: a camera this module and :func:`gmcpt.temporal.sequence.camera_projection` know
+    in closed form."""
+    if "x_fov" not in parameters or "to_world" not in parameters:
+        return False
+    cropped = "film.crop_offset" in parameters and (any(parameters["film.crop_offset"]) or tuple(
+        parameters["film.crop_size"]) != tuple(parameters["film.size"]))
+    return not cropped and all(scalar_parameter(parameters[key]) == 0
+                               for key in ("principal_point_offset_x", "principal_point_offset_y") if key in parameters)
+
+
 def band_margin(shape: tuple[int, int], sides: Sides) -> tuple[int, int]:
     """The wide film's margin (x, y) for ``sides``: :data:`BAND_SHARE` of the film where a side of that axis reveals."""
     height, width = shape
@@ -110,21 +122,20 @@ def guard_band(sensor: mi.Sensor, sides: Sides, cache: dict) -> GuardBand | None
     if not sides:
         return None
     parameters = mi.traverse(sensor)
-    if "x_fov" not in parameters or "to_world" not in parameters or any(
-            abs(_scalar(parameters[key])) > 0 for key in ("principal_point_offset_x", "principal_point_offset_y")):
+    if not centred_perspective(parameters):
         return None
     shape = sensor_film_size(sensor)
     margin = band_margin(shape, sides)
-    x_fov = _scalar(parameters["x_fov"])
+    x_fov = scalar_parameter(parameters["x_fov"])
     # by what the band's sensor is made of, not by the sensor object: a scene loaded anew each frame has a new one
-    key = (x_fov, _scalar(parameters["near_clip"]), _scalar(parameters["far_clip"]), shape, margin)
+    key = (x_fov, scalar_parameter(parameters["near_clip"]), scalar_parameter(parameters["far_clip"]), shape, margin)
     if key not in cache:
         height, width = shape
         wide_width = width + 2 * margin[0]
         fov = math.degrees(2 * math.atan(math.tan(math.radians(x_fov) / 2) * wide_width / width))
         wide = mi.load_dict({"type": "perspective", "fov": fov, "fov_axis": "x",
-                             "near_clip": _scalar(parameters["near_clip"]),
-                             "far_clip": _scalar(parameters["far_clip"]),
+                             "near_clip": scalar_parameter(parameters["near_clip"]),
+                             "far_clip": scalar_parameter(parameters["far_clip"]),
                              "film": {"type": "hdrfilm", "width": wide_width, "height": height + 2 * margin[1],
                                       "rfilter": {"type": "box"}}})
         cache[key] = GuardBand(wide, margin, shape)
@@ -135,11 +146,6 @@ def guard_band(sensor: mi.Sensor, sides: Sides, cache: dict) -> GuardBand | None
     wide_parameters["to_world"] = to_world
     wide_parameters.update()
     return band
-
-
-def _scalar(value) -> float:
-    """A sensor parameter as a Python float (``mi.traverse`` gives floats or one-lane Dr.Jit arrays)."""
-    return float(value) if isinstance(value, (int, float)) else float(np.asarray(value).ravel()[0])
 
 
 def revealed(film: np.ndarray, seen: np.ndarray, shape: tuple[int, int], history: int) -> Sides:
