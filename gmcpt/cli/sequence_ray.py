@@ -188,7 +188,7 @@ def run(args, jobs: list[dict], say, bar) -> dict:
         size = args.chunk or default_size(len(jobs), workers(resources, args.threads, gpus), args.history)
         tasks = _tasks(args, jobs, size, set(rows))
         say(f"{len(rows)} frames already complete; {len(tasks)} chunks of up to {size} frames on Ray ({args.ray}), "
-            f"each after up to {args.history} frames of warm-up")
+            f"each after up to {warm_up_frames(args.history)} frames of warm-up")
         tails = {job["name"]: (job, task["chunk"].tail) for task in tasks for job in task["chunk"].tail}
         halves: dict[str, dict] = {name: {} for name in tails}
         for result in run_tasks(render_chunk, tasks, cpus=args.threads, gpus=gpus, max_retries=args.retries):
