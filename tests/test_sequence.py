@@ -316,7 +316,7 @@ def test_the_guard_band_is_the_frames_own_rays_and_follows_the_camera(mi):
     band = guard_band(sensor, Sides(left=3), cache)
     assert band.margin[1] == 0 and band.margin[0] >= 3 and band.wide_shape == (SIZE[1], SIZE[0] + 2 * band.margin[0])
     narrow, wide = survey(scene, sensor, 1), survey(scene, band.sensor, 1)
-    inner, _ = _inner(wide, band)
+    inner, _, _ = _inner(wide, band)
     hit = np.isfinite(narrow.positions[:, 0])
     assert np.array_equal(hit, np.isfinite(inner.positions[:, 0]))
     np.testing.assert_allclose(inner.positions[hit], narrow.positions[hit], atol=1e-3)
@@ -325,7 +325,7 @@ def test_the_guard_band_is_the_frames_own_rays_and_follows_the_camera(mi):
     _turn(mi, sensor, 2.0)
     assert guard_band(sensor, Sides(left=3), cache) is band  # made once, its camera moved with the frame's
     moved, wide = survey(scene, sensor, 1), survey(scene, band.sensor, 1)
-    inner, _ = _inner(wide, band)
+    inner, _, _ = _inner(wide, band)
     hit = np.isfinite(moved.positions[:, 0])
     np.testing.assert_allclose(inner.positions[hit], moved.positions[hit], atol=1e-3)
     assert np.nanmax(np.abs(moved.positions[hit] - narrow.positions[hit])) > 1e-2  # it did move

@@ -62,8 +62,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "independent frames, as are those of --sweep, of several scenes or with a single-frame "
                         "option such as --rate or --spp (default: 8)")
     parser.add_argument("--chunk", type=int, metavar="N", help="a sequence on Ray: N consecutive frames a task, "
-                        "each task first rendering the --history frames (and 2 more) before its own unwritten (default: the "
-                        "frames over the workers, at least 2 x --history)")
+                        "each task first rendering the --history frames (and 2 more) before its own unwritten "
+                        "(default: the frames over the workers, at least 2 x --history)")
     parser.add_argument("--threads", type=int, default=1,
                         help="CPU threads of one frame: torch's everywhere, Dr.Jit's and the Ray task's CPUs on Ray")
     parser.add_argument("--ray", metavar="ADDRESS", help="run frames as Ray tasks: local (start a cluster here), "

@@ -2,13 +2,14 @@
 frames, one Ray task a chunk.
 
 A task first renders, without writing them, the ``N + 2`` frames before its chunk (the warm-up,
-:func:`warm_up_frames`): their samples are the history of the chunk's first frame. Then it renders and writes the chunk's frames, with the files and records of
-the one-process path (:mod:`gmcpt.cli.sequence_batch`). A frame's samples are seeded by its index, but where they fall
-follows the history, so two tasks' renders of a frame draw different samples: at a chunk's first frame the noise
-would change all at once, where inside a chunk each frame shares most of its samples and a share of its image
-(:data:`gmcpt.temporal.sequence.SHOWN_CARRY`) with the frame before. So the last frames of a chunk
-(:func:`blend_frames`) are cross-faded into the next chunk's renders of them, its warm-up's last frames, rising towards
-the next chunk: the change is spread over those frames, and the driver writes them when both halves are in.
+:func:`warm_up_frames`): their samples are the history of the chunk's first frame. Then it renders and writes the
+chunk's frames, with the files and records of the one-process path (:mod:`gmcpt.cli.sequence_batch`). A frame's
+samples are seeded by its index, but where they fall follows the history, so two tasks' renders of a frame draw
+different samples: at a chunk's first frame the noise would change all at once, where inside a chunk each frame
+shares most of its samples and a share of its image (:data:`gmcpt.temporal.sequence.SHOWN_CARRY`) with the frame
+before. So the last frames of a chunk (:func:`blend_frames`) are cross-faded into the next chunk's renders of them,
+its warm-up's last frames, rising towards the next chunk: the change is spread over those frames, and the driver
+writes them when both halves are in.
 
 Resuming is per frame, through the frames' records (:func:`gmcpt.cli.batch_records.finished_record`, made with the same
 history): the state file ``.sequence-state.npz`` belongs to the one-process path. A task renders from its warm-up

@@ -118,7 +118,8 @@ def band_margin(shape: tuple[int, int], sides: Sides) -> tuple[int, int]:
 
 def guard_band(sensor: mi.Sensor, sides: Sides, cache: dict) -> GuardBand | None:
     """The :class:`GuardBand` of ``sensor`` for ``sides`` (made once per field of view, clipping, film and margin in
-    ``cache``, its camera moved to the sensor's each frame), or None: nothing revealed, or a sensor other than a centred perspective one."""
+    ``cache``, its camera moved to the sensor's each frame), or None: nothing revealed, or a sensor other than a
+    centred perspective one."""
     if not sides:
         return None
     parameters = mi.traverse(sensor)
@@ -126,16 +127,14 @@ def guard_band(sensor: mi.Sensor, sides: Sides, cache: dict) -> GuardBand | None
         return None
     shape = sensor_film_size(sensor)
     margin = band_margin(shape, sides)
-    x_fov = scalar_parameter(parameters["x_fov"])
+    x_fov, near, far = (scalar_parameter(parameters[key]) for key in ("x_fov", "near_clip", "far_clip"))
     # by what the band's sensor is made of, not by the sensor object: a scene loaded anew each frame has a new one
-    key = (x_fov, scalar_parameter(parameters["near_clip"]), scalar_parameter(parameters["far_clip"]), shape, margin)
+    key = (x_fov, near, far, shape, margin)
     if key not in cache:
         height, width = shape
         wide_width = width + 2 * margin[0]
         fov = math.degrees(2 * math.atan(math.tan(math.radians(x_fov) / 2) * wide_width / width))
-        wide = mi.load_dict({"type": "perspective", "fov": fov, "fov_axis": "x",
-                             "near_clip": scalar_parameter(parameters["near_clip"]),
-                             "far_clip": scalar_parameter(parameters["far_clip"]),
+        wide = mi.load_dict({"type": "perspective", "fov": fov, "fov_axis": "x", "near_clip": near, "far_clip": far,
                              "film": {"type": "hdrfilm", "width": wide_width, "height": height + 2 * margin[1],
                                       "rfilter": {"type": "box"}}})
         cache[key] = GuardBand(wide, margin, shape)

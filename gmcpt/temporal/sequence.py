@@ -14,8 +14,9 @@ OIDN over the sums; then the frame shown before, carried along the motion (Catmu
 held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every frame
 (the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after
 it, and where the camera's motion reveals a side of the film, also those of a guard band beyond that side
-(:mod:`gmcpt.temporal.guard`), so that what comes into view arrives with a history. :meth:`SequenceRenderer.state` and :meth:`SequenceRenderer.restore` carry the history across processes,
-so a stopped sequence resumes with the images an uninterrupted run gives.
+(:mod:`gmcpt.temporal.guard`), so that what comes into view arrives with a history. :meth:`SequenceRenderer.state`
+and :meth:`SequenceRenderer.restore` carry the history across processes, so a stopped sequence resumes with the
+images an uninterrupted run gives.
 
 With no history (the first frame, after a cut), a frame is the budget's samples spread evenly, then OIDN.
 """
@@ -219,9 +220,7 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     ray, _ = primary_rays(sensor, sampler, pixel, width, guide_rays)
     # each pixel's first guide ray goes through its centre: the reprojection's ray, in the same launch
     first = (lane - pixel * dr.opaque(mi.UInt32, guide_rays)) == 0
-    film = mi.Point2f(mi.Float(pixel % width) + 0.5, mi.Float(pixel // width) + 0.5)
-    centre, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
-                                  sample2=film / mi.ScalarVector2f(width, height), sample3=mi.Point2f(0.5))
+    centre = _centre_ray(sensor, pixel, (width, height))
     ray.o, ray.d = dr.select(first, centre.o, ray.o), dr.select(first, centre.d, ray.d)
     si = scene.ray_intersect(ray)
     hit = si.is_valid()
@@ -235,8 +234,7 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     values.append(dr.select(hit, (light.x + light.y + light.z) / 3, 0.0))
     means = pixel_means(values, pixel, dr.opaque(mi.Float, 1 / guide_rays), height * width)
     centres = [dr.zeros(mi.Float, height * width) for _ in range(7)]
-    for target, value in zip(centres, (si.p.x, si.p.y, si.p.z, si.sh_frame.n.x, si.sh_frame.n.y, si.sh_frame.n.z,
-                                       dr.select(hit, 1.0, 0.0))):
+    for target, value in zip(centres, _hit_planes(si)):
         dr.scatter(target, value, pixel, first)
     return means + centres
 
@@ -244,13 +242,22 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
 def _centre_planes(scene: mi.Scene, sensor: mi.Sensor, size: tuple[int, int]) -> list:
     """Where one ray through each pixel's centre of a ``size`` (W, H) film hits: x, y, z, normal x, y, z, hit."""
     width, height = size
-    index = dr.arange(mi.UInt32, height * width)
-    film = mi.Point2f(mi.Float(index % width) + 0.5, mi.Float(index // width) + 0.5)
-    centre, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
-                                  sample2=film / mi.ScalarVector2f(width, height), sample3=mi.Point2f(0.5))
-    hit = scene.ray_intersect(centre)
-    return [hit.p.x, hit.p.y, hit.p.z, hit.sh_frame.n.x, hit.sh_frame.n.y, hit.sh_frame.n.z,
-            dr.select(hit.is_valid(), 1.0, 0.0)]
+    return _hit_planes(scene.ray_intersect(_centre_ray(sensor, dr.arange(mi.UInt32, height * width), size)))
+
+
+def _centre_ray(sensor: mi.Sensor, pixel: mi.UInt32, size: tuple[int, int]) -> mi.Ray3f:
+    """The ray through the centre of each lane's ``pixel`` (flat index) of a ``size`` (W, H) film."""
+    width, height = size
+    film = mi.Point2f(mi.Float(pixel % width) + 0.5, mi.Float(pixel // width) + 0.5)
+    ray, _ = sensor.sample_ray(time=sensor.shutter_open(), sample1=0.0,
+                               sample2=film / mi.ScalarVector2f(width, height), sample3=mi.Point2f(0.5))
+    return ray
+
+
+def _hit_planes(si: mi.SurfaceInteraction3f) -> tuple:
+    """Where a ray hit: x, y, z, shading normal x, y, z, and 1 on a hit (0 on a miss)."""
+    return (si.p.x, si.p.y, si.p.z, si.sh_frame.n.x, si.sh_frame.n.y, si.sh_frame.n.z,
+            dr.select(si.is_valid(), 1.0, 0.0))
 
 
 #: :func:`_survey_planes` recorded once per scene, film and guide rays, then replayed; :func:`_centre_planes` alone
@@ -449,8 +456,8 @@ class SequenceRenderer:
         self._jit: dict[int, tuple[PastFrame, JitFrame]] = {}  # the past frames in Dr.Jit, by id
         self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
         self.light_changed = 0.0  # the share of the last frame's pixels whose light changed (DroppedShares.lighting)
-        self.reveal = Sides()  # the film's sides the last frame's motion revealed (:func:`~gmcpt.temporal.guard.revealed`)
-        self._bands: dict = {}  # guard bands by sensor and margin (:func:`~gmcpt.temporal.guard.guard_band`)
+        self.reveal = Sides()  # the sides the last frame's motion revealed (:func:`~gmcpt.temporal.guard.revealed`)
+        self._bands: dict = {}  # guard bands by camera and margin (:func:`~gmcpt.temporal.guard.guard_band`)
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
                sensor: mi.Sensor | None = None) -> tuple[np.ndarray, SequenceRecord, dict]:
@@ -475,9 +482,8 @@ class SequenceRenderer:
         band = guard_band(sensor, self.reveal, self._bands) if settings.history and not settings.time else None
         # one seed: a still camera's survey stays put
         wide = survey(scene, band.sensor if band is not None else sensor, guide_rays, settings.seed)
-        found, wide_marks = _inner(wide, band)
+        found, marks, wide_marks = _inner(wide, band)
         guides = found.features.buffers()
-        marks = _crop_signature(wide_marks, band)
         timings["features_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
@@ -538,7 +544,8 @@ class SequenceRenderer:
                               history_dropped=float((history.offered & ~((history.count > 0) & agrees)).mean()),
                               dropped=dropped, carried_pixels=carried,
                               nonfinite_samples=int(sums.samples - count.sum()), guide_rays=guide_rays,
-                              band_samples=band_samples, time_short=budget <= TIMED_BUDGETS[0] if settings.time else None)
+                              band_samples=band_samples,
+                              time_short=budget <= TIMED_BUDGETS[0] if settings.time else None)
         if settings.time:  # only a timed sequence reads its pace (what follows falls in the next frame's period)
             self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time, traced)
         layers = _layers(image, count + kept, guides, budget, info)
@@ -631,26 +638,22 @@ class SequenceRenderer:
         self.reveal = Sides(*(int(value) for value in state["reveal"])) if "reveal" in state else Sides()
 
 
-def _inner(wide: Survey, band: GuardBand | None) -> tuple[Survey, Signature]:
-    """(the frame's own :class:`Survey`, the wide film's :class:`~gmcpt.temporal.history.Signature`) of a survey over
-    ``band``'s wide film (None: the frame's film, as it is)."""
-    shape = wide.features.shape if band is None else band.wide_shape
+def _inner(wide: Survey, band: GuardBand | None) -> tuple[Survey, Signature, Signature]:
+    """(the frame's own :class:`Survey`, its :class:`~gmcpt.temporal.history.Signature`, the wide film's) of a survey
+    over ``band``'s wide film (None: the frame's film, the survey and signature as they are). The frame's signature is
+    the wide one's inner pixels: its spreads read with the band's pixels beside them."""
+    height, width = wide.features.shape
     albedo = (wide.features.planes[0] + wide.features.planes[1] + wide.features.planes[2]) / np.float32(3)
-    marks = signature(wide.lighting, albedo, shape[1], shape[0])
+    marks = signature(wide.lighting, albedo, width, height)
     if band is None:
-        return wide, marks
+        return wide, marks, marks
     features = FeatureMeans(tuple(band.inner(plane) for plane in wide.features.planes), wide.features.spp, None, 0,
                             band.shape)
-    return Survey(band.inner(wide.positions), band.inner(wide.normals), features, band.inner(wide.lighting),
-                  band.inner_projection(wide.projection)), marks
-
-
-def _crop_signature(marks: Signature, band: GuardBand | None) -> Signature:
-    """The frame's own pixels of a wide film's signature (its spreads read with the band's pixels beside them)."""
-    if band is None:
-        return marks
-    return Signature(*(band.inner(values) for values in (marks.lighting, marks.albedo, marks.lighting_spread,
-                                                          marks.albedo_spread)))
+    found = Survey(band.inner(wide.positions), band.inner(wide.normals), features, band.inner(wide.lighting),
+                   band.inner_projection(wide.projection))
+    own = Signature(*(band.inner(values) for values in (marks.lighting, marks.albedo, marks.lighting_spread,
+                                                        marks.albedo_spread)))
+    return found, own, marks
 
 
 def _with_band(total: np.ndarray, count: np.ndarray, band: GuardBand | None, where: tuple, sides: Sides,
