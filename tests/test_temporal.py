@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from gmcpt.errors import GmcptError
-from gmcpt.temporal.history import PastFrame, agreement, cubic_sample, fit_projection, history_weights, reproject
+from gmcpt.temporal.history import PastFrame, agreement, fit_projection, history_weights, reproject
+from gmcpt.temporal.reprojection import cubic_sample
 
 from camera_helpers import HEIGHT, WIDTH, camera, centres, wall_frame
 

@@ -228,33 +228,6 @@ def reproject(past: PastFrame, positions: np.ndarray, normals: np.ndarray) -> tu
     return index, valid
 
 
-def cubic_sample(image: np.ndarray, film: np.ndarray) -> np.ndarray:
-    """``image`` (H, W, C) read at film coordinates ``film`` (N, 2; pixel centres at +0.5, within the film) with
-    Catmull-Rom weights over 4x4 pixels, edges replicated, clipped at 0: (N, C) float32. Sharper than bilinear,
-    so an image carried from frame to frame this way does not grow blurred (bilinear lost 0.3 dB over a pan)."""
-    height, width, channels = image.shape
-    padded = np.pad(image.astype(np.float32, copy=False), ((2, 2), (2, 2), (0, 0)), mode="edge")
-    stride = width + 4
-    x, y = film[:, 0].astype(np.float32) - 0.5, film[:, 1].astype(np.float32) - 0.5
-    x0, y0 = np.clip(np.floor(x), -1, width - 1), np.clip(np.floor(y), -1, height - 1)
-    weights_x, weights_y = _catmull_rom(x - x0), _catmull_rom(y - y0)
-    corner = ((y0 + 1) * stride + x0 + 1).astype(np.int32)  # the tap at (-1, -1), padded; int32 gathers faster
-    taps = [(j * stride + i, weights_y[j] * weights_x[i]) for j in range(4) for i in range(4)]
-    result = np.empty((film.shape[0], channels), np.float32)
-    for channel in range(channels):  # one plane at a time: 1-D gathers, half the time of gathering pixels' rows
-        plane, total = np.ascontiguousarray(padded[..., channel]).ravel(), np.zeros(film.shape[0], np.float32)
-        for offset, weight in taps:  # offsets added here, not 16 index arrays kept: they stay in cache
-            total += plane.take(corner + offset) * weight
-        result[:, channel] = total
-    return np.maximum(result, 0.0)
-
-
-def _catmull_rom(t: np.ndarray) -> list[np.ndarray]:
-    """The four Catmull-Rom weights of the taps at -1, 0, 1, 2 for a fraction ``t`` in [0, 1)."""
-    t2, t3 = t * t, t * t * t
-    return [(-t3 + 2 * t2 - t) / 2, (3 * t3 - 5 * t2 + 2) / 2, (-3 * t3 + 4 * t2 + t) / 2, (t3 - t2) / 2]
-
-
 def agreement(current_mean: np.ndarray, history_mean: np.ndarray, has_history: np.ndarray) -> np.ndarray:
     """(H, W) bool: where the history's luminance (H, W, 3 means) over a 15x15 neighbourhood is within a factor
     :data:`DISAGREE_RATIO` of the current frame's there (``current_mean``), or there is no history to judge

@@ -44,9 +44,9 @@ from ..sampling.masks import DEFAULT_RATE
 from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_BAND_SEED_OFFSET, SEQUENCE_PASS_SEED_OFFSET,
                      SEQUENCE_TOP_UP_SEED_OFFSET, stream)
 from .guard import GuardBand, Sides, centred_perspective, guard_band, revealed, worth_a_band
-from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, cubic_sample, fit_projection,
+from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, fit_projection,
                       history_weights, signature)
-from .reprojection import JitFrame, gather_history, jit_frame
+from .reprojection import JitFrame, cubic_sample, gather_history, jit_frame
 
 #: Frames of history kept by default, and the weight of a frame's samples per frame of age (0.9 over 0.8: +0.1-0.2
 #: dB on a pan; 16 frames another +0.1 for twice the reprojection time; docs/experiments.md).
