@@ -367,6 +367,45 @@ def test_a_shape_moved_through_traverse_is_traced_where_it_is_now(mi):
         np.testing.assert_allclose(ours, theirs, rtol=1e-4, atol=1e-5)
 
 
+def test_an_animated_scene_runs_its_kernels_plainly_and_a_still_one_replays_them(mi):
+    """A kernel records while its scene keeps still and replays that recording; a shape moved through ``mi.traverse``
+    drops it, and after :data:`~gmcpt.render.kernels.ANIMATED_MOVES` moves the scene is an animation: the kernel runs
+    the plain function for it, still calls too (a recording would serve one frame), and its sums stay the plain
+    function's."""
+    import drjit as dr
+
+    from gmcpt.render import held, kernels
+    from gmcpt.render.scene import load_scene
+
+    kernel = kernels.FrozenKernel(kernels._pixel_sums)
+    pixels = np.arange(0, 24 * 20, 2)
+    scene = load_scene(CORNELL, resolution=(24, 20))
+    path, parameters = scene.integrator().integrator, mi.traverse(scene)
+    key = "tall_block.vertex_positions"
+    base = np.array(parameters[key])
+    arguments = lambda: (  # noqa: E731
+        scene.sensors()[0], path, mi.UInt32(pixels.astype(np.uint32)), dr.arange(mi.UInt32, pixels.size * 4),
+        dr.opaque(mi.UInt32, 3), 4, kernels.camera_key(scene.sensors()[0]),
+        [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)])
+    recordings = held.scene_state(scene).setdefault("recordings", {})
+
+    def move(step):
+        parameters[key] = mi.Float(base + np.float32(0.05 * step))
+        parameters.update()
+
+    for _ in range(2):
+        kernel(scene, arguments)
+    assert kernel in recordings  # a still scene replays
+    for step in range(1, kernels.ANIMATED_MOVES + 1):
+        move(step)
+        for _ in range(2):
+            sums = kernel(scene, arguments)
+        assert (kernel in recordings) == (step < kernels.ANIMATED_MOVES)
+    plain = kernels._pixel_sums(scene, *arguments())
+    for column, expected in zip(sums, plain):
+        np.testing.assert_array_equal(np.asarray(column), np.asarray(expected))
+
+
 def test_the_frame_info_writes_the_sidecars_entries_in_their_order():
     """:meth:`gmcpt.frame.FrameInfo.to_json`: a budget's readings even where not read (null), a time budget's spent
     samples, ``two_pass``'s first pass, nothing a strategy did not record; an unknown field is refused."""

@@ -154,7 +154,8 @@ def changed_pixels(firsts: list[np.ndarray], seconds: list[np.ndarray], geometri
     variance = sum(uniform_filter((first - second) ** 2, NOISE_WINDOW, mode="nearest") / 4
                    for first, second in pairs.values())
     change = np.abs(now.reshape(-1) - warped)
-    threshold = np.maximum(CHANGE_FLOOR, CHANGE_NOISE_SIGMAS * np.sqrt(variance.reshape(-1)))
+    # a running sum's rounding leaves a noiseless (black) window's variance a hair below 0: NaN, read as unchanged
+    threshold = np.maximum(CHANGE_FLOOR, CHANGE_NOISE_SIGMAS * np.sqrt(np.maximum(variance.reshape(-1), 0.0)))
     return ~seen | (change > threshold)
 
 

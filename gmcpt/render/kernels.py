@@ -52,6 +52,14 @@ FEATURE_RAY_FLAGS = mi.RayFlags.Minimal | mi.RayFlags.UV | mi.RayFlags.ShadingFr
 FREEZE_OPTIONS = {"limit": 64, "warn_after": 1 << 30}
 
 
+#: A scene whose shapes moved this many times between the calls of one frozen kernel is an animation: the kernel runs
+#: the plain function for it from then on. A recording made after a move serves the frame until the next move, so an
+#: animation would record once a frame (slower than plain), and where several renderers share the scene (the sequence
+#: benchmark's contenders) the later ones of a frame replayed what the first recorded: their frames were cheaper than
+#: the same renderer's alone in an animation (docs/experiments.md).
+ANIMATED_MOVES = 2
+
+
 class FrozenKernel:
     """``function(scene, ...)`` recorded by ``dr.freeze`` once per scene and settings, then replayed.
 
@@ -60,8 +68,9 @@ class FrozenKernel:
     frame got garbage features now and then). The recordings live in the scene's
     :func:`~gmcpt.render.held.scene_state`, let go with it. Dr.Jit cannot record a virtual call when objects of another
     live scene share the call's registry (seen with the breakfast room loaded beside another scene): the recording
-    raises, and that scene runs the plain function, with the same result. Call with a function that
-    builds the arguments, so a failed recording leaves none dirty.
+    raises, and that scene runs the plain function, with the same result. After a shape moved (through
+    ``mi.traverse``) the kernel runs plain once, then records again; after :data:`ANIMATED_MOVES` moves it runs
+    plain for that scene. Call with a function that builds the arguments, so a failed recording leaves none dirty.
     """
 
     def __init__(self, function: Callable):
@@ -70,12 +79,13 @@ class FrozenKernel:
     def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple]):
         state, shapes = scene_state(scene), geometry_key(scene)
         recordings, seen = state.setdefault("recordings", {}), state.setdefault("geometry", {})
+        moves = state.setdefault("moves", {})
         moved, seen[self] = self in seen and seen[self] != shapes, shapes
         if moved:
-            # shapes moved since this kernel last ran: a replay would trace the old geometry (or freed memory), and a
-            # recording made now would serve one frame of a moving object; the plain function runs until the shapes
-            # keep still for a second call
+            # shapes moved since this kernel last ran: a replay would trace the old geometry (or freed memory)
             recordings.pop(self, None)
+            moves[self] = moves.get(self, 0) + 1
+        if moved or moves.get(self, 0) >= ANIMATED_MOVES:
             return self._plain(scene, arguments)
         if self not in recordings:
             recordings[self] = dr.freeze(self.function, **FREEZE_OPTIONS)
