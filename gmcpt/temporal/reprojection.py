@@ -6,7 +6,8 @@ fused, plus one the numpy functions do not make: where the past pixel a point la
 camera moved (an edge), another of the four past pixels around the point may serve (:func:`_match`). On 2 cores the
 numpy reprojection of 8 past frames took 0.15-0.2 s of a 256x256 frame, the largest fixed cost of a sequence frame
 (docs/experiments.md). A past frame's arrays move to Dr.Jit once (:func:`jit_frame`), and
-its camera, weight and the frame's floor are opaque, so one kernel serves every frame of a sequence.
+its camera, weight and the frame's floor are opaque, so one kernel serves every frame of a sequence. The frame
+shown before is read along the motion here too (:func:`cubic_sample`, the carry's Catmull-Rom read).
 """
 from __future__ import annotations
 
