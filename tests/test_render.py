@@ -103,6 +103,17 @@ def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, 
     assert len(refusals) == 1 and recordings[kernel] is None
 
 
+def _pixel_sums_arguments(mi, scene, path, pixels, seed):
+    """What :class:`~gmcpt.render.kernels.FrozenKernel` over ``_pixel_sums`` is called with: a function building the
+    arguments of 4 samples of each of ``pixels`` of ``scene``'s first sensor with the integrator ``path``."""
+    from gmcpt.render import kernels
+
+    return lambda: (scene.sensors()[0], path, mi.UInt32(pixels.astype(np.uint32)),
+                    kernels.dr.arange(mi.UInt32, pixels.size * 4), kernels.dr.opaque(mi.UInt32, seed), 4,
+                    kernels.camera_key(scene.sensors()[0]),
+                    [kernels.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)])
+
+
 def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
     """A scene loaded again (a batch does it for every frame) gets its own recording: replaying another
     scene's read that scene's freed objects. A scene nobody else holds is let go at the next call, with
@@ -116,10 +127,7 @@ def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
     pixels = np.arange(0, 24 * 20, 2)
     first = load_scene(CORNELL, resolution=(24, 20))
     path = first.integrator().integrator
-    arguments = lambda scene, seed: (lambda: (  # noqa: E731
-        scene.sensors()[0], path, mi.UInt32(pixels.astype(np.uint32)), kernels.dr.arange(mi.UInt32, pixels.size * 4),
-        kernels.dr.opaque(mi.UInt32, seed), 4, kernels.camera_key(scene.sensors()[0]),
-        [kernels.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)]))
+    arguments = lambda scene, seed: _pixel_sums_arguments(mi, scene, path, pixels, seed)  # noqa: E731
     kernel(first, arguments(first, 1))
     recording = held.scene_state(first)["recordings"][kernel]
     second = load_scene(CORNELL, resolution=(24, 20))
@@ -372,8 +380,6 @@ def test_an_animated_scene_runs_its_kernels_plainly_and_a_still_one_replays_them
     drops it, and after :data:`~gmcpt.render.kernels.ANIMATED_MOVES` moves the scene is an animation: the kernel runs
     the plain function for it, still calls too (a recording would serve one frame), and its sums stay the plain
     function's."""
-    import drjit as dr
-
     from gmcpt.render import held, kernels
     from gmcpt.render.scene import load_scene
 
@@ -383,10 +389,7 @@ def test_an_animated_scene_runs_its_kernels_plainly_and_a_still_one_replays_them
     path, parameters = scene.integrator().integrator, mi.traverse(scene)
     key = "tall_block.vertex_positions"
     base = np.array(parameters[key])
-    arguments = lambda: (  # noqa: E731
-        scene.sensors()[0], path, mi.UInt32(pixels.astype(np.uint32)), dr.arange(mi.UInt32, pixels.size * 4),
-        dr.opaque(mi.UInt32, 3), 4, kernels.camera_key(scene.sensors()[0]),
-        [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)])
+    arguments = _pixel_sums_arguments(mi, scene, path, pixels, 3)
     recordings = held.scene_state(scene).setdefault("recordings", {})
 
     def move(step):
