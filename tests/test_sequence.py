@@ -116,6 +116,25 @@ def test_a_moving_shapes_old_shadow_is_gone_within_one_frame(mi):
     assert luminance[old_shadow].mean() > 0.9 * reference.mean(axis=1)[old_shadow].mean()
 
 
+def test_surface_pixels_without_history_get_more_fresh_samples_within_the_budget():
+    from gmcpt.temporal.sequence import FRESH_BOOST, _placement
+
+    history = np.full(100, 6.0)
+    history[:10] = 0.0  # a moved object's pixels: their history dropped
+    history[90:] = 0.0  # pixels whose centre ray missed: no history ever
+    surface = np.arange(100) < 90
+    counts = _placement(history, 200, 2.0, (10, 10), 0, surface)
+    assert counts.sum() == 200 and counts.min() >= 1
+    boost = round(FRESH_BOOST * 2)
+    assert boost >= 1 and counts[:10].min() >= counts[90:].min() + boost  # the moved object's pixels, above the misses
+    assert counts[10:90].max() <= 2 < counts[:10].min()  # taken from the pixels with history
+    # the first frame (no history anywhere) and a frame without surfaces: the even placement
+    even = _placement(np.zeros(100), 200, 2.0, (10, 10), 0, surface)
+    assert (even == 2).all()
+    assert (_placement(history, 200, 2.0, (10, 10), 0, np.zeros(100, bool))
+            == _placement(history, 200, 2.0, (10, 10), 0)).all()
+
+
 def test_a_light_switched_off_or_on_drops_its_history(mi):
     scene = _scene()
     renderer = _renderer()
