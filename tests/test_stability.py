@@ -101,6 +101,19 @@ def test_a_moved_square_changes_its_old_and_new_place_and_a_static_noisy_area_do
     assert (np.abs(mean[1] - mean[0])[noisy] > CHANGE_FLOOR).mean() > 0.2  # a fixed threshold would take the noise
 
 
+def test_a_firefly_in_one_reference_is_no_change():
+    """A still, faintly noisy scene whose second frame's first reference has one bright pixel: its change is far
+    above the noise in that reference alone, and the second reference does not see it."""
+    from gmcpt.evaluation.stability import changed_pixels
+
+    geometries, rng = _geometries(0.0)[:2], np.random.default_rng(5)
+    firsts, seconds = ([_image(0.3 + 0.01 * rng.normal(size=(HEIGHT, WIDTH))) for _ in range(2)] for _ in range(2))
+    firsts[1][6, 20] = 40.0
+    assert not changed_pixels(firsts, seconds, geometries, 1).any()
+    seconds[1][6, 20] = 40.0  # in both: the scene changed there
+    assert changed_pixels(firsts, seconds, geometries, 1).reshape(HEIGHT, WIDTH)[6, 20]
+
+
 def test_a_noiseless_area_that_lights_up_has_changed_beside_a_noisy_one():
     """Where both references agree to the bit the noise read over a window is zero, and a running sum's rounding
     beside a noisy area left it a hair below zero (seen in the benchmark's dining room): its square root NaN, and a

@@ -33,9 +33,11 @@ from ..temporal.history import PastFrame, Projection, reproject
 #: A pixel's change between frames (tonemapped, mean over R, G, B) counts as a change of the scene from this much
 #: (:func:`changed_pixels`): 5% of the display range; fainter changes are too faint for stale history to show.
 CHANGE_FLOOR = 0.05
-#: ... and only where it is this many standard deviations of the references' own noise in the change: a noisy
-#: pixel (a caustic, a firefly's neighbourhood) moves by chance that far less than once in ten thousand.
-CHANGE_NOISE_SIGMAS = 4.0
+#: ... and only where each pair of independent references (each frame's first, each frame's second) changes this
+#: many standard deviations of its own noise, the same way: a change of the scene shows in both, a firefly in one
+#: reference in one (4 sigma over the two references' mean marked 0.3% of a still room's pixels, scattered over its
+#: walls, when its light turned 1 degree: docs/experiments.md).
+CHANGE_NOISE_SIGMAS = 3.0
 #: The side of the window (pixels) over which a reference's noise is estimated: enough pixels to average out the
 #: estimate's own noise, few enough to follow the noise from a lit floor to a dark corner.
 NOISE_WINDOW = 7
@@ -132,10 +134,10 @@ def changed_pixels(firsts: list[np.ndarray], seconds: list[np.ndarray], geometri
       points are not where the frame before saw a surface); a miss (the sky through a window) has no point to
       follow and is read in place, as the background is far; or
     - its tonemapped change (the mean over R, G, B) is above :data:`CHANGE_FLOOR` and above
-      :data:`CHANGE_NOISE_SIGMAS` standard deviations of the references' noise in it (a moved object's old place,
-      its shadow, a moved light's patches). The noise comes from the references themselves: a reference's
-      variance is half the mean squared difference of the two (over :data:`NOISE_WINDOW` x :data:`NOISE_WINDOW`
-      pixels), their mean's a quarter, the change's the sum of both frames'.
+      :data:`CHANGE_NOISE_SIGMAS` standard deviations of the references' noise in it, in the firsts and in the
+      seconds alike, with one sign (a moved object's old place, its shadow, a moved light's patches). The noise
+      comes from the references themselves: a reference's variance is half the mean squared difference of the two
+      (over :data:`NOISE_WINDOW` x :data:`NOISE_WINDOW` pixels), a change's the sum of both frames'.
 
     Where stale history would show is what this marks: a static noisy area stays out however noisy its
     references, and a pixel that only slid along with the camera is compared with where it was.
@@ -146,17 +148,22 @@ def changed_pixels(firsts: list[np.ndarray], seconds: list[np.ndarray], geometri
         raise ValueError("a frame's change needs the frame before")
     shape = firsts[frame].shape[:2]
     pairs = {t: (_grey(firsts[t]), _grey(seconds[t])) for t in (frame - 1, frame)}
-    now, before = ((first + second) / 2 for first, second in (pairs[frame], pairs[frame - 1]))
-    warped, seen = _warped(before[..., None], _motion(geometries[frame - 1], geometries[frame], shape, edges=True))
-    warped = warped[:, 0]
+    motion = _motion(geometries[frame - 1], geometries[frame], shape, edges=True)
     miss = np.isnan(geometries[frame].positions).any(axis=1)
-    warped[miss], seen = before.reshape(-1)[miss], seen | miss
-    variance = sum(uniform_filter((first - second) ** 2, NOISE_WINDOW, mode="nearest") / 4
+    changes = []
+    for which in (0, 1):  # the firsts, then the seconds
+        before = pairs[frame - 1][which]
+        warped, seen = _warped(before[..., None], motion)
+        warped = warped[:, 0]
+        warped[miss], seen = before.reshape(-1)[miss], seen | miss
+        changes.append(pairs[frame][which].reshape(-1) - warped)
+    variance = sum(uniform_filter((first - second) ** 2, NOISE_WINDOW, mode="nearest") / 2
                    for first, second in pairs.values())
-    change = np.abs(now.reshape(-1) - warped)
     # a running sum's rounding leaves a noiseless (black) window's variance a hair below 0: NaN, read as unchanged
     threshold = np.maximum(CHANGE_FLOOR, CHANGE_NOISE_SIGMAS * np.sqrt(np.maximum(variance.reshape(-1), 0.0)))
-    return ~seen | (change > threshold)
+    both = (np.abs(changes[0]) > threshold) & (np.abs(changes[1]) > threshold) & \
+        (np.sign(changes[0]) == np.sign(changes[1]))
+    return ~seen | both
 
 
 def changed_psnr(images: list[np.ndarray], references: list[np.ndarray], masks: list[np.ndarray]) -> float | None:
