@@ -31,6 +31,18 @@ def test_a_still_camera_reuses_the_earlier_frames_and_keeps_the_budget(mi):
     assert infos[0].carried_pixels == 0 and infos[1].carried_pixels > 0.8  # the frame shown before, carried
 
 
+def test_the_frame_shown_before_weighs_less_where_much_of_the_light_changed():
+    from gmcpt.temporal.sequence import CARRY_LIGHT_POWER, SHOWN_CARRY
+
+    renderer = _renderer()
+    renderer.shown = (0, np.ones((2, 2, 3), np.float32))
+    film = np.full((4, 2), 1.0, np.float32)  # every pixel reads the middle of the shown frame: 1
+    shown = [renderer._carried(np.zeros((2, 2, 3), np.float32), film, np.ones(4, bool), 2.0, changed)[0]
+             for changed in (0.0, 0.5)]
+    assert np.allclose(shown[0], SHOWN_CARRY) and np.allclose(shown[1], SHOWN_CARRY * 0.5 ** CARRY_LIGHT_POWER)
+    assert CARRY_LIGHT_POWER > 0
+
+
 def test_same_seed_same_frames_and_a_resumed_sequence_gives_the_same_images(mi, tmp_path):
     from gmcpt.temporal.sequence import SequenceRenderer, SequenceSettings
 

@@ -68,6 +68,9 @@ FRESH_BOOST = 1.0
 #: error that stays, which carrying only resamples. Steadiness is what a sequence is for (docs/experiments.md).
 SHOWN_CARRY = 0.5
 CARRY_FULL_BUDGET = 4.0
+#: ... times (1 - the share of pixels whose light changed) to this power: where a light moves, the light it brings
+#: to the rest changes too, unseen, and the image shown before is stale there (docs/experiments.md).
+CARRY_LIGHT_POWER = 2.0
 
 
 @dataclass(frozen=True)
@@ -525,7 +528,8 @@ class SequenceRenderer:
         timings["denoise_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        shown, carried = self._carried(denoised, history.latest_film, history.latest_seen & agrees, budget)
+        shown, carried = self._carried(denoised, history.latest_film, history.latest_seen & agrees, budget,
+                                       history.dropped.lighting)
         timings["carry_s"] = time.perf_counter() - start
 
         band_samples = 0
@@ -593,17 +597,18 @@ class SequenceRenderer:
             self._jit[id(past)] = (past, jit_frame(past))
         return self._jit[id(past)][1]
 
-    def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray,
-                 budget: float) -> tuple[np.ndarray, float]:
-        """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`),
-        read along the motion at ``film`` (N, 2, its film coordinates) where ``where`` (N,) says its surface was
-        seen and its history held; the share of pixels blended)."""
+    def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray, budget: float,
+                 light_changed: float) -> tuple[np.ndarray, float]:
+        """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`, less
+        where ``light_changed`` of the pixels' light changed), read along the motion at ``film`` (N, 2, its film
+        coordinates) where ``where`` (N,) says its surface was seen and its history held; the share of pixels
+        blended)."""
         height, width = denoised.shape[:2]
         # a surface the last frame saw on its guard band only was never shown
         where = where & (film[:, 0] >= 0) & (film[:, 0] <= width) & (film[:, 1] >= 0) & (film[:, 1] <= height)
         if self.shown is None or not where.any():
             return denoised, 0.0
-        carry = SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / budget)
+        carry = SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / budget) * (1.0 - light_changed) ** CARRY_LIGHT_POWER
         flat = denoised.reshape(-1, 3).copy()
         flat[where] = (1 - carry) * flat[where] + carry * cubic_sample(self.shown[1], film[where])
         return flat.reshape(denoised.shape), float(where.mean())
