@@ -61,7 +61,7 @@ def _reference(frame):
                          any_size=True).reshape(SIZE, SIZE, 3)
 
 
-def test_chunks_write_frames_at_most_0_15_db_under_one_process_s(runs):
+def test_chunks_write_frames_at_most_0_15_db_under_one_process(runs):
     from gmcpt.image.metrics import mse
 
     folder, summary = runs

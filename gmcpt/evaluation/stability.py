@@ -150,13 +150,10 @@ def changed_pixels(firsts: list[np.ndarray], seconds: list[np.ndarray], geometri
     pairs = {t: (_grey(firsts[t]), _grey(seconds[t])) for t in (frame - 1, frame)}
     motion = _motion(geometries[frame - 1], geometries[frame], shape, edges=True)
     miss = np.isnan(geometries[frame].positions).any(axis=1)
-    changes = []
-    for which in (0, 1):  # the firsts, then the seconds
-        before = pairs[frame - 1][which]
-        warped, seen = _warped(before[..., None], motion)
-        warped = warped[:, 0]
-        warped[miss], seen = before.reshape(-1)[miss], seen | miss
-        changes.append(pairs[frame][which].reshape(-1) - warped)
+    before = np.stack(pairs[frame - 1], axis=-1)  # the firsts and the seconds as two channels: one warp
+    warped, seen = _warped(before, motion)
+    warped[miss], seen = before.reshape(-1, 2)[miss], seen | miss
+    changes = (np.stack(pairs[frame], axis=-1).reshape(-1, 2) - warped).T
     variance = sum(uniform_filter((first - second) ** 2, NOISE_WINDOW, mode="nearest") / 2
                    for first, second in pairs.values())
     # a running sum's rounding leaves a noiseless (black) window's variance a hair below 0: NaN, read as unchanged
