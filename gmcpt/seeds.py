@@ -48,6 +48,8 @@ SEQUENCE_TOP_UP_SEED_OFFSET = 1
 SEQUENCE_PASS_SEED_OFFSET = 0x100
 #: a sequence frame's guard band beyond the film (gmcpt.temporal.guard): its samples and the pixels that get a fraction
 SEQUENCE_BAND_SEED_OFFSET = 0x200
+#: a sequence frame's light probe (gmcpt.temporal.gradient): its pixels and their samples, replayed by the next frame
+SEQUENCE_PROBE_SEED_OFFSET = 0x300
 
 # --- training (gmcpt.gan) ---
 #: the training data's order, beside the run's seed

@@ -60,6 +60,21 @@ def test_same_seed_same_frames_and_a_resumed_sequence_gives_the_same_images(mi, 
         SequenceRenderer(SequenceSettings(budget=4, seed=5)).restore(dict(np.load(tmp_path / "state.npz")))
 
 
+def test_a_resumed_still_camera_replays_the_probe_it_saved(mi, tmp_path):
+    scene = _scene()
+    straight = _renderer()
+    images = [straight.render(scene, index)[0] for index in range(3)]
+    first = _renderer()
+    for index in range(2):
+        first.render(scene, index)
+    assert first.probe is not None and first.probe.index == 1
+    np.savez(tmp_path / "state.npz", **first.state())
+    resumed = _renderer()
+    resumed.restore(dict(np.load(tmp_path / "state.npz")))
+    # frame 2 traces frame 1's probe again (a lost probe would give another placement, another image)
+    np.testing.assert_array_equal(resumed.render(scene, 2)[0], images[2])
+
+
 def test_after_a_cut_the_frame_is_the_single_frame_render(mi):
     renderer = _renderer()
     renderer.render(_scene(CORNELL), 0)
@@ -413,3 +428,46 @@ def test_a_perspective_camera_s_projection_in_closed_form_is_its_fit(mi):
         assert (closed.width, closed.height) == (fitted.width, fitted.height) == SIZE
         np.testing.assert_allclose(closed.matrix / closed.matrix[2, 3], fitted.matrix / fitted.matrix[2, 3],
                                    atol=1e-4 * np.abs(fitted.matrix / fitted.matrix[2, 3]).max())
+
+
+def _lit_around_the_corner(mi):
+    """A floor seen from above whose light comes off a wall out of view, lit by a lamp that faces the wall: no point
+    in view sees the lamp, so the lighting signature is 0 everywhere, whatever the lamp does."""
+    T = mi.ScalarTransform4f
+    return mi.load_dict({
+        "type": "scene", "integrator": {"type": "path", "max_depth": 4},
+        "sensor": {"type": "perspective", "fov": 40,
+                   "to_world": T().look_at(origin=[0, 3, 0], target=[0, 0, 0], up=[0, 0, 1]),
+                   "film": {"type": "hdrfilm", "width": 24, "height": 24, "rfilter": {"type": "box"}}},
+        "floor": {"type": "rectangle", "to_world": T().rotate([1, 0, 0], -90).scale(2),
+                  "bsdf": {"type": "diffuse"}},
+        "wall": {"type": "rectangle", "to_world": T().translate([3, 1, 0]).rotate([0, 1, 0], -90).scale(2),
+                 "bsdf": {"type": "diffuse"}},
+        "lamp": {"type": "rectangle", "to_world": T().translate([2.5, 1, 0]).rotate([0, 1, 0], 90).scale(0.3),
+                 "emitter": {"type": "area", "radiance": {"type": "rgb", "value": 40.0}}},
+    })
+
+
+def test_light_that_reaches_the_view_only_indirectly_is_seen_by_the_probes(mi):
+    from gmcpt.render.kernels import render_native
+    from gmcpt.render.scene import path_integrator
+    from gmcpt.temporal.sequence import survey
+
+    scene = _lit_around_the_corner(mi)
+    sensor, integrator = scene.sensors()[0], path_integrator(scene)
+    assert not survey(scene, sensor).lighting.any()  # the signature is blind here
+    renderer = _renderer()
+    infos = [renderer.render(scene, index, integrator)[1] for index in range(4)]
+    assert all(info.dropped.gradient == 0 for info in infos)  # nothing changed: the replays agree to the bit
+    before = render_native(scene, sensor, integrator, 64, 901).mean()
+    parameters = mi.traverse(scene)
+    parameters["lamp.emitter.radiance.value"] = parameters["lamp.emitter.radiance.value"] * 4
+    parameters.update()
+    frame = renderer.render_frame(scene, 4, integrator)
+    now = render_native(scene, sensor, integrator, 64, 902).mean()
+    info = frame.info
+    assert now > 3.5 * before and info.dropped.lighting == 0  # four times the light, unseen by the signature
+    assert 0.6 < info.dropped.gradient < 0.9  # three quarters of the light is new: the history weighs a quarter
+    # history kept whole (about 5 weighted samples of the old light against 2 of the new) gives the samples' mean
+    # 0.44 of the new light (measured without the probes)
+    assert frame.layers.radiance.mean() > 0.52 * now

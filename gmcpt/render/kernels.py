@@ -352,18 +352,31 @@ def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     Each sample is one lane of a 1-spp pass over the pixel list with repeats, split into parts of at most
     :data:`MAX_LANES` lanes with a seed of its own per part.
     """
-    pixels = np.repeat(np.arange(counts.size), counts)
+    return trace_counts_after(scene, sensor, integrator, counts, seed, np.zeros(0, np.int64))[:3]
+
+
+def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, counts: np.ndarray,
+                       seed: int, first: np.ndarray) -> tuple:
+    """:func:`trace_counts` with one sample of each flat pixel in ``first`` (K,) traced ahead of the counts', in the
+    first K lanes of the first part: (sum, sum of squared norms, finite count (over the film, all samples), the
+    ``first`` pixels' own samples (K, 3) float32, NaN where not finite, and the first part's seed). A pass of the
+    same K pixels alone with that seed traces the same K samples (a sampler's lane draws from its seed and its
+    index alone): what :mod:`gmcpt.temporal.gradient` replays."""
+    pixels = np.concatenate([first.astype(np.int64), np.repeat(np.arange(counts.size), counts)])
     total, squares, finite = np.zeros((counts.size, 3)), np.zeros(counts.size), np.zeros(counts.size)
     parts = max(1, -(-pixels.size // MAX_LANES))
+    own = np.zeros((first.size, 3), np.float32)
     for index, chunk in enumerate(np.array_split(pixels, parts)):
         if chunk.size == 0:
             continue
         sums, chunk_squares, count = trace_pixels(scene, sensor, integrator, chunk, 1, pass_seed(seed, index, parts))
+        if index == 0:  # the first lanes: one sample each
+            own = np.where(count[:first.size, None] > 0, sums[:first.size], np.float32(np.nan)).astype(np.float32)
         for channel in range(3):
             total[:, channel] += np.bincount(chunk, weights=sums[:, channel], minlength=counts.size)
         squares += np.bincount(chunk, weights=chunk_squares, minlength=counts.size)
         finite += np.bincount(chunk, weights=count, minlength=counts.size)
-    return total, squares, finite
+    return total, squares, finite, own, pass_seed(seed, 0, parts)
 
 
 #: Up to this many samples (pixels x spp), Mitsuba's render of every pixel is traced by the frozen pixel-list
@@ -502,12 +515,16 @@ class SampleSums:
         self._native_mean[pixels] = folded
         self.finite[pixels] = after
 
-    def trace_counts(self, scene, sensor, integrator, counts: np.ndarray, seed: int) -> None:
-        """``counts[p]`` more samples of each flat pixel ``p`` (:func:`trace_counts`)."""
-        total, squares, finite = trace_counts(scene, sensor, integrator, counts, seed)
+    def trace_counts(self, scene, sensor, integrator, counts: np.ndarray, seed: int,
+                     first: np.ndarray | None = None) -> tuple[np.ndarray, int] | None:
+        """``counts[p]`` more samples of each flat pixel ``p`` (:func:`trace_counts`); with ``first``, one more of
+        each of those pixels ahead of them, whose samples and seed it returns (:func:`trace_counts_after`)."""
+        total, squares, finite, own, first_seed = trace_counts_after(
+            scene, sensor, integrator, counts, seed, first if first is not None else np.zeros(0, np.int64))
         self.total, self.squares = self.total + total, self.squares + squares
         self.finite, self.squared_samples = self.finite + finite, self.squared_samples + finite
-        self.samples += int(counts.sum())
+        self.samples += int(counts.sum()) + (first.size if first is not None else 0)
+        return (own, first_seed) if first is not None else None
 
     def add_native(self, image: np.ndarray, spp: int) -> None:
         """A :func:`render_native` image of ``spp`` samples a pixel (kept as it is); a non-finite pixel's samples

@@ -248,8 +248,8 @@ def agreement(current_mean: np.ndarray, history_mean: np.ndarray, has_history: n
     current, history = _luminance(current_mean), _luminance(history_mean)
     mean = max(float(current.mean()), 1e-12)
     floor = 0.05 * mean  # dark regions: noise, not a changed light
-    near = _box(np.where(has_history, _clipped(current), 0.0)) + floor
-    far = _box(np.where(has_history, _clipped(history), 0.0)) + floor
+    near = box_sum(np.where(has_history, _clipped(current), 0.0)) + floor
+    far = box_sum(np.where(has_history, _clipped(history), 0.0)) + floor
     height, width = current.shape
     brightest = _neighbourhood_range(current.ravel(), width, height)[1].reshape(current.shape)
     stale = history > OUTLIER_RATIO * (brightest + mean)
@@ -264,7 +264,7 @@ def _clipped(luminance: np.ndarray) -> np.ndarray:
     return np.minimum(luminance, DISAGREE_CLIP * max(float(luminance.mean()), 1e-12))
 
 
-def _box(plane: np.ndarray, radius: int = DISAGREE_RADIUS) -> np.ndarray:
+def box_sum(plane: np.ndarray, radius: int = DISAGREE_RADIUS) -> np.ndarray:
     """Sum over a (2 radius + 1)^2 neighbourhood, edges replicated (a summed-area table)."""
     padded = np.pad(plane, radius, mode="edge")
     table = np.pad(padded.cumsum(0).cumsum(1), ((1, 0), (1, 0)))

@@ -9,7 +9,10 @@
 Per frame: guides (albedo, normal) and one ray through each pixel's centre (where it hits, to reproject);
 the past frames reprojected (each straight into this one); this frame's samples placed where the history is
 thin, so that disocclusions and the edge a pan uncovers get fresh samples first (every pixel gets one at
-least, so the history can be checked against it); the history left out where it disagrees with them; then
+least, so the history can be checked against it); with a still camera, the history weighed by the share of the
+light that did not change, as the last frame's light probes traced again with their random numbers say
+(:mod:`gmcpt.temporal.gradient`: one pixel in nine, within the budget); the history left out where it disagrees with
+them; then
 OIDN over the sums; then the frame shown before, carried along the motion (Catmull-Rom, where the history
 held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every frame
 (the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after
@@ -42,7 +45,8 @@ from ..render.scene import path_integrator, scene_sensor
 from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
 from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_BAND_SEED_OFFSET, SEQUENCE_PASS_SEED_OFFSET,
-                     SEQUENCE_TOP_UP_SEED_OFFSET, stream)
+                     SEQUENCE_PROBE_SEED_OFFSET, SEQUENCE_TOP_UP_SEED_OFFSET, stream)
+from .gradient import Probe, changed_share, probe_pixels, replay
 from .guard import GuardBand, Sides, centred_perspective, guard_band, revealed, worth_a_band
 from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, fit_projection,
                       history_weights, signature)
@@ -348,17 +352,20 @@ class DroppedShares:
     unseen : no past frame saw the pixel's surface (0 without past frames).
     disagreement : kept history that disagreed with this frame's samples
         (:func:`~gmcpt.temporal.history.agreement`).
+    gradient : not a share of pixels but of the history's weighted samples: those left out where the probes saw
+        the light change (:mod:`gmcpt.temporal.gradient`).
     """
 
     lighting: float
     material: float
     unseen: float
     disagreement: float = 0.0
+    gradient: float = 0.0
 
     def to_json(self) -> dict:
         """The sidecar's ``dropped`` entry, in its order."""
         return {"lighting": self.lighting, "material": self.material, "unseen": self.unseen,
-                "disagreement": self.disagreement}
+                "disagreement": self.disagreement, "gradient": self.gradient}
 
 
 @dataclass(frozen=True)
@@ -372,6 +379,15 @@ class History:
     latest_film: np.ndarray  # (N, 2) where on that frame's film
     frames: int  # past frames used
     dropped: DroppedShares  # the shares of pixels that lost a past frame's samples, a reason (disagreement: 0 here)
+
+    def scaled(self, keep: np.ndarray) -> History:
+        """This history with each pixel's samples weighted by ``keep`` (N,), what it left out recorded
+        (:attr:`DroppedShares.gradient`)."""
+        count = self.count * keep
+        before = float(self.count.sum())
+        left_out = 1.0 - float(count.sum()) / before if before > 0 else 0.0
+        return replace(self, total=self.total * keep[:, None], count=count,
+                       dropped=replace(self.dropped, gradient=left_out))
 
 
 @dataclass(frozen=True)
@@ -466,6 +482,7 @@ class SequenceRenderer:
         self.light_changed = 0.0  # the share of the last frame's pixels whose light changed (DroppedShares.lighting)
         self.reveal = Sides()  # the sides the last frame's motion revealed (:func:`~gmcpt.temporal.guard.revealed`)
         self._bands: dict = {}  # guard bands by camera and margin (:func:`~gmcpt.temporal.guard.guard_band`)
+        self.probe: Probe | None = None  # the last frame's probe (:mod:`gmcpt.temporal.gradient`)
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
                sensor: mi.Sensor | None = None) -> tuple[np.ndarray, SequenceRecord, dict]:
@@ -496,20 +513,45 @@ class SequenceRenderer:
 
         start = time.perf_counter()
         history = self._history(index, found, marks)
+        timings["placement_s"] = time.perf_counter() - start
+
+        start = time.perf_counter()
+        sums = SampleSums(pixels)
+        # an untimed sequence's frames with history probe their light where the camera stayed (a moved camera's
+        # probe would never replay; a timed frame's deadline has no room for a second pass; a frame without
+        # history, the first or a cut, is the single frame's render)
+        probing = bool(settings.history) and not settings.time and bool((history.count > 0).any()) \
+            and self._camera_stayed(index, found.projection.matrix)
+        last = self.probe if probing and self.probe is not None and self.probe.replays_in(
+            index, found.projection.matrix, (height, width)) else None
+        if last is not None:
+            history = history.scaled(1.0 - changed_share(last.values, replay(scene, sensor, integrator, last, sums),
+                                                         (height, width)))
+        replay_seconds = time.perf_counter() - start
+
+        start = time.perf_counter()
         deadline = self.pace.deadline(settings.time, started) if settings.time else None
         if deadline is not None:  # what the frame's first part left of its time: the samples it places are those
             budget = min(budget, self.pace.budget_until(deadline, start))
         samples = int(round(budget * pixels))
         counts = _placement(history.count, samples, budget, (height, width), seed,
                             np.isfinite(found.positions[:, 0]))
-        timings["placement_s"] = time.perf_counter() - start
+        probes = probe_pixels((height, width), stream(seed, SEQUENCE_PROBE_SEED_OFFSET),
+                              last.pixels if last is not None else None) if probing else None
+        probes = probes if probes is not None and probes.size else None  # a film smaller than a block: none
+        for traced_apart in (last.pixels if last is not None else None, probes):
+            if traced_apart is not None:  # their sample comes from the replay or the probe, within the budget
+                counts[traced_apart] = np.maximum(counts[traced_apart] - 1, 0)
+        timings["placement_s"] += time.perf_counter() - start
 
         start = time.perf_counter()
-        sums = SampleSums(pixels)
-        _trace(sums, (scene, sensor, integrator), counts, seed, deadline, timed=bool(settings.time))
+        probed = _trace(sums, (scene, sensor, integrator), counts, seed, deadline, timed=bool(settings.time),
+                        ahead=probes)
+        if probed is not None:
+            self.probe = Probe(index, probed[1], probes, probed[0], found.projection.matrix, (height, width))
         total, count = sums.total, sums.finite  # NaN/Inf samples left out
         traced = time.perf_counter()
-        timings["render_s"] = traced - start
+        timings["render_s"] = traced - start + replay_seconds
         budget = sums.samples / pixels if deadline is not None else budget  # what the deadline let it trace
 
         start = time.perf_counter()
@@ -582,6 +624,12 @@ class SequenceRenderer:
         return History(gathered.summed[:, :3], gathered.summed[:, 3], gathered.offered, gathered.latest_seen,
                        latest_film.astype(np.float32), len(usable), shares)
 
+    def _camera_stayed(self, index: int, matrix: np.ndarray) -> bool:
+        """Whether frame ``index``'s camera (its projection ``matrix``) is where the frame before it had its own."""
+        last = self.past[-1] if self.past else None
+        return last is not None and last.index == index - 1 and last.margin == (0, 0) and bool(
+            np.allclose(last.projection.matrix, matrix, rtol=1e-6, atol=1e-9))
+
     @property
     def decay(self) -> float:
         """The weight of a past frame's samples per frame of age in the next frame: the settings' decay times the
@@ -628,6 +676,11 @@ class SequenceRenderer:
             state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
         state["light_changed"] = np.array(self.light_changed)
         state["reveal"] = np.array(astuple(self.reveal))
+        if self.probe is not None:
+            probe = self.probe
+            state["probe_index"], state["probe_seed"] = np.array(probe.index), np.array(probe.seed)
+            state["probe_pixels"], state["probe_values"] = probe.pixels, probe.values
+            state["probe_matrix"], state["probe_shape"] = probe.matrix, np.array(probe.shape)
         return state
 
     def restore(self, state) -> None:
@@ -647,6 +700,9 @@ class SequenceRenderer:
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
         self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
         self.reveal = Sides(*(int(value) for value in state["reveal"])) if "reveal" in state else Sides()
+        self.probe = Probe(int(state["probe_index"]), int(state["probe_seed"]), state["probe_pixels"],
+                           state["probe_values"], state["probe_matrix"],
+                           tuple(int(value) for value in state["probe_shape"])) if "probe_index" in state else None
 
 
 def _inner(wide: Survey, band: GuardBand | None) -> tuple[Survey, Signature, Signature]:
@@ -724,10 +780,12 @@ class RenderLoop:
 
 
 def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadline: float | None,
-           timed: bool) -> None:
+           timed: bool, ahead: np.ndarray | None = None) -> tuple[np.ndarray, int] | None:
     """Trace ``counts`` samples a pixel (flat) into ``sums`` (``where``: scene, sensor, integrator): the level every
     pixel gets through Mitsuba's own render, the rest a pixel-list pass. ``timed``: through the frozen kernel, which
     serves any spp (a timed sequence's level changes every frame, and ``mi.render`` compiles a kernel for each).
+    With ``ahead`` (K,) pixels, one sample of each goes ahead of the others in the pixel-list pass, which then traces
+    every sample (one launch): their (samples, seed) are returned (a probe, :mod:`gmcpt.temporal.gradient`).
 
     With a ``deadline`` (perf_counter) the level goes in passes of one sample a pixel: the first and the rest of
     ``counts`` always (every pixel's one sample checks its history; the pixels without history need theirs), then each
@@ -735,19 +793,21 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
     (a plan of less than a sample a pixel, read from frames that compiled their kernels, is made up for there),
     and what is left, less than a pass, on one sample of a share of the pixels (:data:`PARTIAL_LAUNCH`)."""
     scene, sensor, integrator = where
-    level = int(counts.min())
+    level = int(counts.min()) if ahead is None else 0
     first = 1 if deadline is not None and level else level
     start = time.perf_counter()
     if first:
         sums.add_native(render_native(scene, sensor, integrator, first, seed, any_size=timed), first)
     pass_seconds = time.perf_counter() - start
-    if (counts > level).any():
+    probed = None
+    if (counts > level).any() or ahead is not None:
         start = time.perf_counter()
-        sums.trace_counts(scene, sensor, integrator, counts - level, stream(seed, SEQUENCE_TOP_UP_SEED_OFFSET))
+        probed = sums.trace_counts(scene, sensor, integrator, counts - level,
+                                   stream(seed, SEQUENCE_TOP_UP_SEED_OFFSET), ahead)
         if not first:  # no whole pass timed yet: the pixel-list pass's seconds a sample, for every pixel (dearer)
-            pass_seconds = (time.perf_counter() - start) * sums.size / int((counts - level).sum())
+            pass_seconds = (time.perf_counter() - start) * sums.size / max(int((counts - level).sum()), 1)
     if deadline is None:
-        return
+        return probed
     passes = 1
     while sums.samples < MAX_BUDGET * sums.size and time.perf_counter() + pass_seconds <= deadline:
         start = time.perf_counter()
@@ -760,6 +820,7 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
         chosen = even_fill(np.zeros(sensor_film_size(sensor), np.int64), int(share * sums.size),
                            stream(seed, SEQUENCE_PASS_SEED_OFFSET + passes)).ravel()
         sums.trace_counts(scene, sensor, integrator, chosen, stream(seed, SEQUENCE_PASS_SEED_OFFSET + passes))
+    return probed
 
 
 def _placement(history_count: np.ndarray, samples: int, budget: float, shape: tuple[int, int], seed: int,

@@ -1,0 +1,48 @@
+"""Temporal gradients (gmcpt.temporal.gradient): the probes' pixels and the share of the light that changed."""
+import numpy as np
+
+from gmcpt.temporal.gradient import GRADIENT_RADIUS, STRATUM, Probe, changed_share, probe_pixels
+
+SHAPE = (31, 40)  # a row and a column past the last whole block
+
+
+def test_one_probe_a_block_never_where_the_last_probe_was():
+    rows, columns = SHAPE[0] // STRATUM, SHAPE[1] // STRATUM
+    first = probe_pixels(SHAPE, 1)
+    assert first.size == rows * columns and np.unique(first).size == first.size
+    y, x = np.divmod(first, SHAPE[1])
+    blocks = (y // STRATUM) * columns + x // STRATUM
+    assert sorted(blocks) == list(range(rows * columns)) and y.max() < rows * STRATUM
+    np.testing.assert_array_equal(probe_pixels(SHAPE, 1), first)  # same seed, same pixels
+    following = probe_pixels(SHAPE, 2, avoid=first)
+    assert following.size == first.size and not np.isin(following, first).any()
+    assert not probe_pixels((2, 40), 1).size  # a film narrower than a block has none
+
+
+def test_no_change_reads_zero_and_a_light_halved_in_one_corner_reads_a_half_there_only():
+    rows, columns = SHAPE[0] // STRATUM, SHAPE[1] // STRATUM
+    rng = np.random.default_rng(0)
+    before = rng.exponential(1.0, (rows * columns, 3)).astype(np.float32)
+    assert not changed_share(before, before.copy(), SHAPE).any()
+    after = before.copy().reshape(rows, columns, 3)
+    after[:4, :4] *= 0.5  # the top left 4x4 blocks
+    share = changed_share(before, after.reshape(-1, 3), SHAPE).reshape(SHAPE)
+    assert abs(share[0, 0] - 0.5) < 1e-6  # every block within reach changed by half
+    far = (4 + GRADIENT_RADIUS) * STRATUM
+    assert not share[far:, :].any() and not share[:, far:].any()
+    assert share[-1, -1] == share[-2, -2]  # past the last whole block: the nearest block's
+    after = after.reshape(-1, 3)
+    after[0] = np.nan  # a non-finite sample is no probe, not a change
+    np.testing.assert_allclose(changed_share(before, after, SHAPE).reshape(SHAPE)[0, 0], 0.5, atol=1e-6)
+    switched = changed_share(before, np.zeros_like(before), SHAPE)
+    np.testing.assert_allclose(switched, 1.0)  # a light switched off: all of it changed
+
+
+def test_a_probe_replays_in_the_next_frame_of_a_camera_that_stayed_only():
+    matrix = np.arange(12, dtype=np.float64).reshape(3, 4)
+    probe = Probe(4, 7, np.arange(3), np.zeros((3, 3), np.float32), matrix, SHAPE)
+    assert probe.replays_in(5, matrix.copy(), SHAPE)
+    assert not probe.replays_in(6, matrix, SHAPE) and not probe.replays_in(5, matrix, (SHAPE[0], SHAPE[1] + 1))
+    moved = matrix.copy()
+    moved[0, 3] += 1e-3
+    assert not probe.replays_in(5, moved, SHAPE)
