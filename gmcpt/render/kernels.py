@@ -321,8 +321,9 @@ _frozen_guided_sums = FrozenKernel(_pixel_sums)
 
 
 def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
-                 pixels: np.ndarray, spp: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Path trace ``spp`` samples for each flat pixel index in ``pixels``.
+                 pixels: np.ndarray, spp: int, seed: int | np.ndarray = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Path trace ``spp`` samples for each flat pixel index in ``pixels``; ``seed`` one for all lanes or, as an
+    array, each lane's own (a lane draws from its seed and its index alone).
 
     Returns float32 ``(sum, sum_of_squares, count)`` over the finite samples,
     shapes (n, 3), (n,) and (n,); the sum of squares is summed over the three
@@ -338,10 +339,18 @@ def _traced_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     # opaque zeros and seed: literals that change between calls would make the frozen function record again
     kernel = _frozen_guided_sums if aovs else _frozen_pixel_sums
     sums = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
-                                  dr.arange(mi.UInt32, pixels.size * spp), dr.opaque(mi.UInt32, seed), spp,
+                                  dr.arange(mi.UInt32, pixels.size * spp), _lane_seeds(seed), spp,
                                   camera_key(sensor),
                                   [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5 + aovs)]))
     return [np.asarray(column) for column in sums]
+
+
+def _lane_seeds(seed: int | np.ndarray) -> mi.UInt32:
+    """The sampler seed of every lane: one, opaque (a literal that changes would record another kernel), or each
+    lane's own."""
+    if isinstance(seed, np.ndarray):
+        return mi.UInt32(seed.astype(np.uint32))
+    return dr.opaque(mi.UInt32, seed)
 
 
 def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, counts: np.ndarray,
@@ -352,31 +361,39 @@ def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     Each sample is one lane of a 1-spp pass over the pixel list with repeats, split into parts of at most
     :data:`MAX_LANES` lanes with a seed of its own per part.
     """
-    return trace_counts_after(scene, sensor, integrator, counts, seed, np.zeros(0, np.int64))[:3]
+    return trace_counts_after(scene, sensor, integrator, counts, seed, [])[:3]
 
 
 def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, counts: np.ndarray,
-                       seed: int, first: np.ndarray) -> tuple:
-    """:func:`trace_counts` with one sample of each flat pixel in ``first`` (K,) traced ahead of the counts', in the
-    first K lanes of the first part: (sum, sum of squared norms, finite count (over the film, all samples), the
-    ``first`` pixels' own samples (K, 3) float32, NaN where not finite, and the first part's seed). A pass of the
-    same K pixels alone with that seed traces the same K samples (a sampler's lane draws from its seed and its
-    index alone): what :mod:`gmcpt.temporal.gradient` replays."""
-    pixels = np.concatenate([first.astype(np.int64), np.repeat(np.arange(counts.size), counts)])
+                       seed: int, ahead: list[tuple[np.ndarray, int]]) -> tuple:
+    """:func:`trace_counts` with one sample of each pixel of the groups ``ahead`` ((flat pixels (K,), seed) each)
+    traced first, each group in the next K lanes of the first part, its lanes drawing from its own seed: (sum, sum
+    of squared norms, finite count (over the film, all samples), and each group's own samples (K, 3) float32, NaN
+    where not finite). A group traced again at the same lanes with the same seed traces the same samples (a lane
+    draws from its seed and its index alone): :mod:`gmcpt.temporal.gradient`'s replay, in the same launch."""
+    first = [pixels.astype(np.int64) for pixels, _ in ahead]
+    lanes = np.concatenate([*first, np.repeat(np.arange(counts.size), counts)])
     total, squares, finite = np.zeros((counts.size, 3)), np.zeros(counts.size), np.zeros(counts.size)
-    parts = max(1, -(-pixels.size // MAX_LANES))
-    own = np.zeros((first.size, 3), np.float32)
-    for index, chunk in enumerate(np.array_split(pixels, parts)):
+    parts = max(1, -(-lanes.size // MAX_LANES))
+    ends = np.cumsum([0] + [pixels.size for pixels in first])
+    own = []
+    for index, chunk in enumerate(np.array_split(lanes, parts)):
         if chunk.size == 0:
             continue
-        sums, chunk_squares, count = trace_pixels(scene, sensor, integrator, chunk, 1, pass_seed(seed, index, parts))
-        if index == 0:  # the first lanes: one sample each
-            own = np.where(count[:first.size, None] > 0, sums[:first.size], np.float32(np.nan)).astype(np.float32)
+        chunk_seed = pass_seed(seed, index, parts)
+        if index == 0 and ahead:
+            chunk_seed = np.full(chunk.size, chunk_seed, np.uint32)
+            for (_, group_seed), start, end in zip(ahead, ends[:-1], ends[1:]):
+                chunk_seed[start:end] = group_seed
+        sums, chunk_squares, count = trace_pixels(scene, sensor, integrator, chunk, 1, chunk_seed)
+        if index == 0:
+            own = [np.where(count[start:end, None] > 0, sums[start:end], np.float32(np.nan)).astype(np.float32)
+                   for start, end in zip(ends[:-1], ends[1:])]
         for channel in range(3):
             total[:, channel] += np.bincount(chunk, weights=sums[:, channel], minlength=counts.size)
         squares += np.bincount(chunk, weights=chunk_squares, minlength=counts.size)
         finite += np.bincount(chunk, weights=count, minlength=counts.size)
-    return total, squares, finite, own, pass_seed(seed, 0, parts)
+    return total, squares, finite, own
 
 
 #: Up to this many samples (pixels x spp), Mitsuba's render of every pixel is traced by the frozen pixel-list
@@ -516,15 +533,14 @@ class SampleSums:
         self.finite[pixels] = after
 
     def trace_counts(self, scene, sensor, integrator, counts: np.ndarray, seed: int,
-                     first: np.ndarray | None = None) -> tuple[np.ndarray, int] | None:
-        """``counts[p]`` more samples of each flat pixel ``p`` (:func:`trace_counts`); with ``first``, one more of
-        each of those pixels ahead of them, whose samples and seed it returns (:func:`trace_counts_after`)."""
-        total, squares, finite, own, first_seed = trace_counts_after(
-            scene, sensor, integrator, counts, seed, first if first is not None else np.zeros(0, np.int64))
+                     ahead: list[tuple[np.ndarray, int]] = ()) -> list[np.ndarray]:
+        """``counts[p]`` more samples of each flat pixel ``p`` (:func:`trace_counts`), and one of each pixel of the
+        groups ``ahead`` ahead of them, whose samples it returns (:func:`trace_counts_after`)."""
+        total, squares, finite, own = trace_counts_after(scene, sensor, integrator, counts, seed, list(ahead))
         self.total, self.squares = self.total + total, self.squares + squares
         self.finite, self.squared_samples = self.finite + finite, self.squared_samples + finite
-        self.samples += int(counts.sum()) + (first.size if first is not None else 0)
-        return (own, first_seed) if first is not None else None
+        self.samples += int(counts.sum()) + sum(pixels.size for pixels, _ in ahead)
+        return own
 
     def add_native(self, image: np.ndarray, spp: int) -> None:
         """A :func:`render_native` image of ``spp`` samples a pixel (kept as it is); a non-finite pixel's samples

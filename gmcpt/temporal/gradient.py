@@ -2,8 +2,9 @@
 the same random numbers, once in each of two frames.
 
 Each frame of a sequence traces one sample of one pixel in every :data:`STRATUM` x :data:`STRATUM` block of its film
-ahead of its other samples, in the first lanes of its pass (a :class:`Probe`), as part of its budget. The next frame,
-if its camera has not moved, traces the same pixels with the same seed in a pass of their own (:func:`replay`): where nothing changed along a path the two samples are equal to
+ahead of its other samples, in the first lanes of its pass with a seed of their own (a :class:`Probe`), as part of
+its budget. The next frame, if its camera has not moved, traces the same pixels in the same lanes with the same seed
+(the other lanes ahead hold its own probe; a sampler's lane draws from its seed and its index alone), in its one pass: where nothing changed along a path the two samples are equal to
 the bit, and where a light moved, switched or dimmed, or an object's shadow moved, they differ by what changed along
 it, the light it brings indirectly included. The lighting signature (:func:`gmcpt.temporal.history.unchanged`) sees
 only the light a surface gets directly: on the breakfast room's turning sun the pixels whose image changed most had a
@@ -20,10 +21,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import mitsuba as mi
 import numpy as np
 
-from ..render.kernels import SampleSums
 from .history import box_sum
 
 #: Probes are one pixel in each block of this many pixels a side (a ninth of the pixels: 1/9 of a sample a pixel
@@ -36,9 +35,10 @@ GRADIENT_RADIUS = 2
 
 @dataclass(frozen=True)
 class Probe:
-    """One sample of each of a frame's probe ``pixels`` (K,) flat, traced with ``seed``: ``values`` (K, 3) (NaN where
-    the sample was not finite); ``index``: the frame; ``matrix``: its camera's projection (a probe replays only for a
-    camera that stayed); ``shape``: its film's (H, W)."""
+    """One sample of each of a frame's probe ``pixels`` (K,) flat, traced with ``seed`` in lanes ``slot`` x K to
+    (``slot`` + 1) x K of its pass: ``values`` (K, 3) (NaN where the sample was not finite); ``index``: the frame;
+    ``matrix``: its camera's projection (a probe replays only for a camera that stayed); ``shape``: its film's (H, W).
+    The next frame's probe takes the other slot, its replay this one."""
 
     index: int
     seed: int
@@ -46,6 +46,7 @@ class Probe:
     values: np.ndarray
     matrix: np.ndarray
     shape: tuple[int, int]
+    slot: int = 0
 
     def replays_in(self, index: int, matrix: np.ndarray, shape: tuple[int, int]) -> bool:
         """Whether frame ``index`` (camera ``matrix``, film ``shape``) is the next frame, its camera where this
@@ -72,13 +73,6 @@ def probe_pixels(shape: tuple[int, int], seed: int, avoid: np.ndarray | None = N
     y = np.arange(rows)[:, None] * STRATUM + offset // STRATUM
     x = np.arange(columns)[None, :] * STRATUM + offset % STRATUM
     return (y * width + x).ravel().astype(np.int64)
-
-
-def replay(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, probe: Probe,
-           sums: SampleSums) -> np.ndarray:
-    """``probe``'s pixels traced again with its seed, in this frame's scene: their samples (K, 3), NaN where not
-    finite, added to ``sums`` (valid samples of this frame)."""
-    return sums.trace_counts(scene, sensor, integrator, np.zeros(sums.size, np.int64), probe.seed, probe.pixels)[0]
 
 
 def changed_share(before: np.ndarray, after: np.ndarray, shape: tuple[int, int]) -> np.ndarray:

@@ -46,7 +46,7 @@ from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
 from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_BAND_SEED_OFFSET, SEQUENCE_PASS_SEED_OFFSET,
                      SEQUENCE_PROBE_SEED_OFFSET, SEQUENCE_TOP_UP_SEED_OFFSET, stream)
-from .gradient import Probe, changed_share, probe_pixels, replay
+from .gradient import Probe, changed_share, probe_pixels
 from .guard import GuardBand, Sides, centred_perspective, guard_band, revealed, worth_a_band
 from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, fit_projection,
                       history_weights, signature)
@@ -383,9 +383,10 @@ class History:
     def scaled(self, keep: np.ndarray) -> History:
         """This history with each pixel's samples weighted by ``keep`` (N,), what it left out recorded
         (:attr:`DroppedShares.gradient`)."""
+        keep = np.asarray(keep, self.count.dtype)
         count = self.count * keep
-        before = float(self.count.sum())
-        left_out = 1.0 - float(count.sum()) / before if before > 0 else 0.0
+        before = float(self.count.sum(dtype=np.float64))
+        left_out = 1.0 - float(count.sum(dtype=np.float64)) / before if before > 0 else 0.0
         return replace(self, total=self.total * keep[:, None], count=count,
                        dropped=replace(self.dropped, gradient=left_out))
 
@@ -513,45 +514,27 @@ class SequenceRenderer:
 
         start = time.perf_counter()
         history = self._history(index, found, marks)
-        timings["placement_s"] = time.perf_counter() - start
-
-        start = time.perf_counter()
-        sums = SampleSums(pixels)
-        # an untimed sequence's frames with history probe their light where the camera stayed (a moved camera's
-        # probe would never replay; a timed frame's deadline has no room for a second pass; a frame without
-        # history, the first or a cut, is the single frame's render)
-        probing = bool(settings.history) and not settings.time and bool((history.count > 0).any()) \
-            and self._camera_stayed(index, found.projection.matrix)
-        last = self.probe if probing and self.probe is not None and self.probe.replays_in(
-            index, found.projection.matrix, (height, width)) else None
-        if last is not None:
-            history = history.scaled(1.0 - changed_share(last.values, replay(scene, sensor, integrator, last, sums),
-                                                         (height, width)))
-        replay_seconds = time.perf_counter() - start
-
-        start = time.perf_counter()
         deadline = self.pace.deadline(settings.time, started) if settings.time else None
         if deadline is not None:  # what the frame's first part left of its time: the samples it places are those
             budget = min(budget, self.pace.budget_until(deadline, start))
         samples = int(round(budget * pixels))
         counts = _placement(history.count, samples, budget, (height, width), seed,
                             np.isfinite(found.positions[:, 0]))
-        probes = probe_pixels((height, width), stream(seed, SEQUENCE_PROBE_SEED_OFFSET),
-                              last.pixels if last is not None else None) if probing else None
-        probes = probes if probes is not None and probes.size else None  # a film smaller than a block: none
-        for traced_apart in (last.pixels if last is not None else None, probes):
-            if traced_apart is not None:  # their sample comes from the replay or the probe, within the budget
-                counts[traced_apart] = np.maximum(counts[traced_apart] - 1, 0)
-        timings["placement_s"] += time.perf_counter() - start
+        probes = self._probes(index, found.projection.matrix, (height, width), seed, history) \
+            if settings.history and not settings.time else {}
+        for pixels_ahead, _ in probes.values():  # their sample comes from the probe or its replay, within the budget
+            counts[pixels_ahead] = np.maximum(counts[pixels_ahead] - 1, 0)
+        timings["placement_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        probed = _trace(sums, (scene, sensor, integrator), counts, seed, deadline, timed=bool(settings.time),
-                        ahead=probes)
-        if probed is not None:
-            self.probe = Probe(index, probed[1], probes, probed[0], found.projection.matrix, (height, width))
+        sums = SampleSums(pixels)
+        slots = sorted(probes)
+        probed = dict(zip(slots, _trace(sums, (scene, sensor, integrator), counts, seed, deadline,
+                                        timed=bool(settings.time), ahead=[probes[slot] for slot in slots])))
+        history = self._probed(history, probes, probed, index, found.projection.matrix, (height, width))
         total, count = sums.total, sums.finite  # NaN/Inf samples left out
         traced = time.perf_counter()
-        timings["render_s"] = traced - start + replay_seconds
+        timings["render_s"] = traced - start
         budget = sums.samples / pixels if deadline is not None else budget  # what the deadline let it trace
 
         start = time.perf_counter()
@@ -630,6 +613,37 @@ class SequenceRenderer:
         return last is not None and last.index == index - 1 and last.margin == (0, 0) and bool(
             np.allclose(last.projection.matrix, matrix, rtol=1e-6, atol=1e-9))
 
+    def _probes(self, index: int, matrix: np.ndarray, shape: tuple[int, int], seed: int,
+                history: History) -> dict[int, tuple[np.ndarray, int]]:
+        """The pixel groups this frame traces ahead of its samples, by slot ((flat pixels, seed) each;
+        :mod:`gmcpt.temporal.gradient`): its own probe, and the last frame's again in the slot it had, where the camera
+        stayed and there is history (a moved camera's probe would never replay; a frame without history, the first
+        or a cut, is the single frame's render)."""
+        if not (history.count > 0).any() or not self._camera_stayed(index, matrix):
+            return {}
+        last = self.probe if self.probe is not None and self.probe.replays_in(index, matrix, shape) else None
+        pixels = probe_pixels(shape, stream(seed, SEQUENCE_PROBE_SEED_OFFSET), last.pixels if last else None)
+        if not pixels.size:  # a film smaller than a block
+            return {}
+        groups = {1 - last.slot if last is not None else 0: (pixels, stream(seed, SEQUENCE_PROBE_SEED_OFFSET))}
+        if last is not None:
+            groups[last.slot] = (last.pixels, last.seed)
+        return groups
+
+    def _probed(self, history: History, probes: dict, probed: dict, index: int, matrix: np.ndarray,
+                shape: tuple[int, int]) -> History:
+        """``history`` weighed by the share of the light that did not change, where the last frame's probe was traced
+        again (``probed``: each slot's samples); this frame's probe kept for the next."""
+        last = self.probe if self.probe is not None and self.probe.index == index - 1 and \
+            self.probe.slot in probed and len(probed) == 2 else None
+        own = [slot for slot in probes if last is None or slot != last.slot]
+        if own:
+            pixels, probe_seed = probes[own[0]]
+            self.probe = Probe(index, probe_seed, pixels, probed[own[0]], matrix, shape, own[0])
+        if last is None:
+            return history
+        return history.scaled(1.0 - changed_share(last.values, probed[last.slot], shape))
+
     @property
     def decay(self) -> float:
         """The weight of a past frame's samples per frame of age in the next frame: the settings' decay times the
@@ -681,6 +695,7 @@ class SequenceRenderer:
             state["probe_index"], state["probe_seed"] = np.array(probe.index), np.array(probe.seed)
             state["probe_pixels"], state["probe_values"] = probe.pixels, probe.values
             state["probe_matrix"], state["probe_shape"] = probe.matrix, np.array(probe.shape)
+            state["probe_slot"] = np.array(probe.slot)
         return state
 
     def restore(self, state) -> None:
@@ -702,7 +717,8 @@ class SequenceRenderer:
         self.reveal = Sides(*(int(value) for value in state["reveal"])) if "reveal" in state else Sides()
         self.probe = Probe(int(state["probe_index"]), int(state["probe_seed"]), state["probe_pixels"],
                            state["probe_values"], state["probe_matrix"],
-                           tuple(int(value) for value in state["probe_shape"])) if "probe_index" in state else None
+                           tuple(int(value) for value in state["probe_shape"]),
+                           int(state["probe_slot"])) if "probe_index" in state else None
 
 
 def _inner(wide: Survey, band: GuardBand | None) -> tuple[Survey, Signature, Signature]:
@@ -780,12 +796,13 @@ class RenderLoop:
 
 
 def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadline: float | None,
-           timed: bool, ahead: np.ndarray | None = None) -> tuple[np.ndarray, int] | None:
+           timed: bool, ahead: list[tuple[np.ndarray, int]] = ()) -> list[np.ndarray]:
     """Trace ``counts`` samples a pixel (flat) into ``sums`` (``where``: scene, sensor, integrator): the level every
     pixel gets through Mitsuba's own render, the rest a pixel-list pass. ``timed``: through the frozen kernel, which
     serves any spp (a timed sequence's level changes every frame, and ``mi.render`` compiles a kernel for each).
-    With ``ahead`` (K,) pixels, one sample of each goes ahead of the others in the pixel-list pass, which then traces
-    every sample (one launch): their (samples, seed) are returned (a probe, :mod:`gmcpt.temporal.gradient`).
+    With groups of pixels ``ahead`` ((pixels, seed) each), one sample of each goes ahead of the others in the
+    pixel-list pass, which then traces every sample (one launch), and each group's samples are returned (probes,
+    :mod:`gmcpt.temporal.gradient`).
 
     With a ``deadline`` (perf_counter) the level goes in passes of one sample a pixel: the first and the rest of
     ``counts`` always (every pixel's one sample checks its history; the pixels without history need theirs), then each
@@ -793,14 +810,14 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
     (a plan of less than a sample a pixel, read from frames that compiled their kernels, is made up for there),
     and what is left, less than a pass, on one sample of a share of the pixels (:data:`PARTIAL_LAUNCH`)."""
     scene, sensor, integrator = where
-    level = int(counts.min()) if ahead is None else 0
+    level = 0 if ahead else int(counts.min())
     first = 1 if deadline is not None and level else level
     start = time.perf_counter()
     if first:
         sums.add_native(render_native(scene, sensor, integrator, first, seed, any_size=timed), first)
     pass_seconds = time.perf_counter() - start
-    probed = None
-    if (counts > level).any() or ahead is not None:
+    probed = []
+    if (counts > level).any() or ahead:
         start = time.perf_counter()
         probed = sums.trace_counts(scene, sensor, integrator, counts - level,
                                    stream(seed, SEQUENCE_TOP_UP_SEED_OFFSET), ahead)
