@@ -433,8 +433,8 @@ def record(args, rows: list[dict], verdicts: list[dict], moving: dict, seconds: 
 
 def merge(target: Path, parts: list[Path]) -> None:
     """One record of several runs (each a ``--record``), on other scenes or other motions of a scene: their rows,
-    verdicts and what moved, the commands joined, the seconds summed, the settings of the first with every scene;
-    and its plot."""
+    verdicts and what moved, the commands, commits and dates joined, the seconds summed, the settings of the first
+    with every scene; and its plot."""
     import json
 
     from gmcpt.evaluation.plots import sequence_plot
@@ -447,7 +447,10 @@ def merge(target: Path, parts: list[Path]) -> None:
     for r in records:
         for scene, motions in r["moving"].items():
             moving[scene] = {**moving.get(scene, {}), **motions}
+    # each part's commit and date, in the commands' order, where they differ (a part rerun after a change)
     merged = dict(records[0], command=" && ".join(r["command"] for r in records),
+                  commit=" && ".join(dict.fromkeys(r["commit"] for r in records)),
+                  date=" && ".join(dict.fromkeys(r["date"] for r in records)),
                   seconds=sum(r["seconds"] for r in records),
                   settings=dict(records[0]["settings"], scenes=scenes, record=str(target)),
                   moving=moving,

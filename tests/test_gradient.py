@@ -46,3 +46,23 @@ def test_a_probe_replays_in_the_next_frame_of_a_camera_that_stayed_only():
     moved = matrix.copy()
     moved[0, 3] += 1e-3
     assert not probe.replays_in(5, moved, SHAPE)
+
+
+def test_a_group_traced_again_in_its_lanes_with_its_seed_gives_the_same_samples(mi):
+    from conftest import CORNELL
+    from gmcpt.render.kernels import trace_counts_after
+    from gmcpt.render.scene import load_scene, path_integrator
+
+    scene = load_scene(CORNELL, resolution=(16, 12))
+    sensor, integrator = scene.sensors()[0], path_integrator(scene)
+    size = 16 * 12
+    probe, other = np.arange(0, size, 9), np.arange(3, size, 9)
+    counts = np.full(size, 2)
+    # the probe in the second slot behind another group, with the frame's own samples after them
+    first = trace_counts_after(scene, sensor, integrator, counts, 11, [(other, 5), (probe, 7)])
+    # traced again: another group ahead of it, other samples after it, another seed for them
+    again = trace_counts_after(scene, sensor, integrator, np.ones(size, np.int64), 12,
+                               [(other[::-1].copy(), 6), (probe, 7)])
+    np.testing.assert_array_equal(first[3][1], again[3][1])
+    assert not np.array_equal(first[3][0], again[3][0])  # the first slot's seed and pixels differ: other samples
+    assert first[2].sum() == counts.sum() + probe.size + other.size  # every lane counts: groups and counts
