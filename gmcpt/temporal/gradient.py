@@ -4,17 +4,18 @@ the same random numbers, once in each of two frames.
 Each frame of a sequence traces one sample of one pixel in every :data:`STRATUM` x :data:`STRATUM` block of its film
 ahead of its other samples, in the first lanes of its pass with a seed of their own (a :class:`Probe`), as part of
 its budget. The next frame, if its camera has not moved, traces the same pixels in the same lanes with the same seed
-(the other lanes ahead hold its own probe; a sampler's lane draws from its seed and its index alone), in its one pass: where nothing changed along a path the two samples are equal to
-the bit, and where a light moved, switched or dimmed, or an object's shadow moved, they differ by what changed along
-it, the light it brings indirectly included. The lighting signature (:func:`gmcpt.temporal.history.unchanged`) sees
-only the light a surface gets directly: on the breakfast room's turning sun the pixels whose image changed most had a
-signature of 0 in both frames, their history kept, and showed the last frame's light (docs/experiments.md).
+in its one pass (its own probe in the other lanes ahead; a sampler's lane draws from its seed and its index alone):
+where nothing changed along a path the two samples are equal to the bit, and where a light moved, switched or dimmed,
+or an object's shadow moved, they differ by what changed along it, the light it brings indirectly included. The
+lighting signature (:func:`gmcpt.temporal.history.unchanged`) sees only the light a surface gets directly: on the
+breakfast room's turning sun the pixels whose image changed most had a signature of 0 in both frames, their history
+kept, and showed the last frame's light (docs/experiments.md).
 
 :func:`changed_share` reads the probes' differences over a neighbourhood of blocks against the larger of each pair of
 samples: the share of the light that changed there, 0 where no path changed (the samples agree to the bit), 1 where a
 light went out. The history's weight is scaled by what stayed (1 - the share). The differences are taken unsigned: a
 light that moved brightens one bounce and darkens another nearby, and signed differences cancelled there; and the
-carry of the frame shown before is left as it is: scaled too, it added 10-35% to the flicker of a turning sky or sun
+carry of the frame shown before is left as it is: scaled too, it added 3-35% to the flicker of a turning sky or sun
 (docs/experiments.md).
 """
 from __future__ import annotations
