@@ -79,8 +79,8 @@ def probe_pixels(shape: tuple[int, int], seed: int, avoid: np.ndarray | None = N
 def changed_share(before: np.ndarray, after: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """The share of the light that changed at each pixel of a ``shape`` (H, W) film (N,) float32 in [0, 1], from a
     probe's samples ``before`` and their replay ``after`` (K, 3) each: over the :data:`GRADIENT_RADIUS` blocks around
-    a pixel's block, the sum of the luminance differences' sizes over the sum of the larger luminance of each pair. Pixels
-    past the last whole block read the nearest one's; a pair with a non-finite sample counts as no probe."""
+    a pixel's block, the sum of the luminance differences' sizes over the sum of the larger luminance of each pair.
+    Pixels past the last whole block read the nearest one's; a pair with a non-finite sample counts as no probe."""
     height, width = shape
     rows, columns = height // STRATUM, width // STRATUM
     if not rows or not columns:
