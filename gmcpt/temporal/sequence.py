@@ -520,8 +520,8 @@ class SequenceRenderer:
         samples = int(round(budget * pixels))
         counts = _placement(history.count, samples, budget, (height, width), seed,
                             np.isfinite(found.positions[:, 0]))
-        probes = self._probes(index, found.projection.matrix, (height, width), seed, history) \
-            if settings.history and not settings.time else {}
+        probes, replayed = self._probes(index, found.projection.matrix, (height, width), seed, history) \
+            if settings.history and not settings.time else ({}, None)
         for pixels_ahead, _ in probes.values():  # their sample comes from the probe or its replay, within the budget
             counts[pixels_ahead] = np.maximum(counts[pixels_ahead] - 1, 0)
         timings["placement_s"] = time.perf_counter() - start
@@ -531,7 +531,7 @@ class SequenceRenderer:
         slots = sorted(probes)
         probed = dict(zip(slots, _trace(sums, (scene, sensor, integrator), counts, seed, deadline,
                                         timed=bool(settings.time), ahead=[probes[slot] for slot in slots])))
-        history = self._probed(history, probes, probed, index, found.projection.matrix, (height, width))
+        history = self._probed(history, probes, probed, replayed, index, found.projection.matrix, (height, width))
         total, count = sums.total, sums.finite  # NaN/Inf samples left out
         traced = time.perf_counter()
         timings["render_s"] = traced - start
@@ -614,35 +614,33 @@ class SequenceRenderer:
             np.allclose(last.projection.matrix, matrix, rtol=1e-6, atol=1e-9))
 
     def _probes(self, index: int, matrix: np.ndarray, shape: tuple[int, int], seed: int,
-                history: History) -> dict[int, tuple[np.ndarray, int]]:
-        """The pixel groups this frame traces ahead of its samples, by slot ((flat pixels, seed) each;
-        :mod:`gmcpt.temporal.gradient`): its own probe, and the last frame's again in the slot it had, where the camera
-        stayed and there is history (a moved camera's probe would never replay; a frame without history, the first
-        or a cut, is the single frame's render)."""
+                history: History) -> tuple[dict[int, tuple[np.ndarray, int]], Probe | None]:
+        """(the pixel groups this frame traces ahead of its samples, by slot ((flat pixels, seed) each;
+        :mod:`gmcpt.temporal.gradient`): its own probe, and the last frame's again in the slot it had; that last
+        probe, or None), where the camera stayed and there is history (a moved camera's probe would never replay; a
+        frame without history, the first or a cut, is the single frame's render)."""
         if not (history.count > 0).any() or not self._camera_stayed(index, matrix):
-            return {}
+            return {}, None
         last = self.probe if self.probe is not None and self.probe.replays_in(index, matrix, shape) else None
         pixels = probe_pixels(shape, stream(seed, SEQUENCE_PROBE_SEED_OFFSET), last.pixels if last else None)
         if not pixels.size:  # a film smaller than a block
-            return {}
+            return {}, None
         groups = {1 - last.slot if last is not None else 0: (pixels, stream(seed, SEQUENCE_PROBE_SEED_OFFSET))}
         if last is not None:
             groups[last.slot] = (last.pixels, last.seed)
-        return groups
+        return groups, last
 
-    def _probed(self, history: History, probes: dict, probed: dict, index: int, matrix: np.ndarray,
-                shape: tuple[int, int]) -> History:
-        """``history`` weighed by the share of the light that did not change, where the last frame's probe was traced
-        again (``probed``: each slot's samples); this frame's probe kept for the next."""
-        last = self.probe if self.probe is not None and self.probe.index == index - 1 and \
-            self.probe.slot in probed and len(probed) == 2 else None
-        own = [slot for slot in probes if last is None or slot != last.slot]
+    def _probed(self, history: History, probes: dict, probed: dict, replayed: Probe | None, index: int,
+                matrix: np.ndarray, shape: tuple[int, int]) -> History:
+        """``history`` weighed by the share of the light that did not change, where the last frame's probe
+        ``replayed`` was traced again (``probed``: each slot's samples); this frame's probe kept for the next."""
+        own = [slot for slot in probes if replayed is None or slot != replayed.slot]
         if own:
             pixels, probe_seed = probes[own[0]]
             self.probe = Probe(index, probe_seed, pixels, probed[own[0]], matrix, shape, own[0])
-        if last is None:
+        if replayed is None:
             return history
-        return history.scaled(1.0 - changed_share(last.values, probed[last.slot], shape))
+        return history.scaled(1.0 - changed_share(replayed.values, probed[replayed.slot], shape))
 
     @property
     def decay(self) -> float:
