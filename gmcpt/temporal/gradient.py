@@ -52,8 +52,12 @@ class Probe:
     def replays_in(self, index: int, matrix: np.ndarray, shape: tuple[int, int]) -> bool:
         """Whether frame ``index`` (camera ``matrix``, film ``shape``) is the next frame, its camera where this
         probe's was."""
-        return self.index == index - 1 and tuple(self.shape) == tuple(shape) and bool(
-            np.allclose(self.matrix, matrix, rtol=1e-6, atol=1e-9))
+        return self.index == index - 1 and tuple(self.shape) == tuple(shape) and same_camera(self.matrix, matrix)
+
+
+def same_camera(matrix: np.ndarray, other: np.ndarray) -> bool:
+    """Whether two cameras' 3x4 projections are the same camera (up to the rounding of a camera set again)."""
+    return bool(np.allclose(matrix, other, rtol=1e-6, atol=1e-9))
 
 
 def probe_pixels(shape: tuple[int, int], seed: int, avoid: np.ndarray | None = None) -> np.ndarray:

@@ -11,11 +11,10 @@ the past frames reprojected (each straight into this one); this frame's samples 
 thin, so that disocclusions and the edge a pan uncovers get fresh samples first (every pixel gets one at
 least, so the history can be checked against it); with a still camera, the history weighed by the share of the
 light that did not change, as the last frame's light probes traced again with their random numbers say
-(:mod:`gmcpt.temporal.gradient`: one pixel in nine, within the budget); the history left out where it disagrees with
-them; then
-OIDN over the sums; then the frame shown before, carried along the motion (Catmull-Rom, where the history
-held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every frame
-(the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after
+(:mod:`gmcpt.temporal.gradient`: one pixel in nine, within the budget); the history left out where it disagrees
+with them; then OIDN over the sums; then the frame shown before, carried along the motion (Catmull-Rom, where the
+history held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every
+frame (the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after
 it, and where the camera's motion reveals a side of the film, also those of a guard band beyond that side
 (:mod:`gmcpt.temporal.guard`), so that what comes into view arrives with a history. :meth:`SequenceRenderer.state`
 and :meth:`SequenceRenderer.restore` carry the history across processes, so a stopped sequence resumes with the
@@ -46,7 +45,7 @@ from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
 from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_BAND_SEED_OFFSET, SEQUENCE_PASS_SEED_OFFSET,
                      SEQUENCE_PROBE_SEED_OFFSET, SEQUENCE_TOP_UP_SEED_OFFSET, stream)
-from .gradient import Probe, changed_share, probe_pixels
+from .gradient import Probe, changed_share, probe_pixels, same_camera
 from .guard import GuardBand, Sides, centred_perspective, guard_band, revealed, worth_a_band
 from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, fit_projection,
                       history_weights, signature)
@@ -610,8 +609,8 @@ class SequenceRenderer:
     def _camera_stayed(self, index: int, matrix: np.ndarray) -> bool:
         """Whether frame ``index``'s camera (its projection ``matrix``) is where the frame before it had its own."""
         last = self.past[-1] if self.past else None
-        return last is not None and last.index == index - 1 and last.margin == (0, 0) and bool(
-            np.allclose(last.projection.matrix, matrix, rtol=1e-6, atol=1e-9))
+        return last is not None and last.index == index - 1 and last.margin == (0, 0) and \
+            same_camera(last.projection.matrix, matrix)
 
     def _probes(self, index: int, matrix: np.ndarray, shape: tuple[int, int], seed: int,
                 history: History) -> tuple[dict[int, tuple[np.ndarray, int]], Probe | None]:
@@ -622,10 +621,11 @@ class SequenceRenderer:
         if not (history.count > 0).any() or not self._camera_stayed(index, matrix):
             return {}, None
         last = self.probe if self.probe is not None and self.probe.replays_in(index, matrix, shape) else None
-        pixels = probe_pixels(shape, stream(seed, SEQUENCE_PROBE_SEED_OFFSET), last.pixels if last else None)
+        probe_seed = stream(seed, SEQUENCE_PROBE_SEED_OFFSET)  # its pixels' choice and its samples
+        pixels = probe_pixels(shape, probe_seed, last.pixels if last else None)
         if not pixels.size:  # a film smaller than a block
             return {}, None
-        groups = {1 - last.slot if last is not None else 0: (pixels, stream(seed, SEQUENCE_PROBE_SEED_OFFSET))}
+        groups = {1 - last.slot if last is not None else 0: (pixels, probe_seed)}
         if last is not None:
             groups[last.slot] = (last.pixels, last.seed)
         return groups, last
