@@ -1,5 +1,6 @@
 """Temporal gradients (gmcpt.temporal.gradient): the probes' pixels and the share of the light that changed."""
 import numpy as np
+import pytest
 
 from gmcpt.temporal.gradient import GRADIENT_RADIUS, STRATUM, Probe, changed_share, probe_pixels
 
@@ -66,3 +67,27 @@ def test_a_group_traced_again_in_its_lanes_with_its_seed_gives_the_same_samples(
     np.testing.assert_array_equal(first[3][1], again[3][1])
     assert not np.array_equal(first[3][0], again[3][0])  # the first slot's seed and pixels differ: other samples
     assert first[2].sum() == counts.sum() + probe.size + other.size  # every lane counts: groups and counts
+
+
+def test_groups_ahead_replay_in_a_pass_of_several_parts_and_too_many_for_one_launch_stop(mi, monkeypatch):
+    from conftest import CORNELL
+    from gmcpt.errors import GmcptError
+    from gmcpt.render import kernels
+    from gmcpt.render.scene import load_scene, path_integrator
+
+    scene = load_scene(CORNELL, resolution=(16, 12))
+    sensor, integrator = scene.sensors()[0], path_integrator(scene)
+    size = 16 * 12
+    probe, other = np.arange(0, size, 9), np.arange(3, size, 9)
+    alone = kernels.trace_counts_after(scene, sensor, integrator, np.zeros(size, np.int64), 11,
+                                       [(other, 5), (probe, 7)])
+    counts = np.zeros(size, np.int64)
+    counts[:20] = 1  # 20 lanes behind the groups' 44: an even split in two would cut the groups
+    monkeypatch.setattr(kernels, "MAX_LANES", 50)
+    split = kernels.trace_counts_after(scene, sensor, integrator, counts, 11, [(other, 5), (probe, 7)])
+    np.testing.assert_array_equal(split[3][1], alone[3][1])
+    np.testing.assert_array_equal(split[3][0], alone[3][0])
+    assert split[2].sum() == counts.sum() + probe.size + other.size
+    monkeypatch.setattr(kernels, "MAX_LANES", 40)
+    with pytest.raises(GmcptError, match="probe lanes"):
+        kernels.trace_counts_after(scene, sensor, integrator, counts, 11, [(other, 5), (probe, 7)])

@@ -35,6 +35,7 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..errors import GmcptError
 from ..frame import DEFAULT_FEATURE_SPP
 from ..limits import SEED_LIMIT
 from ..seeds import FEATURE_SEED_OFFSET
@@ -374,10 +375,11 @@ def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sampli
     first = [pixels.astype(np.int64) for pixels, _ in ahead]
     lanes = np.concatenate([*first, np.repeat(np.arange(counts.size), counts)])
     total, squares, finite = np.zeros((counts.size, 3)), np.zeros(counts.size), np.zeros(counts.size)
-    parts = max(1, -(-lanes.size // MAX_LANES))
     ends = np.cumsum([0] + [pixels.size for pixels in first])
+    chunks = _parts(lanes, int(ends[-1]))
+    parts = len(chunks)
     own = []
-    for index, chunk in enumerate(np.array_split(lanes, parts)):
+    for index, chunk in enumerate(chunks):
         if chunk.size == 0:
             continue
         chunk_seed = pass_seed(seed, index, parts)
@@ -394,6 +396,19 @@ def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sampli
         squares += np.bincount(chunk, weights=chunk_squares, minlength=counts.size)
         finite += np.bincount(chunk, weights=count, minlength=counts.size)
     return total, squares, finite, own
+
+
+def _parts(lanes: np.ndarray, head: int) -> list[np.ndarray]:
+    """``lanes`` split into as few parts of at most :data:`MAX_LANES` as there can be, evenly, except that the first
+    holds at least the ``head`` lanes of the groups traced ahead (a group replays only in the lanes it had)."""
+    if head > MAX_LANES:
+        raise GmcptError(f"a film this large traces {head} probe lanes, more than one launch holds ({MAX_LANES}); "
+                         "render the sequence at a smaller resolution")
+    parts = max(1, -(-lanes.size // MAX_LANES))
+    chunks = np.array_split(lanes, parts)
+    if chunks[0].size >= head:
+        return chunks
+    return [lanes[:head], *np.array_split(lanes[head:], parts - 1)]
 
 
 #: Up to this many samples (pixels x spp), Mitsuba's render of every pixel is traced by the frozen pixel-list

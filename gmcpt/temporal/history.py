@@ -120,13 +120,6 @@ class PastFrame:
         """(height, width) of the frame's own film, its guard band (:mod:`gmcpt.temporal.guard`) left out."""
         return self.projection.height - 2 * self.margin[1], self.projection.width - 2 * self.margin[0]
 
-    @functools.cached_property
-    def gatherable(self) -> np.ndarray:
-        """(N + 1, 4) float32: each pixel's sums and count, then a zero row for the pixels that match none; made
-        once, though the frame serves several frames after it."""
-        rows = np.concatenate([self.total, self.count[:, None]], axis=1).astype(np.float32, copy=False)
-        return np.concatenate([rows, np.zeros((1, 4), np.float32)])
-
 
 @dataclass(frozen=True)
 class Surfaces:
