@@ -197,8 +197,8 @@ def test_the_jit_gather_keeps_what_the_numpy_tests_keep_and_edges_a_neighbour_s(
     past = replace(past, signature=replace(past.signature, lighting=lighting))
     floor = 0.01
     seen, source, film = matches(past, surfaces(current.positions, current.normals))
-    lit, same = unchanged(past.signature, source, current.signature, seen, film, floor)
-    gathered = gather_history([(jit_frame(past), 0.5, True)], current.positions, current.normals,
+    lit, same = unchanged(past.signature, source, current.signature, seen, film, floor, camera_moved=True)
+    gathered = gather_history([(jit_frame(past), 0.5, True, True)], current.positions, current.normals,
                               current.signature, floor)
     expected = np.zeros(current.count.size, bool)
     expected[seen[lit & same]] = True
@@ -248,13 +248,51 @@ def test_a_neighbour_serves_an_edge_only_where_the_camera_moved(mi):
         past = PastFrame(0, np.ones((size * size, 3), np.float32), np.ones(size * size, np.float32),
                          moved_away.astype(np.float32), normals.astype(np.float32), Projection(matrix, size, size),
                          marks)
-        return gather_history([(jit_frame(past), 1.0, True)], positions.astype(np.float32),
+        return gather_history([(jit_frame(past), 1.0, True, False)], positions.astype(np.float32),
                               normals.astype(np.float32), marks, 0.0).latest_seen
 
     still, panned = gathered(1e-3), gathered(0.25)  # a still camera's points land on the centres to rounding
     assert not still[edge] and still.sum() == size * size - 1
     # a quarter pixel off: the point lands in the past pixel beside (edge + 1) or at the edge; its neighbours serve
     assert panned[edge] and panned[edge - 1]
+
+
+def test_a_camera_moved_by_whole_pixels_is_allowed_what_a_moving_one_is(mi):
+    """Points land on the past pixels' centres after a move of whole pixels as a still camera's do: a signature that
+    changed within the pixel's own spread (which guide rays fall either side of an edge) is held only because the
+    camera is known to have moved."""
+    from gmcpt.temporal.history import PastFrame, Projection, signature, unchanged
+    from gmcpt.temporal.reprojection import gather_history, jit_frame
+
+    size, depth, focal = 8, 10.0, 100.0
+    column, row = np.meshgrid(np.arange(size) + 0.5, np.arange(size) + 0.5)
+    film = np.stack([column.ravel(), row.ravel()], axis=1)
+    positions = np.concatenate([(film - size / 2) * depth / focal, np.full((size * size, 1), depth)], axis=1)
+    normals = np.tile([0.0, 0.0, -1.0], (size * size, 1)).astype(np.float32)
+    albedo = np.full(size * size, 0.5, np.float32)
+    lighting = np.where(column.ravel() >= 4, 2.0, 1.0).astype(np.float32)  # a shadow's edge between columns 3 and 4
+    current = signature(lighting, albedo, size, size)
+    # the past camera one pixel to the left: current column c is past column c + 1, the edge a column on
+    past_lighting = np.where(column.ravel() >= 5, 2.0, 1.0).astype(np.float32)
+    past_lighting[column.ravel() == 4.5] = 1.5  # the edge's pixel saw it cover half its rays
+    matrix = np.array([[focal, 0, size / 2 + 1.0, 0], [0, focal, size / 2, 0], [0, 0, 1, 0]], np.float64)
+    shifted_positions = np.concatenate([(film - [size / 2 + 1.0, size / 2]) * depth / focal,
+                                        np.full((size * size, 1), depth)], axis=1).astype(np.float32)
+    past = PastFrame(0, np.ones((size * size, 3), np.float32), np.ones(size * size, np.float32), shifted_positions,
+                     normals, Projection(matrix, size, size), signature(past_lighting, albedo, size, size))
+    edge = np.flatnonzero((column.ravel() == 3.5) & (row.ravel() == 3.5))[0]
+
+    def held(camera_moved: bool) -> np.ndarray:
+        return gather_history([(jit_frame(past), 1.0, True, camera_moved)], positions.astype(np.float32), normals,
+                              current, 0.0).latest_seen
+
+    moved, still = held(True), held(False)
+    assert moved[edge] and not still[edge]
+    assert moved.sum() == still.sum() + size  # the edge's column (the last has no past pixel in either)
+    landed = film[edge:edge + 1] + [1.0, 0.0]
+    for camera_moved, expected in ((True, True), (False, False)):  # the numpy reference agrees
+        lit, _ = unchanged(past.signature, np.array([edge + 1]), current, np.array([edge]), landed, 0.0, camera_moved)
+        assert lit[0] == expected
 
 
 def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():

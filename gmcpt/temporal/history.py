@@ -116,6 +116,14 @@ class PastFrame:
     margin: tuple[int, int] = (0, 0)  # (x, y) pixels of guard band on each side of the frame's own film
 
     @property
+    def own_matrix(self) -> np.ndarray:
+        """The 3x4 projection onto the frame's own film: its guard band's margin taken off the film coordinates."""
+        matrix = np.array(self.projection.matrix, np.float64)
+        matrix[0] -= self.margin[0] * matrix[2]
+        matrix[1] -= self.margin[1] * matrix[2]
+        return matrix
+
+    @property
     def own_shape(self) -> tuple[int, int]:
         """(height, width) of the frame's own film, its guard band (:mod:`gmcpt.temporal.guard`) left out."""
         return self.projection.height - 2 * self.margin[1], self.projection.width - 2 * self.margin[0]
@@ -175,7 +183,7 @@ def signature(lighting: np.ndarray, albedo: np.ndarray, width: int, height: int)
 
 
 def unchanged(past: Signature, source: np.ndarray, current: Signature, pixels: np.ndarray, film: np.ndarray,
-              lighting_floor: float) -> tuple[np.ndarray, np.ndarray]:
+              lighting_floor: float, camera_moved: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(lighting held, albedo held) (K,) bool each, for the current ``pixels`` (K,) that :func:`matches` paired
     with ``past`` pixels ``source`` (K,), landing at ``film`` (K, 2) on the past film.
 
@@ -184,13 +192,14 @@ def unchanged(past: Signature, source: np.ndarray, current: Signature, pixels: n
     count its rounding), and by as much of their neighbourhoods' spread as the point landed off the past pixel's
     centre (none at the centre, all of it half a pixel off): a still camera compares like with like, and a moving
     one allows what a sub-pixel shift across an edge changes. Where the point landed off the centre at all
-    (:data:`SHIFT_SEEN`), the current pixel's own spread is allowed whole: a signature is the mean of a few guide
-    rays, and any shift changes which of them fall on either side of an edge (2-5% of a pan's pixels a past frame
-    failed for it, its edges). The past pixel's spread stays weighted by the shift: a neighbourhood's range alone
-    let the trailing edge of a light that moved by less than a pixel a frame keep its light."""
+    (:data:`SHIFT_SEEN`), or wherever ``camera_moved`` (a camera that moved by whole pixels lands on the centres
+    too), the current pixel's own spread is allowed whole: a signature is the mean of a few guide rays, and any move
+    changes which of them fall on either side of an edge (2-5% of a pan's pixels a past frame failed for it, its
+    edges). The past pixel's spread stays weighted by the shift: a neighbourhood's range alone let the trailing edge
+    of a light that moved by less than a pixel a frame keep its light."""
     offset = np.abs(film - np.floor(film) - np.float32(0.5)).max(axis=1)
     shifted = np.minimum(np.float32(2) * offset, np.float32(1)).astype(np.float32)
-    moved = offset > SHIFT_SEEN
+    moved = (offset > SHIFT_SEEN) | bool(camera_moved)
     held = []
     for name, ratio, margin in (("lighting", LIGHTING_RATIO, lighting_floor), ("albedo", 0.0, ALBEDO_MARGIN)):
         mine, theirs = getattr(current, name)[pixels], getattr(past, name)[source]

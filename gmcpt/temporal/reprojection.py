@@ -81,9 +81,10 @@ def jit_frame(past: PastFrame) -> JitFrame:
                     samples, matrix, centre, projection.width, projection.height)
 
 
-def gather_history(frames: list[tuple[JitFrame, float, bool]], positions: np.ndarray, normals: np.ndarray,
+def gather_history(frames: list[tuple[JitFrame, float, bool, bool]], positions: np.ndarray, normals: np.ndarray,
                    marks: Signature, lighting_floor: float) -> Gathered:
-    """The past ``frames`` ((frame, weight, whether it is the frame shown last) each) gathered into a frame whose
+    """The past ``frames`` ((frame, weight, whether it is the frame shown last, whether the camera moved since) each)
+    gathered into a frame whose
     pixels' centre rays hit ``positions`` (N, 3; NaN on a miss) with ``normals`` and whose signature is ``marks``:
     where a past pixel saw the same surface (:func:`gmcpt.temporal.history.matches`) under the same light and material
     (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``."""
@@ -93,8 +94,8 @@ def gather_history(frames: list[tuple[JitFrame, float, bool]], positions: np.nda
     summed = [dr.zeros(mi.Float, pixels) for _ in range(4)]
     offered, lighting_dropped, material_dropped = (dr.zeros(mi.Bool, pixels) for _ in range(3))
     latest_seen, latest_film = np.zeros(pixels, bool), np.zeros((pixels, 2), np.float32)
-    for frame, weight, latest in frames:
-        held, source, same, lit, same_material, u, v = _match(frame, point, normal, current, floor)
+    for frame, weight, latest, camera_moved in frames:
+        held, source, same, lit, same_material, u, v = _match(frame, point, normal, current, floor, camera_moved)
         scale = dr.opaque(mi.Float, float(weight))
         summed = [total + dr.select(held, dr.gather(mi.Float, values, source, held) * scale, 0.0)
                   for total, values in zip(summed, frame.samples)]
@@ -111,7 +112,8 @@ def gather_history(frames: list[tuple[JitFrame, float, bool]], positions: np.nda
                     np.where(latest_seen[:, None], latest_film, np.float32(0)))
 
 
-def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tuple, floor: mi.Float) -> tuple:
+def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tuple, floor: mi.Float,
+           camera_moved: bool) -> tuple:
     """(history held, the past pixel it comes from, some past pixel of the four around the point saw its surface,
     the nearest such one's lighting held, and its albedo, past film x, y) of every current pixel.
 
@@ -132,10 +134,12 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
     left, top = dr.floor(u - 0.5), dr.floor(v - 0.5)  # the 2x2 past pixels whose centres surround the point
     fx, fy = u - 0.5 - left, v - 0.5 - top
     # how far the camera moved the point off the nearest past centre: every one of the four is judged by it, so a
-    # still camera's neighbour (at a moved object's edge) gets no allowance for a shift that did not happen
+    # still camera's neighbour (at a moved object's edge) gets no allowance for a shift that did not happen; a camera
+    # that moved by whole pixels lands on the centres as a still one does, and is told apart by ``camera_moved``
     landed_column, landed_row = dr.floor(u), dr.floor(v)  # the past pixel the point lands in: the nearest centre
     offset = dr.maximum(dr.abs(u - landed_column - 0.5), dr.abs(v - landed_row - 0.5))
-    shifted, moved = dr.minimum(2 * offset, 1.0), offset > SHIFT_SEEN
+    shifted = dr.minimum(2 * offset, 1.0)
+    moved = (offset > SHIFT_SEEN) | (dr.opaque(mi.Float, 1.0 if camera_moved else 0.0) > 0)
     lanes = dr.width(point.x)
     near_same, near_lit, near_material = (dr.zeros(mi.Bool, lanes) for _ in range(3))
     any_same, near_source = dr.zeros(mi.Bool, lanes), dr.zeros(mi.UInt32, lanes)

@@ -595,7 +595,9 @@ class SequenceRenderer:
         hits = found.lighting[np.isfinite(found.positions[:, 0])]
         floor = LIGHTING_FLOOR * float(hits.mean()) if hits.size else 0.0
         latest = self.shown[0] if self.shown is not None else None
-        frames = [(self._jit_frame(past), weight, past.index == latest) for past, weight in zip(usable, weights)]
+        # a camera that moved by whole pixels lands on the past centres as a still one does (reprojection._match)
+        frames = [(self._jit_frame(past), weight, past.index == latest,
+                   not same_camera(past.own_matrix, found.projection.matrix)) for past, weight in zip(usable, weights)]
         gathered = gather_history(frames, found.positions, found.normals, marks, floor)
         shares = DroppedShares(
             lighting=float(gathered.lighting_dropped.mean()), material=float(gathered.material_dropped.mean()),
