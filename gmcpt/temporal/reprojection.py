@@ -84,10 +84,9 @@ def jit_frame(past: PastFrame) -> JitFrame:
 def gather_history(frames: list[tuple[JitFrame, float, bool, bool]], positions: np.ndarray, normals: np.ndarray,
                    marks: Signature, lighting_floor: float) -> Gathered:
     """The past ``frames`` ((frame, weight, whether it is the frame shown last, whether the camera moved since) each)
-    gathered into a frame whose
-    pixels' centre rays hit ``positions`` (N, 3; NaN on a miss) with ``normals`` and whose signature is ``marks``:
-    where a past pixel saw the same surface (:func:`gmcpt.temporal.history.matches`) under the same light and material
-    (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``."""
+    gathered into a frame whose pixels' centre rays hit ``positions`` (N, 3; NaN on a miss) with ``normals`` and whose
+    signature is ``marks``: where a past pixel saw the same surface (:func:`gmcpt.temporal.history.matches`) under the
+    same light and material (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``."""
     pixels = positions.shape[0]
     point, normal, current = _vector(positions, mi.Point3f), _vector(normals, mi.Vector3f), _marks(marks)
     floor = dr.opaque(mi.Float, float(lighting_floor))
