@@ -18,7 +18,6 @@ import mitsuba as mi
 import numpy as np
 
 from ..render.kernels import scalar_parameter, sensor_film_size
-from .history import Projection
 
 #: The band's width beyond each side of the film, a share of the film's size: room for the history's frames of a
 #: motion up to 1 pixel a frame at 128 pixels (the benchmark's pan) and 2 at 256.
@@ -56,15 +55,6 @@ class GuardBand:
     @property
     def wide_shape(self) -> tuple[int, int]:
         return self.shape[0] + 2 * self.margin[1], self.shape[1] + 2 * self.margin[0]
-
-    def inner_projection(self, wide: Projection) -> Projection:
-        """The frame's own film's :class:`~gmcpt.temporal.history.Projection` from the wide film's: the same camera,
-        its pixels ``margin`` fewer from the corner (no second fit from rays)."""
-        (height, width), (mx, my) = self.shape, self.margin
-        matrix = wide.matrix.copy()
-        matrix[0] -= mx * wide.matrix[2]
-        matrix[1] -= my * wide.matrix[2]
-        return Projection(matrix, width, height)
 
     def inner(self, flat: np.ndarray) -> np.ndarray:
         """The frame's own pixels of a flat array over the wide film (N', ...), flat (N, ...)."""

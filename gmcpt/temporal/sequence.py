@@ -597,7 +597,8 @@ class SequenceRenderer:
         latest = self.shown[0] if self.shown is not None else None
         # a camera that moved by whole pixels lands on the past centres as a still one does (reprojection._match)
         frames = [(self._jit_frame(past), weight, past.index == latest,
-                   not same_camera(past.own_matrix, found.projection.matrix)) for past, weight in zip(usable, weights)]
+                   not same_camera(past.own_projection.matrix, found.projection.matrix))
+                  for past, weight in zip(usable, weights)]
         gathered = gather_history(frames, found.positions, found.normals, marks, floor)
         shares = DroppedShares(
             lighting=float(gathered.lighting_dropped.mean()), material=float(gathered.material_dropped.mean()),
@@ -733,7 +734,7 @@ def _inner(wide: Survey, band: GuardBand | None) -> tuple[Survey, Signature, Sig
     features = FeatureMeans(tuple(band.inner(plane) for plane in wide.features.planes), wide.features.spp, None, 0,
                             band.shape)
     found = Survey(band.inner(wide.positions), band.inner(wide.normals), features, band.inner(wide.lighting),
-                   band.inner_projection(wide.projection))
+                   wide.projection.inner(band.margin))
     own = Signature(*(band.inner(values) for values in (marks.lighting, marks.albedo, marks.lighting_spread,
                                                         marks.albedo_spread)))
     return found, own, marks
