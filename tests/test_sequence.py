@@ -227,17 +227,29 @@ def test_the_jit_gather_keeps_what_the_numpy_tests_keep_and_edges_a_neighbour_s(
     assert (served & (distance <= DEPTH_TOLERANCE * away[:, None])).any(axis=1).all()  # one of the four, same surface
 
 
+#: A flat wall facing the camera: film side (pixels), its distance, the focal length in pixels (a pixel 1% of the
+#: distance across: neighbours on one surface)
+_WALL = (8, 10.0, 100.0)
+
+
+def _wall() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(film coordinates of the pixel centres (N, 2), where their rays meet :data:`_WALL`'s wall (N, 3), its normals
+    (N, 3) float32) of a camera at the origin looking down +z."""
+    size, depth, focal = _WALL
+    column, row = np.meshgrid(np.arange(size) + 0.5, np.arange(size) + 0.5)
+    film = np.stack([column.ravel(), row.ravel()], axis=1)
+    positions = np.concatenate([(film - size / 2) * depth / focal, np.full((size * size, 1), depth)], axis=1)
+    return film, positions, np.tile([0.0, 0.0, -1.0], (size * size, 1)).astype(np.float32)
+
+
 def test_a_neighbour_serves_an_edge_only_where_the_camera_moved(mi):
     """Where the past pixel a point lands in saw another surface, a still camera's is an object that moved: no
     neighbour serves (the light around a moved object changes unseen); a moving camera's is an edge, and one does."""
     from gmcpt.temporal.history import PastFrame, Projection, signature
     from gmcpt.temporal.reprojection import gather_history, jit_frame
 
-    size, depth, focal = 8, 10.0, 100.0  # a pixel 1% of the distance across: neighbours on one surface
-    column, row = np.meshgrid(np.arange(size) + 0.5, np.arange(size) + 0.5)
-    film = np.stack([column.ravel(), row.ravel()], axis=1)
-    positions = np.concatenate([(film - size / 2) * depth / focal, np.full((size * size, 1), depth)], axis=1)
-    normals = np.tile([0.0, 0.0, -1.0], (size * size, 1))
+    size, depth, focal = _WALL
+    film, positions, normals = _wall()
     marks = signature(np.ones(size * size, np.float32), np.full(size * size, 0.5, np.float32), size, size)
     edge = 3 * size + 3
     moved_away = positions.copy()
@@ -246,10 +258,10 @@ def test_a_neighbour_serves_an_edge_only_where_the_camera_moved(mi):
     def gathered(shift: float) -> np.ndarray:
         matrix = np.array([[focal, 0, size / 2 + shift, 0], [0, focal, size / 2, 0], [0, 0, 1, 0]], np.float64)
         past = PastFrame(0, np.ones((size * size, 3), np.float32), np.ones(size * size, np.float32),
-                         moved_away.astype(np.float32), normals.astype(np.float32), Projection(matrix, size, size),
+                         moved_away.astype(np.float32), normals, Projection(matrix, size, size),
                          marks)
         return gather_history([(jit_frame(past), 1.0, True, False)], positions.astype(np.float32),
-                              normals.astype(np.float32), marks, 0.0).latest_seen
+                              normals, marks, 0.0).latest_seen
 
     still, panned = gathered(1e-3), gathered(0.25)  # a still camera's points land on the centres to rounding
     assert not still[edge] and still.sum() == size * size - 1
@@ -264,23 +276,21 @@ def test_a_camera_moved_by_whole_pixels_is_allowed_what_a_moving_one_is(mi):
     from gmcpt.temporal.history import PastFrame, Projection, signature, unchanged
     from gmcpt.temporal.reprojection import gather_history, jit_frame
 
-    size, depth, focal = 8, 10.0, 100.0
-    column, row = np.meshgrid(np.arange(size) + 0.5, np.arange(size) + 0.5)
-    film = np.stack([column.ravel(), row.ravel()], axis=1)
-    positions = np.concatenate([(film - size / 2) * depth / focal, np.full((size * size, 1), depth)], axis=1)
-    normals = np.tile([0.0, 0.0, -1.0], (size * size, 1)).astype(np.float32)
+    size, depth, focal = _WALL
+    film, positions, normals = _wall()
+    column, row = film[:, 0], film[:, 1]
     albedo = np.full(size * size, 0.5, np.float32)
-    lighting = np.where(column.ravel() >= 4, 2.0, 1.0).astype(np.float32)  # a shadow's edge between columns 3 and 4
+    lighting = np.where(column >= 4, 2.0, 1.0).astype(np.float32)  # a shadow's edge between columns 3 and 4
     current = signature(lighting, albedo, size, size)
     # the past camera one pixel to the left: current column c is past column c + 1, the edge a column on
-    past_lighting = np.where(column.ravel() >= 5, 2.0, 1.0).astype(np.float32)
-    past_lighting[column.ravel() == 4.5] = 1.5  # the edge's pixel saw it cover half its rays
+    past_lighting = np.where(column >= 5, 2.0, 1.0).astype(np.float32)
+    past_lighting[column == 4.5] = 1.5  # the edge's pixel saw it cover half its rays
     matrix = np.array([[focal, 0, size / 2 + 1.0, 0], [0, focal, size / 2, 0], [0, 0, 1, 0]], np.float64)
     shifted_positions = np.concatenate([(film - [size / 2 + 1.0, size / 2]) * depth / focal,
                                         np.full((size * size, 1), depth)], axis=1).astype(np.float32)
     past = PastFrame(0, np.ones((size * size, 3), np.float32), np.ones(size * size, np.float32), shifted_positions,
                      normals, Projection(matrix, size, size), signature(past_lighting, albedo, size, size))
-    edge = np.flatnonzero((column.ravel() == 3.5) & (row.ravel() == 3.5))[0]
+    edge = np.flatnonzero((column == 3.5) & (row == 3.5))[0]
 
     def held(camera_moved: bool) -> np.ndarray:
         return gather_history([(jit_frame(past), 1.0, True, camera_moved)], positions.astype(np.float32), normals,
