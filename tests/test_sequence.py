@@ -194,7 +194,8 @@ def test_the_jit_gather_keeps_what_the_numpy_tests_keep_and_edges_a_neighbour_s(
     past, current = renderer.past[0], renderer.past[1]  # frame 1's survey, as the next frame would see it
     lighting = past.signature.lighting.copy()
     lighting[::3] = 4 * lighting[::3] + 0.1  # a light that changed on a third of the past pixels
-    past = replace(past, signature=replace(past.signature, lighting=lighting))
+    # read by pixel, as the numpy tests read (by quarter: test_a_moving_camera_reads_...)
+    past = replace(past, signature=replace(past.signature, lighting=lighting), quarters=None)
     floor = 0.01
     seen, source, film = matches(past, surfaces(current.positions, current.normals))
     lit, same = unchanged(past.signature, source, current.signature, seen, film, floor, camera_moved=True)
@@ -267,6 +268,57 @@ def test_a_neighbour_serves_an_edge_only_where_the_camera_moved(mi):
     assert not still[edge] and still.sum() == size * size - 1
     # a quarter pixel off: the point lands in the past pixel beside (edge + 1) or at the edge; its neighbours serve
     assert panned[edge] and panned[edge - 1]
+
+
+def test_a_moving_camera_reads_the_past_samples_that_fell_within_the_pixel(mi):
+    """Over half a pixel off, a pixel's footprint on the past film covers halves of two past pixels: read by quarter,
+    it takes the samples that fell there, not the nearest past pixel's whole (another mix of an edge inside it)."""
+    from gmcpt.temporal.history import PastFrame, Projection, signature
+    from gmcpt.temporal.reprojection import gather_history, jit_frame
+
+    size, depth, focal = _WALL
+    film, positions, normals = _wall()
+    marks = signature(np.ones(size * size, np.float32), np.full(size * size, 0.5, np.float32), size, size)
+    shift = 0.55  # current column c lands at past x = c + 1.05
+    matrix = np.array([[focal, 0, size / 2 + shift, 0], [0, focal, size / 2, 0], [0, 0, 1, 0]], np.float64)
+    past_positions = np.concatenate([(film - [size / 2 + shift, size / 2]) * depth / focal,
+                                     np.full((size * size, 1), depth)], axis=1).astype(np.float32)
+    # an edge inside past column 5: radiance 1 left of x = 5.5 on the past film, 3 right of it
+    column = film[:, 0] - 0.5
+    left_half, right_half = np.where(column <= 5, 1.0, 3.0), np.where(column <= 4, 1.0, 3.0)
+    quarters = np.zeros((size * size, 4, 4), np.float32)
+    for quarter, value in enumerate((left_half, right_half, left_half, right_half)):
+        quarters[:, quarter, :3], quarters[:, quarter, 3] = value[:, None], 1.0
+    past = PastFrame(0, quarters[:, :, :3].sum(axis=1), quarters[:, :, 3].sum(axis=1), past_positions, normals,
+                     Projection(matrix, size, size), marks, (0, 0), quarters)
+    pixel = np.flatnonzero((column == 4) & (film[:, 1] == 3.5))[0]  # its footprint: past x in [4.55, 5.55)
+
+    def mean(frame: PastFrame) -> np.ndarray:
+        summed = gather_history([(jit_frame(frame), 1.0, True, True)], positions.astype(np.float32), normals,
+                                marks, 0.0).summed[pixel]
+        return summed[:3] / summed[3]
+
+    np.testing.assert_allclose(mean(past), 1.0, rtol=1e-6)  # the halves of past pixels 4 and 5 left of the edge
+    np.testing.assert_allclose(mean(replace(past, quarters=None)), 2.0, rtol=1e-6)  # past pixel 5, both sides
+
+
+def test_from_budget_4_the_carry_fades_where_the_frame_shown_before_is_read_between_pixels(mi):
+    """Read half a pixel off its centres, the frame shown before is a Catmull-Rom blur, which carried frame after frame
+    stays: from :data:`CARRY_FADE_BUDGET` the carry falls to none there, and stays whole at the centres."""
+    from gmcpt.temporal.sequence import CARRY_FADE_BUDGET
+
+    renderer, side = _renderer(), 4
+    renderer.shown = (0, np.ones((side, side, 3), np.float32))
+    column, row = np.meshgrid(np.arange(side) + 0.5, np.arange(side) + 0.5)
+    film = np.stack([column.ravel(), row.ravel()], axis=1).astype(np.float32)
+    film[::2, 0] += 0.5  # every other pixel's surface was half a pixel off a past centre
+    where = np.ones(side * side, bool)
+
+    def shown(budget: float) -> np.ndarray:
+        return renderer._carried(np.zeros((side, side, 3), np.float32), film, where, budget, 0.0)[0][..., 0].ravel()
+
+    faded, whole = shown(CARRY_FADE_BUDGET), shown(1.0)
+    assert np.all(faded[::2] == 0) and np.allclose(faded[1::2], 0.5) and np.allclose(whole, 0.5)
 
 
 def test_a_camera_moved_by_whole_pixels_is_allowed_what_a_moving_one_is(mi):
@@ -459,7 +511,8 @@ def test_a_pan_brings_surfaces_into_view_with_history_from_the_guard_band(mi, mo
     monkeypatch.setattr(sequence, "guard_band", lambda *arguments: None)
     _, records, without = pan()
     assert records[-1].band_samples == 0
-    assert without[:, edge].mean() < 0.05 and with_band[:, edge].mean() > 1.0
+    # (read by quarter, a column next to the band's untraced depth takes what fell within it: about a frame's worth)
+    assert without[:, edge].mean() < 0.05 and with_band[:, edge].mean() > 0.5
     still, scene = _renderer(), _scene()
     for index in range(3):
         still.render(scene, index)

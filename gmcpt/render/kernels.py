@@ -132,11 +132,12 @@ def sensor_film_size(sensor: mi.Sensor) -> tuple[int, int]:
 
 
 def primary_rays(sensor: mi.Sensor, sampler: mi.Sampler, pixel: mi.UInt32, width: int,
-                  spp: int) -> tuple[mi.RayDifferential3f, mi.Color3f]:
-    """Rays through ``pixel`` (flat index per lane), drawn as Mitsuba's integrators do."""
+                  spp: int, jitter: mi.Point2f | None = None) -> tuple[mi.RayDifferential3f, mi.Color3f]:
+    """Rays through ``pixel`` (flat index per lane), drawn as Mitsuba's integrators do; ``jitter``: where in the
+    pixel, in [0, 1)^2 (default: the sampler's next draw, as Mitsuba's)."""
     film = sensor.film()
     pos = mi.Vector2u(pixel % width, pixel // width) + mi.Vector2u(film.crop_offset())
-    pos_f = mi.Vector2f(pos) + sampler.next_2d()
+    pos_f = mi.Vector2f(pos) + (sampler.next_2d() if jitter is None else jitter)
     scale = dr.rcp(mi.ScalarVector2f(film.crop_size()))
     offset = -mi.ScalarVector2f(film.crop_offset()) * scale
     aperture = sampler.next_2d() if sensor.needs_aperture_sample() else mi.Point2f(0.5)
@@ -288,18 +289,20 @@ def camera_key(sensor: mi.Sensor) -> tuple:
 
 
 def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: mi.UInt32,
-                lane: mi.UInt32, seed: mi.UInt32, spp: int, camera: tuple, sums: list) -> list:
+                lane: mi.UInt32, seed: mi.UInt32, spp: int, camera: tuple, sums: list, quarters: list = ()) -> list:
     """Path trace lane ``k * spp + s`` (``lane`` counts them) as sample ``s`` of pixel ``pixels[k]`` and add
     (R, G, B, squared norm, finite count) of the finite samples to ``sums`` (five zero arrays, one value a pixel),
     and where ``sums`` holds more arrays, the integrator's AOVs of every sample (the guides of
-    :class:`~gmcpt.render.guided_path.GuidedPath`).
+    :class:`~gmcpt.render.guided_path.GuidedPath`). With ``quarters`` (four zero arrays, four values a pixel), also
+    (R, G, B, finite count) by the quarter of the pixel each sample fell in (:func:`trace_pixel_quarters`).
 
     Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
     pixel count; ``camera`` (:func:`camera_key`) only keys the recording.
     """
     sampler = seeded_sampler(sensor, spp, seed, dr.width(lane))
     lane_pixel = lane // dr.opaque(mi.UInt32, spp)  # as in primary_rays: one compiled kernel for every spp
-    ray, weight = primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp)
+    jitter = sampler.next_2d()  # the draw primary_rays would make: the same samples, their place in the pixel known
+    ray, weight = primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp, jitter)
     radiance, _, aovs = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
     radiance = weight * radiance
     finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
@@ -309,6 +312,11 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     values = [radiance[0], radiance[1], radiance[2], dr.squared_norm(radiance), dr.select(finite, 1.0, 0.0), *aovs]
     for target, value in zip(sums, values):
         dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
+    if quarters:
+        quarter = lane_pixel * 4 + dr.select(jitter.x >= 0.5, 1, 0) + dr.select(jitter.y >= 0.5, 2, 0)
+        for target, value in zip(quarters, values[:3] + values[4:5]):
+            dr.scatter_reduce(dr.ReduceOp.Add, target, value, quarter, mode=SCATTER_MODE)
+        return sums, quarters
     return sums
 
 
@@ -319,6 +327,8 @@ _frozen_pixel_sums = FrozenKernel(_pixel_sums)
 #: the same with a :class:`~gmcpt.render.guided_path.GuidedPath`'s AOVs: recorded apart, so that a scene where it cannot
 #: be recorded still replays the plain kernel
 _frozen_guided_sums = FrozenKernel(_pixel_sums)
+#: the same with the sums by the pixel's quarters (:func:`trace_pixel_quarters`)
+_frozen_quarter_sums = FrozenKernel(_pixel_sums)
 
 
 def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
@@ -334,16 +344,30 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     return np.stack([red, green, blue], axis=1), squares, count
 
 
+def trace_pixel_quarters(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
+                         pixels: np.ndarray, spp: int, seed: int | np.ndarray = 0) -> tuple[np.ndarray, ...]:
+    """:func:`trace_pixels` (the same samples), and their sums by the quarter of its pixel each fell in: (n, 4, 4)
+    float32, for each quarter (left top, right top, left bottom, right bottom) R, G, B and the finite count. A
+    sequence's history reads them where the camera moved (:mod:`gmcpt.temporal.reprojection`)."""
+    red, green, blue, squares, count, *quarters = _traced_sums(scene, sensor, integrator, pixels, spp, seed,
+                                                               quarters=True)
+    return (np.stack([red, green, blue], axis=1), squares, count,
+            np.stack([quarter.reshape(-1, 4) for quarter in quarters], axis=2))
+
+
 def _traced_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: np.ndarray, spp: int,
-                 seed: int, aovs: int = 0) -> list[np.ndarray]:
-    """:func:`_pixel_sums` through the frozen kernel, as float32 arrays: the five sums, then ``aovs`` AOV sums."""
+                 seed: int, aovs: int = 0, quarters: bool = False) -> list[np.ndarray]:
+    """:func:`_pixel_sums` through the frozen kernel, as float32 arrays: the five sums, then ``aovs`` AOV sums, or
+    with ``quarters`` the four sums by the pixel's quarters (four values a pixel)."""
     # opaque zeros and seed: literals that change between calls would make the frozen function record again
-    kernel = _frozen_guided_sums if aovs else _frozen_pixel_sums
-    sums = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
-                                  dr.arange(mi.UInt32, pixels.size * spp), _lane_seeds(seed), spp,
-                                  camera_key(sensor),
-                                  [dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5 + aovs)]))
-    return [np.asarray(column) for column in sums]
+    kernel = _frozen_quarter_sums if quarters else _frozen_guided_sums if aovs else _frozen_pixel_sums
+    zeros = lambda count, size: [dr.opaque(mi.Float, 0.0, size) for _ in range(count)]  # noqa: E731
+    outputs = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
+                                     dr.arange(mi.UInt32, pixels.size * spp), _lane_seeds(seed), spp,
+                                     camera_key(sensor), zeros(5 + aovs, pixels.size),
+                                     zeros(4, 4 * pixels.size) if quarters else []))
+    columns = [*outputs[0], *outputs[1]] if quarters else outputs
+    return [np.asarray(column) for column in columns]
 
 
 def _lane_seeds(seed: int | np.ndarray) -> mi.UInt32:
@@ -366,15 +390,18 @@ def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
 
 
 def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, counts: np.ndarray,
-                       seed: int, ahead: list[tuple[np.ndarray, int]]) -> tuple:
+                       seed: int, ahead: list[tuple[np.ndarray, int]], quarters: bool = False) -> tuple:
     """:func:`trace_counts` with one sample of each pixel of the groups ``ahead`` ((flat pixels (K,), seed) each)
     traced first, each group in the next K lanes of the first part, its lanes drawing from its own seed: (sum, sum
-    of squared norms, finite count (over the film, all samples), and each group's own samples (K, 3) float32, NaN
-    where not finite). A group traced again at the same lanes with the same seed traces the same samples (a lane
-    draws from its seed and its index alone): :mod:`gmcpt.temporal.gradient`'s replay, in the same launch."""
+    of squared norms, finite count (over the film, all samples), each group's own samples (K, 3) float32, NaN
+    where not finite, and with ``quarters`` the sums by the pixel's quarters (N, 4, 4), as
+    :func:`trace_pixel_quarters` gives them, else None). A group traced again at the same lanes with the same seed
+    traces the same samples (a lane draws from its seed and its index alone): :mod:`gmcpt.temporal.gradient`'s
+    replay, in the same launch."""
     first = [pixels.astype(np.int64) for pixels, _ in ahead]
     lanes = np.concatenate([*first, np.repeat(np.arange(counts.size), counts)])
     total, squares, finite = np.zeros((counts.size, 3)), np.zeros(counts.size), np.zeros(counts.size)
+    by_quarter = np.zeros((counts.size, 4, 4)) if quarters else None
     ends = np.cumsum([0] + [pixels.size for pixels in first])
     chunks = _parts(lanes, int(ends[-1]))
     parts = len(chunks)
@@ -387,7 +414,12 @@ def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sampli
             chunk_seed = np.full(chunk.size, chunk_seed, np.uint32)
             for (_, group_seed), start, end in zip(ahead, ends[:-1], ends[1:]):
                 chunk_seed[start:end] = group_seed
-        sums, chunk_squares, count = trace_pixels(scene, sensor, integrator, chunk, 1, chunk_seed)
+        if quarters:
+            sums, chunk_squares, count, chunk_quarters = trace_pixel_quarters(scene, sensor, integrator, chunk, 1,
+                                                                              chunk_seed)
+            add_quarters(by_quarter, chunk, chunk_quarters)
+        else:
+            sums, chunk_squares, count = trace_pixels(scene, sensor, integrator, chunk, 1, chunk_seed)
         if index == 0:
             own = [np.where(count[start:end, None] > 0, sums[start:end], np.float32(np.nan)).astype(np.float32)
                    for start, end in zip(ends[:-1], ends[1:])]
@@ -395,7 +427,16 @@ def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sampli
             total[:, channel] += np.bincount(chunk, weights=sums[:, channel], minlength=counts.size)
         squares += np.bincount(chunk, weights=chunk_squares, minlength=counts.size)
         finite += np.bincount(chunk, weights=count, minlength=counts.size)
-    return total, squares, finite, own
+    return total, squares, finite, own, by_quarter
+
+
+def add_quarters(by_quarter: np.ndarray, pixels: np.ndarray, quarters: np.ndarray) -> None:
+    """Add the sums by quarter ``quarters`` ((n, 4, 4), :func:`trace_pixel_quarters`) of the flat ``pixels`` (n,
+    repeats allowed) to ``by_quarter`` (N, 4, 4), in place."""
+    index = (pixels.astype(np.int64)[:, None] * 4 + np.arange(4)).ravel()
+    for channel in range(4):
+        by_quarter[:, :, channel] += np.bincount(index, weights=quarters[:, :, channel].ravel(),
+                                                 minlength=by_quarter.shape[0] * 4).reshape(-1, 4)
 
 
 def _parts(lanes: np.ndarray, head: int) -> list[np.ndarray]:
@@ -442,14 +483,14 @@ def warm_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     :func:`render_native_guided`) runs at ``any_size``, by tracing one sample of a few pixels: the kernel serves
     every pixel count and spp, so that a whole frame's pass then takes its own time, not its compilation's. Nothing
     where the film's filter is wider than a pixel (``mi.render`` renders it)."""
-    if not _box_filter(sensor):
+    if not box_filter(sensor):
         return
     height, width = sensor_film_size(sensor)
     _traced_sums(scene, sensor, integrator, np.arange(min(64, height * width)), 1, 0,
                  len(FEATURE_PLANES) if guided else 0)
 
 
-def _box_filter(sensor: mi.Sensor) -> bool:
+def box_filter(sensor: mi.Sensor) -> bool:
     """Whether each sample lands in its own pixel alone, as the frozen kernel's sums take it."""
     return sensor.film().rfilter().radius() <= 0.5
 
@@ -458,7 +499,7 @@ def _render_full(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
                  aovs: int, any_size: bool) -> tuple[np.ndarray, list[np.ndarray]]:
     """(the image, (N, 3), and the per-pixel means of the integrator's first ``aovs`` AOVs, flat float32 planes)."""
     height, width = sensor_film_size(sensor)
-    if (any_size or height * width * spp <= FROZEN_FRAME_SAMPLES) and _box_filter(sensor):
+    if (any_size or height * width * spp <= FROZEN_FRAME_SAMPLES) and box_filter(sensor):
         red, green, blue, _, count, *planes = _traced_sums(scene, sensor, integrator, np.arange(height * width), spp,
                                                            seed, aovs)
         mean = np.stack([red, green, blue], axis=1)
@@ -486,9 +527,12 @@ class SampleSums:
     folded into it, its squares dropped (a dense frame's top-up of one sample a pixel has no variance to give).
     """
 
-    def __init__(self, pixels: int):
+    def __init__(self, pixels: int, quarters: bool = False):
         self.size = pixels
         self._total, self.squares, self.finite = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels)
+        #: with ``quarters``, the sums by the pixel's quarters (N, 4, 4; :func:`trace_pixel_quarters`) of the
+        #: pixel-list passes; None after a native pass, whose samples' places are not known
+        self.quarters = np.zeros((pixels, 4, 4)) if quarters else None
         self.squared_samples = np.zeros(pixels)  # finite samples that brought their squares
         self.samples = 0
         # a frame of finite native passes and top-ups (a dense frame's usual case) keeps Mitsuba's float32 image
@@ -521,8 +565,13 @@ class SampleSums:
             if this_spp <= 0:
                 break
             say(f"path tracing: {pixels.size} px x {spp} spp" + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
-            total, squares, count = trace_pixels(scene, sensor, integrator, pixels, this_spp,
-                                                 pass_seed(seed, index, passes))
+            if self.quarters is not None:
+                total, squares, count, quarters = trace_pixel_quarters(scene, sensor, integrator, pixels, this_spp,
+                                                                       pass_seed(seed, index, passes))
+                self.quarters[pixels] += quarters  # each pixel once in a pass
+            else:
+                total, squares, count = trace_pixels(scene, sensor, integrator, pixels, this_spp,
+                                                     pass_seed(seed, index, passes))
             if self._native_mean is not None:
                 self._fold(pixels, total, count)
             else:
@@ -551,7 +600,10 @@ class SampleSums:
                      ahead: list[tuple[np.ndarray, int]] = ()) -> list[np.ndarray]:
         """``counts[p]`` more samples of each flat pixel ``p`` (:func:`trace_counts`), and one of each pixel of the
         groups ``ahead`` ahead of them, whose samples it returns (:func:`trace_counts_after`)."""
-        total, squares, finite, own = trace_counts_after(scene, sensor, integrator, counts, seed, list(ahead))
+        total, squares, finite, own, quarters = trace_counts_after(scene, sensor, integrator, counts, seed,
+                                                                   list(ahead), self.quarters is not None)
+        if quarters is not None:
+            self.quarters += quarters
         self.total, self.squares = self.total + total, self.squares + squares
         self.finite, self.squared_samples = self.finite + finite, self.squared_samples + finite
         self.samples += int(counts.sum()) + sum(pixels.size for pixels, _ in ahead)
@@ -559,7 +611,8 @@ class SampleSums:
 
     def add_native(self, image: np.ndarray, spp: int) -> None:
         """A :func:`render_native` image of ``spp`` samples a pixel (kept as it is); a non-finite pixel's samples
-        count as dropped."""
+        count as dropped. The frame keeps no sums by quarter after it."""
+        self.quarters = None
         if np.isfinite(image).all():  # the usual case, without the masked copies (0.35 s at 1920x1080)
             if self.samples == 0:  # the first pass is the frame (a dense frame's one launch)
                 self._native_mean, self._mean_is_own = image, False

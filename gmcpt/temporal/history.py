@@ -123,6 +123,9 @@ class PastFrame:
     projection: Projection
     signature: "Signature | None" = None  # its lighting and albedo (for :func:`unchanged`)
     margin: tuple[int, int] = (0, 0)  # (x, y) pixels of guard band on each side of the frame's own film
+    #: (N, 4, 4) its samples' sums by the pixel's quarter they fell in (R, G, B, count; left top, right top, left
+    #: bottom, right bottom), or None (a frame of Mitsuba's film: where in the pixel is not known)
+    quarters: "np.ndarray | None" = None
 
     @property
     def own_projection(self) -> Projection:

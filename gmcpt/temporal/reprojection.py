@@ -33,6 +33,7 @@ class JitFrame:
     normals: mi.Vector3f
     marks: tuple  # lighting, albedo, lighting spread, albedo spread (mi.Float each)
     samples: tuple  # R, G, B sums and the count (mi.Float each)
+    quarters: tuple | None  # the same by the pixel's quarters (four values a pixel: pixel * 4 + quarter), or None
     matrix: list  # the projection's 12 entries, opaque
     centre: mi.Point3f  # the camera's pinhole, opaque
     width: int
@@ -77,8 +78,9 @@ def jit_frame(past: PastFrame) -> JitFrame:
     matrix = [dr.opaque(mi.Float, float(value)) for value in projection.matrix.ravel()]
     centre = mi.Point3f(*(dr.opaque(mi.Float, float(value)) for value in projection.centre))
     samples = tuple(_float(column) for column in (*past.total.T, past.count))
+    quarters = None if past.quarters is None else tuple(_float(past.quarters[:, :, value]) for value in range(4))
     return JitFrame(_vector(past.positions, mi.Point3f), _vector(past.normals, mi.Vector3f), _marks(past.signature),
-                    samples, matrix, centre, projection.width, projection.height)
+                    samples, quarters, matrix, centre, projection.width, projection.height)
 
 
 def gather_history(frames: list[tuple[JitFrame, float, bool, bool]], positions: np.ndarray, normals: np.ndarray,
@@ -86,7 +88,8 @@ def gather_history(frames: list[tuple[JitFrame, float, bool, bool]], positions: 
     """The past ``frames`` ((frame, weight, whether it is the frame shown last, whether the camera moved since) each)
     gathered into a frame whose pixels' centre rays hit ``positions`` (N, 3; NaN on a miss) with ``normals`` and whose
     signature is ``marks``: where a past pixel saw the same surface (:func:`gmcpt.temporal.history.matches`) under the
-    same light and material (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``."""
+    same light and material (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``; where the camera
+    moved, a frame that kept its samples by quarter gives those that fell within the pixel (:func:`_by_quarters`)."""
     pixels = positions.shape[0]
     point, normal, current = _vector(positions, mi.Point3f), _vector(normals, mi.Vector3f), _marks(marks)
     floor = dr.opaque(mi.Float, float(lighting_floor))
@@ -94,27 +97,52 @@ def gather_history(frames: list[tuple[JitFrame, float, bool, bool]], positions: 
     offered, lighting_dropped, material_dropped = (dr.zeros(mi.Bool, pixels) for _ in range(3))
     latest_seen, latest_film = np.zeros(pixels, bool), np.zeros((pixels, 2), np.float32)
     for frame, weight, latest, camera_moved in frames:
-        held, source, same, lit, same_material, u, v = _match(frame, point, normal, current, floor, camera_moved)
+        match = _match(frame, point, normal, current, floor, camera_moved)
+        if camera_moved and frame.quarters is not None:
+            taken = _by_quarters(frame, match)
+        else:
+            taken = [dr.select(match.held, dr.gather(mi.Float, values, match.source, match.held), 0.0)
+                     for values in frame.samples]
         scale = dr.opaque(mi.Float, float(weight))
-        summed = [total + dr.select(held, dr.gather(mi.Float, values, source, held) * scale, 0.0)
-                  for total, values in zip(summed, frame.samples)]
-        offered |= same
-        lighting_dropped |= ~held & ~lit
-        material_dropped |= ~held & lit & ~same_material
-        outputs = [*summed, offered, lighting_dropped, material_dropped] + ([held, u, v] if latest else [])
+        summed = [total + value * scale for total, value in zip(summed, taken)]
+        offered |= match.offered
+        lighting_dropped |= ~match.held & ~match.lit
+        material_dropped |= ~match.held & match.lit & ~match.same_material
+        outputs = [*summed, offered, lighting_dropped, material_dropped] + \
+            ([match.held, match.u, match.v] if latest else [])
         dr.eval(*outputs)  # one kernel a past frame, all its outputs together
         if latest:
-            latest_seen = np.asarray(held, bool)
-            latest_film = np.stack([np.asarray(u, np.float32), np.asarray(v, np.float32)], axis=1)
+            latest_seen = np.asarray(match.held, bool)
+            latest_film = np.stack([np.asarray(match.u, np.float32), np.asarray(match.v, np.float32)], axis=1)
     return Gathered(np.stack([np.asarray(total, np.float32) for total in summed], axis=1), np.asarray(offered, bool),
                     np.asarray(lighting_dropped, bool), np.asarray(material_dropped, bool), latest_seen,
                     np.where(latest_seen[:, None], latest_film, np.float32(0)))
 
 
+#: The four past pixels whose centres surround a point, as (column, row) steps from the top left one
+_AROUND = ((0, 0), (1, 0), (0, 1), (1, 1))
+
+
+@dataclass(frozen=True)
+class _Match:
+    """Where a past frame's samples serve each current pixel (:func:`_match`), Dr.Jit arrays over the pixels."""
+
+    held: mi.Bool  # its history held
+    source: mi.UInt32  # the past pixel it comes from
+    offered: mi.Bool  # some past pixel of the four around the point saw its surface
+    lit: mi.Bool  # the nearest such one's lighting held
+    same_material: mi.Bool  # ... and its albedo
+    u: mi.Float  # where the point lands on the past film
+    v: mi.Float
+    left: mi.Float  # the top left of the four past pixels around the point
+    top: mi.Float
+    around: tuple  # for each of the four (:data:`_AROUND`): (its flat index, whether its light and albedo held)
+    quartered: mi.Bool  # where the samples by quarter may serve (:func:`_by_quarters`)
+
+
 def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tuple, floor: mi.Float,
-           camera_moved: bool) -> tuple:
-    """(history held, the past pixel it comes from, some past pixel of the four around the point saw its surface,
-    the nearest such one's lighting held, and its albedo, past film x, y) of every current pixel.
+           camera_moved: bool) -> _Match:
+    """Where ``frame``'s samples serve each current pixel.
 
     The past pixel the point lands in decides where it saw the same surface (:func:`~gmcpt.temporal.history.matches`,
     :func:`~gmcpt.temporal.history.unchanged`); where it saw another surface and the camera moved (the point is near
@@ -122,7 +150,11 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
     serves. An edge then keeps its history as a still camera's does (nearest-pixel alone dropped it on every edge of a
     pan, where the error concentrates); changed light or albedo at the nearest past pixel is never outvoted by
     another, and a still camera's other surface is an object that moved, whose surroundings' light changed unseen
-    (serving neighbours there cost the living room's moving table 0.45 dB on its changed pixels)."""
+    (serving neighbours there cost the living room's moving table 0.45 dB on its changed pixels).
+
+    By quarter (:func:`_by_quarters`), a past pixel serves where its light and albedo held whatever surface its centre
+    saw: a pixel across a silhouette sees both surfaces, and its signature is the mean over them. Where the nearest
+    saw this surface and failed the tests, none does, nor where none of the four saw it (a disocclusion, a cut)."""
     m = frame.matrix
     x = m[0] * point.x + m[1] * point.y + m[2] * point.z + m[3]
     y = m[4] * point.x + m[5] * point.y + m[6] * point.z + m[7]
@@ -143,7 +175,8 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
     near_same, near_lit, near_material = (dr.zeros(mi.Bool, lanes) for _ in range(3))
     any_same, near_source = dr.zeros(mi.Bool, lanes), dr.zeros(mi.UInt32, lanes)
     other_weight, other_source = dr.zeros(mi.Float, lanes), dr.zeros(mi.UInt32, lanes)
-    for dx, dy in ((0, 0), (1, 0), (0, 1), (1, 1)):
+    around = []
+    for dx, dy in _AROUND:
         column, row = left + dx, top + dy
         inside = front & (column >= 0) & (column < frame.width) & (row >= 0) & (row < frame.height)
         source = dr.select(inside, mi.UInt32(dr.maximum(row, 0)) * frame.width + mi.UInt32(dr.maximum(column, 0)), 0)
@@ -152,14 +185,15 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
         step, away = past_point - point, point - frame.centre
         same = inside & (dr.squared_norm(step) <= DEPTH_TOLERANCE ** 2 * dr.squared_norm(away)) & \
             (dr.dot(past_normal, normal) >= NORMAL_COSINE)
-        held = []
+        held = []  # the lighting, then the albedo held, whatever surface the past pixel saw
         for mine, theirs, my_spread, their_spread, ratio, margin in (
                 (current[0], frame.marks[0], current[2], frame.marks[2], LIGHTING_RATIO, floor),
                 (current[1], frame.marks[1], current[3], frame.marks[3], 0.0, ALBEDO_MARGIN)):
-            theirs = dr.gather(mi.Float, theirs, source, same)
-            spread = dr.maximum(shifted * dr.maximum(my_spread, dr.gather(mi.Float, their_spread, source, same)),
+            theirs = dr.gather(mi.Float, theirs, source, inside)
+            spread = dr.maximum(shifted * dr.maximum(my_spread, dr.gather(mi.Float, their_spread, source, inside)),
                                 dr.select(moved, my_spread, 0.0))
             held.append(dr.abs(mine - theirs) <= spread + ratio * dr.maximum(mine, theirs) + margin)
+        around.append((source, inside & held[0] & held[1]))
         weight = (fx if dx else 1 - fx) * (fy if dy else 1 - fy)
         nearest = (column == landed_column) & (row == landed_row)
         near_same |= nearest & same
@@ -172,9 +206,34 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
     # a still camera's nearest past pixel is the pixel itself: another surface there is an object that moved, whose
     # neighbours' light (what it shadowed or lit around it) the signature does not see
     held = dr.select(near_same, near_lit & near_material, moved & (other_weight > 0))
-    lit = dr.select(near_same, near_lit, True)
-    same_material = dr.select(near_same, near_material, True)
-    return held, dr.select(near_same, near_source, other_source), any_same, lit, same_material, u, v
+    return _Match(held, dr.select(near_same, near_source, other_source), any_same,
+                  dr.select(near_same, near_lit, True), dr.select(near_same, near_material, True), u, v, left, top,
+                  tuple(around), held | (moved & ~near_same & any_same))
+
+
+def _by_quarters(frame: JitFrame, match: _Match) -> list:
+    """R, G, B sums and count of ``frame``'s samples that fell within each current pixel's footprint, to a quarter
+    pixel: its footprint on the past film, a pixel square about the point, holds four quarter centres, each in one of
+    the four past pixels around the point, which serves if its light and albedo held (:func:`_match`). Nearest-pixel
+    reads take a past pixel's samples up to half a pixel off: at an edge another mix of its two sides (on a pan at
+    half a pixel a frame, 0.2 dB at 4 samples a pixel; docs/experiments.md)."""
+    summed = [dr.zeros(mi.Float, dr.width(match.u)) for _ in range(4)]
+    # quarter centres lie at k / 2 + 1 / 4: the first of the two within [u - 1/2, u + 1/2) on each axis
+    first_x, first_y = dr.ceil(2 * match.u - 1.5), dr.ceil(2 * match.v - 1.5)
+    for step_x, step_y in _AROUND:
+        x, y = first_x + step_x, first_y + step_y
+        column, row = dr.floor(x / 2), dr.floor(y / 2)
+        quarter = mi.UInt32(x - 2 * column) + 2 * mi.UInt32(y - 2 * row)
+        serves, pixel = dr.zeros(mi.Bool, dr.width(x)), dr.zeros(mi.UInt32, dr.width(x))
+        for (dx, dy), (source, passes) in zip(_AROUND, match.around):
+            here = (column - match.left == dx) & (row - match.top == dy)
+            serves |= here & passes
+            pixel = dr.select(here, source, pixel)
+        serves &= match.quartered
+        index = pixel * 4 + quarter
+        summed = [total + dr.select(serves, dr.gather(mi.Float, values, index, serves), 0.0)
+                  for total, values in zip(summed, frame.quarters)]
+    return summed
 
 
 def cubic_sample(image: np.ndarray, film: np.ndarray) -> np.ndarray:

@@ -38,8 +38,9 @@ from ..frame import DEFAULT_FEATURE_SPP, FrameInfo, SparseFrame
 from ..image.denoise import denoise_oidn
 from ..limits import SEED_LIMIT, check_seconds, check_seed
 from ..render.guided_path import first_hit_features
-from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, camera_key, pixel_means, primary_rays,
-                              render_native, scalar_parameter, seeded_sampler, sensor_film_size, trace_counts)
+from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, box_filter, camera_key, pixel_means,
+                              primary_rays, render_native, scalar_parameter, seeded_sampler, sensor_film_size,
+                              trace_counts_after)
 from ..render.scene import path_integrator, scene_sensor
 from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
@@ -74,6 +75,14 @@ CARRY_FULL_BUDGET = 4.0
 #: ... times (1 - the share of pixels whose light changed) to this power: where a light moves, the light it brings
 #: to the rest changes too, unseen, and the image shown before is stale there (docs/experiments.md).
 CARRY_LIGHT_POWER = 2.0
+#: From this budget the carry also falls with how far off a past pixel's centre the image shown before is read, to
+#: none at half a pixel: a Catmull-Rom read there blurs, and carried frame after frame the blur stays. At 4 samples a
+#: pixel that took 0.1-0.35 dB off the pans; at 1 and 2, where noise outweighs blur, the full carry is steadier.
+CARRY_FADE_BUDGET = 4.0
+#: Frames of up to this many pixels keep their samples by quarter of the pixel (16 floats a pixel: 4 MB at 256x256,
+#: 8 past frames and their Dr.Jit copies 70 MB; at 1920x1080 that would be 2 GB), which a moving camera's history
+#: reads (:mod:`gmcpt.temporal.reprojection`); larger ones, and frames traced by Mitsuba's film, are read by pixel.
+QUARTER_PIXELS = 1 << 19
 
 
 @dataclass(frozen=True)
@@ -526,7 +535,7 @@ class SequenceRenderer:
         timings["placement_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        sums = SampleSums(pixels)
+        sums = SampleSums(pixels, quarters=settings.history > 0 and not settings.time and keeps_quarters(sensor))
         slots = sorted(probes)
         probed = dict(zip(slots, _trace(sums, (scene, sensor, integrator), counts, seed, deadline,
                                         timed=bool(settings.time), ahead=[probes[slot] for slot in slots])))
@@ -559,12 +568,14 @@ class SequenceRenderer:
         band_samples = 0
         if settings.history:
             start = time.perf_counter()
-            own_total, own_count, band_samples = _with_band(total, count, band, (scene, integrator), self.reveal,
-                                                            budget, seed)
+            own_total, own_count, own_quarters, band_samples = _with_band(total, count, sums.quarters, band,
+                                                                          (scene, integrator), self.reveal, budget,
+                                                                          seed)
             # float32, as the samples were traced: 8 past frames' gathers a frame at half float64's traffic
             self.past.append(PastFrame(index, own_total.astype(np.float32), own_count.astype(np.float32),
                                        wide.positions, wide.normals, wide.projection, wide_marks,
-                                       band.margin if band is not None else (0, 0)))
+                                       band.margin if band is not None else (0, 0),
+                                       None if own_quarters is None else own_quarters.astype(np.float32)))
             self.shown = (index, shown)
             self.reveal = worth_a_band(revealed(history.latest_film, history.latest_seen, (height, width),
                                                 settings.history), own, denoised, (height, width))
@@ -663,17 +674,21 @@ class SequenceRenderer:
     def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray, budget: float,
                  light_changed: float) -> tuple[np.ndarray, float]:
         """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`, less
-        where ``light_changed`` of the pixels' light changed), read along the motion at ``film`` (N, 2, its film
-        coordinates) where ``where`` (N,) says its surface was seen and its history held; the share of pixels
-        blended)."""
+        where ``light_changed`` of the pixels' light changed, and from :data:`CARRY_FADE_BUDGET` less where it is read
+        between its pixels), read along the motion at ``film`` (N, 2, its film coordinates) where ``where`` (N,) says
+        its surface was seen and its history held; the share of pixels blended)."""
         height, width = denoised.shape[:2]
         # a surface the last frame saw on its guard band only was never shown
         where = where & (film[:, 0] >= 0) & (film[:, 0] <= width) & (film[:, 1] >= 0) & (film[:, 1] <= height)
         if self.shown is None or not where.any():
             return denoised, 0.0
-        carry = SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / budget) * (1.0 - light_changed) ** CARRY_LIGHT_POWER
+        carry = np.full(int(where.sum()), SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / budget)
+                        * (1.0 - light_changed) ** CARRY_LIGHT_POWER, np.float32)
+        if budget >= CARRY_FADE_BUDGET:
+            off = film[where] - 0.5  # pixel centres at whole numbers
+            carry *= 1 - 2 * np.abs(off - np.round(off)).max(axis=1)
         flat = denoised.reshape(-1, 3).copy()
-        flat[where] = (1 - carry) * flat[where] + carry * cubic_sample(self.shown[1], film[where])
+        flat[where] = (1 - carry[:, None]) * flat[where] + carry[:, None] * cubic_sample(self.shown[1], film[where])
         return flat.reshape(denoised.shape), float(where.mean())
 
     def state(self) -> dict:
@@ -687,6 +702,8 @@ class SequenceRenderer:
             state[f"{slot}_matrix"] = past.projection.matrix
             state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
             state[f"{slot}_margin"] = np.array(past.margin)
+            if past.quarters is not None:
+                state[f"{slot}_quarters"] = past.quarters
         if self.shown is not None:
             state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
         state["light_changed"] = np.array(self.light_changed)
@@ -711,7 +728,8 @@ class SequenceRenderer:
                                        state[f"{slot}_positions"], state[f"{slot}_normals"],
                                        Projection(state[f"{slot}_matrix"], width, height),
                                        signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height),
-                                       tuple(int(value) for value in state.get(f"{slot}_margin", (0, 0)))))
+                                       tuple(int(value) for value in state.get(f"{slot}_margin", (0, 0))),
+                                       state[f"{slot}_quarters"] if f"{slot}_quarters" in state else None))
             slot += 1
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
         self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
@@ -740,18 +758,26 @@ def _inner(wide: Survey, band: GuardBand | None) -> tuple[Survey, Signature, Sig
     return found, own, marks
 
 
-def _with_band(total: np.ndarray, count: np.ndarray, band: GuardBand | None, where: tuple, sides: Sides,
-               budget: float, seed: int) -> tuple[np.ndarray, np.ndarray, int]:
-    """The frame's sums (``total`` (N, 3), ``count`` (N,)) over ``band``'s wide film, with the budget's samples traced
-    on the band beyond the revealed ``sides`` (``where``: scene, integrator), and how many were traced there; as
-    they are without a band."""
+def _with_band(total: np.ndarray, count: np.ndarray, quarters: np.ndarray | None, band: GuardBand | None,
+               where: tuple, sides: Sides, budget: float, seed: int) -> tuple:
+    """The frame's sums (``total`` (N, 3), ``count`` (N,), and by quarter ``quarters`` (N, 4, 4) or None) over
+    ``band``'s wide film, with the budget's samples traced on the band beyond the revealed ``sides`` (``where``:
+    scene, integrator), and how many were traced there; as they are without a band."""
     if band is None:
-        return total, count, 0
+        return total, count, quarters, 0
     scene, integrator = where
     counts = band.band_counts(sides, budget, stream(seed, SEQUENCE_BAND_SEED_OFFSET))
-    band_total, _, band_count = trace_counts(scene, band.sensor, integrator, counts,
-                                             stream(seed, SEQUENCE_BAND_SEED_OFFSET))
-    return band.embed(total, band_total), band.embed(count, band_count), int(counts.sum())
+    band_total, _, band_count, _, band_quarters = trace_counts_after(
+        scene, band.sensor, integrator, counts, stream(seed, SEQUENCE_BAND_SEED_OFFSET), [], quarters is not None)
+    return (band.embed(total, band_total), band.embed(count, band_count),
+            None if quarters is None else band.embed(quarters, band_quarters), int(counts.sum()))
+
+
+def keeps_quarters(sensor: mi.Sensor) -> bool:
+    """Whether a frame of ``sensor`` keeps its samples by quarter of the pixel: a box filter (each sample in its own
+    pixel, as the pixel-list kernel sums them) and at most :data:`QUARTER_PIXELS` pixels."""
+    height, width = sensor_film_size(sensor)
+    return box_filter(sensor) and height * width <= QUARTER_PIXELS
 
 
 def sequence_budget(budget: float | None, sensor: mi.Sensor) -> float:
@@ -814,7 +840,9 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
     level = 0 if ahead else int(counts.min())
     first = 1 if deadline is not None and level else level
     start = time.perf_counter()
-    if first:
+    if first and sums.quarters is not None:  # the samples render_native's kernel draws, with their quarters
+        sums.trace(scene, sensor, integrator, np.arange(sums.size), first, seed)
+    elif first:
         sums.add_native(render_native(scene, sensor, integrator, first, seed, any_size=timed), first)
     pass_seconds = time.perf_counter() - start
     probed = []
