@@ -28,6 +28,7 @@ pass is small and ``mi.render`` above; the pixel-list kernel tops it up.
 from __future__ import annotations
 
 import hashlib
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -293,8 +294,9 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     """Path trace lane ``k * spp + s`` (``lane`` counts them) as sample ``s`` of pixel ``pixels[k]`` and add
     (R, G, B, squared norm, finite count) of the finite samples to ``sums`` (five zero arrays, one value a pixel),
     and where ``sums`` holds more arrays, the integrator's AOVs of every sample (the guides of
-    :class:`~gmcpt.render.guided_path.GuidedPath`). With ``quarters`` (four zero arrays, four values a pixel), also
-    (R, G, B, finite count) by the quarter of the pixel each sample fell in (:func:`trace_pixel_quarters`).
+    :class:`~gmcpt.render.guided_path.GuidedPath`). With ``quarters`` (four zero arrays, four values a pixel of the
+    film), also (R, G, B, finite count) by the film's pixel and the quarter of it each sample fell in
+    (:func:`trace_pixel_quarters`).
 
     Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
     pixel count; ``camera`` (:func:`camera_key`) only keys the recording.
@@ -302,7 +304,8 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     sampler = seeded_sampler(sensor, spp, seed, dr.width(lane))
     lane_pixel = lane // dr.opaque(mi.UInt32, spp)  # as in primary_rays: one compiled kernel for every spp
     jitter = sampler.next_2d()  # the draw primary_rays would make: the same samples, their place in the pixel known
-    ray, weight = primary_rays(sensor, sampler, dr.gather(mi.UInt32, pixels, lane_pixel), camera[0][0], spp, jitter)
+    film_pixel = dr.gather(mi.UInt32, pixels, lane_pixel)
+    ray, weight = primary_rays(sensor, sampler, film_pixel, camera[0][0], spp, jitter)
     radiance, _, aovs = integrator.sample(scene, sampler, ray, sensor.get_medium(), True)
     radiance = weight * radiance
     finite = dr.isfinite(radiance[0]) & dr.isfinite(radiance[1]) & dr.isfinite(radiance[2])
@@ -313,7 +316,7 @@ def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInteg
     for target, value in zip(sums, values):
         dr.scatter_reduce(dr.ReduceOp.Add, target, value, lane_pixel, mode=SCATTER_MODE)
     if quarters:
-        quarter = lane_pixel * 4 + dr.select(jitter.x >= 0.5, 1, 0) + dr.select(jitter.y >= 0.5, 2, 0)
+        quarter = film_pixel * 4 + dr.select(jitter.x >= 0.5, 1, 0) + dr.select(jitter.y >= 0.5, 2, 0)
         for target, value in zip(quarters, values[:3] + values[4:5]):
             dr.scatter_reduce(dr.ReduceOp.Add, target, value, quarter, mode=SCATTER_MODE)
         return sums, quarters
@@ -346,9 +349,10 @@ def trace_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
 
 def trace_pixel_quarters(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator,
                          pixels: np.ndarray, spp: int, seed: int | np.ndarray = 0) -> tuple[np.ndarray, ...]:
-    """:func:`trace_pixels` (the same samples), and their sums by the quarter of its pixel each fell in: (n, 4, 4)
-    float32, for each quarter (left top, right top, left bottom, right bottom) R, G, B and the finite count. A
-    sequence's history reads them where the camera moved (:mod:`gmcpt.temporal.reprojection`)."""
+    """:func:`trace_pixels` (the same samples), and their sums by the film's pixel and the quarter of it each fell
+    in: (N, 4, 4) float32 over the film's N pixels, for each quarter (left top, right top, left bottom, right bottom)
+    R, G, B and the finite count. A sequence's history reads them where the camera moved
+    (:mod:`gmcpt.temporal.reprojection`)."""
     red, green, blue, squares, count, *quarters = _traced_sums(scene, sensor, integrator, pixels, spp, seed,
                                                                quarters=True)
     return (np.stack([red, green, blue], axis=1), squares, count,
@@ -358,14 +362,14 @@ def trace_pixel_quarters(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Samp
 def _traced_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: np.ndarray, spp: int,
                  seed: int, aovs: int = 0, quarters: bool = False) -> list[np.ndarray]:
     """:func:`_pixel_sums` through the frozen kernel, as float32 arrays: the five sums, then ``aovs`` AOV sums, or
-    with ``quarters`` the four sums by the pixel's quarters (four values a pixel)."""
+    with ``quarters`` the four sums by the film's pixels' quarters (four values a pixel of the film)."""
     # opaque zeros and seed: literals that change between calls would make the frozen function record again
     kernel = _frozen_quarter_sums if quarters else _frozen_guided_sums if aovs else _frozen_pixel_sums
     zeros = lambda count, size: [dr.opaque(mi.Float, 0.0, size) for _ in range(count)]  # noqa: E731
     outputs = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
                                      dr.arange(mi.UInt32, pixels.size * spp), _lane_seeds(seed), spp,
                                      camera_key(sensor), zeros(5 + aovs, pixels.size),
-                                     zeros(4, 4 * pixels.size) if quarters else []))
+                                     zeros(4, 4 * math.prod(sensor_film_size(sensor))) if quarters else []))
     columns = [*outputs[0], *outputs[1]] if quarters else outputs
     return [np.asarray(column) for column in columns]
 
@@ -401,7 +405,7 @@ def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sampli
     first = [pixels.astype(np.int64) for pixels, _ in ahead]
     lanes = np.concatenate([*first, np.repeat(np.arange(counts.size), counts)])
     total, squares, finite = np.zeros((counts.size, 3)), np.zeros(counts.size), np.zeros(counts.size)
-    by_quarter = np.zeros((counts.size, 4, 4)) if quarters else None
+    by_quarter = np.zeros((counts.size, 4, 4), np.float32) if quarters else None
     ends = np.cumsum([0] + [pixels.size for pixels in first])
     chunks = _parts(lanes, int(ends[-1]))
     parts = len(chunks)
@@ -417,7 +421,7 @@ def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sampli
         if quarters:
             sums, chunk_squares, count, chunk_quarters = trace_pixel_quarters(scene, sensor, integrator, chunk, 1,
                                                                               chunk_seed)
-            add_quarters(by_quarter, chunk, chunk_quarters)
+            by_quarter += chunk_quarters
         else:
             sums, chunk_squares, count = trace_pixels(scene, sensor, integrator, chunk, 1, chunk_seed)
         if index == 0:
@@ -429,14 +433,6 @@ def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sampli
         finite += np.bincount(chunk, weights=count, minlength=counts.size)
     return total, squares, finite, own, by_quarter
 
-
-def add_quarters(by_quarter: np.ndarray, pixels: np.ndarray, quarters: np.ndarray) -> None:
-    """Add the sums by quarter ``quarters`` ((n, 4, 4), :func:`trace_pixel_quarters`) of the flat ``pixels`` (n,
-    repeats allowed) to ``by_quarter`` (N, 4, 4), in place."""
-    index = (pixels.astype(np.int64)[:, None] * 4 + np.arange(4)).ravel()
-    for channel in range(4):
-        by_quarter[:, :, channel] += np.bincount(index, weights=quarters[:, :, channel].ravel(),
-                                                 minlength=by_quarter.shape[0] * 4).reshape(-1, 4)
 
 
 def _parts(lanes: np.ndarray, head: int) -> list[np.ndarray]:
@@ -468,6 +464,27 @@ def render_native(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInt
     frozen kernel, whose one compiled kernel serves every spp where ``mi.render`` compiles one for each. The
     sensor's sampler keeps its own sample count (``mi.render`` sets it)."""
     return _render_full(scene, sensor, integrator, spp, seed, 0, any_size)[0]
+
+
+def render_native_quarters(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, spp: int,
+                           seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`render_native` of a box filter's film through the frozen kernel at any spp (the same samples), and its
+    samples' sums by quarter of the pixel (N, 4, 4; :func:`trace_pixel_quarters`)."""
+    height, width = sensor_film_size(sensor)
+    red, green, blue, _, count, *quarters = _traced_sums(scene, sensor, integrator, np.arange(height * width), spp,
+                                                         seed, quarters=True)
+    return (_film_mean(red, green, blue, count, spp),
+            np.stack([quarter.reshape(-1, 4) for quarter in quarters], axis=2))
+
+
+def _film_mean(red: np.ndarray, green: np.ndarray, blue: np.ndarray, count: np.ndarray, spp: int) -> np.ndarray:
+    """(N, 3) float32 the mean of each pixel's ``spp`` samples from the frozen kernel's sums, non-finite where one
+    of them was (the kernel leaves non-finite samples out; the film does not)."""
+    mean = np.stack([red, green, blue], axis=1)
+    if spp > 1:
+        mean /= np.float32(spp)
+    mean[count < spp] = np.nan
+    return mean
 
 
 def render_native_guided(scene: mi.Scene, sensor: mi.Sensor, twin: mi.SamplingIntegrator, spp: int,
@@ -502,12 +519,9 @@ def _render_full(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     if (any_size or height * width * spp <= FROZEN_FRAME_SAMPLES) and box_filter(sensor):
         red, green, blue, _, count, *planes = _traced_sums(scene, sensor, integrator, np.arange(height * width), spp,
                                                            seed, aovs)
-        mean = np.stack([red, green, blue], axis=1)
         if spp > 1:
-            mean /= np.float32(spp)
             planes = [plane / np.float32(spp) for plane in planes]
-        mean[count < spp] = np.nan  # the kernel leaves non-finite samples out; the film does not
-        return mean, planes
+        return _film_mean(red, green, blue, count, spp), planes
     sampler = sensor.sampler()
     count = sampler.sample_count()
     try:
@@ -530,9 +544,10 @@ class SampleSums:
     def __init__(self, pixels: int, quarters: bool = False):
         self.size = pixels
         self._total, self.squares, self.finite = np.zeros((pixels, 3)), np.zeros(pixels), np.zeros(pixels)
-        #: with ``quarters``, the sums by the pixel's quarters (N, 4, 4; :func:`trace_pixel_quarters`) of the
-        #: pixel-list passes; None after a native pass, whose samples' places are not known
-        self.quarters = np.zeros((pixels, 4, 4)) if quarters else None
+        #: with ``quarters``, the sums by the pixel's quarters (N, 4, 4; :func:`trace_pixel_quarters`), kept by
+        #: :meth:`trace_counts` and :meth:`add_native` with :func:`render_native_quarters`' sums; None after any
+        #: other pass
+        self.quarters = np.zeros((pixels, 4, 4), np.float32) if quarters else None
         self.squared_samples = np.zeros(pixels)  # finite samples that brought their squares
         self.samples = 0
         # a frame of finite native passes and top-ups (a dense frame's usual case) keeps Mitsuba's float32 image
@@ -565,13 +580,9 @@ class SampleSums:
             if this_spp <= 0:
                 break
             say(f"path tracing: {pixels.size} px x {spp} spp" + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
-            if self.quarters is not None:
-                total, squares, count, quarters = trace_pixel_quarters(scene, sensor, integrator, pixels, this_spp,
-                                                                       pass_seed(seed, index, passes))
-                self.quarters[pixels] += quarters  # each pixel once in a pass
-            else:
-                total, squares, count = trace_pixels(scene, sensor, integrator, pixels, this_spp,
-                                                     pass_seed(seed, index, passes))
+            self.quarters = None  # not kept by this pass
+            total, squares, count = trace_pixels(scene, sensor, integrator, pixels, this_spp,
+                                                 pass_seed(seed, index, passes))
             if self._native_mean is not None:
                 self._fold(pixels, total, count)
             else:
@@ -609,10 +620,14 @@ class SampleSums:
         self.samples += int(counts.sum()) + sum(pixels.size for pixels, _ in ahead)
         return own
 
-    def add_native(self, image: np.ndarray, spp: int) -> None:
+    def add_native(self, image: np.ndarray, spp: int, quarters: np.ndarray | None = None) -> None:
         """A :func:`render_native` image of ``spp`` samples a pixel (kept as it is); a non-finite pixel's samples
-        count as dropped. The frame keeps no sums by quarter after it."""
-        self.quarters = None
+        count as dropped. With its sums by quarter (:func:`render_native_quarters`) they join the frame's; without,
+        the frame keeps none after it."""
+        if self.quarters is not None and quarters is not None:
+            self.quarters += quarters
+        else:
+            self.quarters = None
         if np.isfinite(image).all():  # the usual case, without the masked copies (0.35 s at 1920x1080)
             if self.samples == 0:  # the first pass is the frame (a dense frame's one launch)
                 self._native_mean, self._mean_is_own = image, False

@@ -39,8 +39,8 @@ from ..image.denoise import denoise_oidn
 from ..limits import SEED_LIMIT, check_seconds, check_seed
 from ..render.guided_path import first_hit_features
 from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, box_filter, camera_key, pixel_means,
-                              primary_rays, render_native, scalar_parameter, seeded_sampler, sensor_film_size,
-                              trace_counts_after)
+                              primary_rays, render_native, render_native_quarters, scalar_parameter,
+                              seeded_sampler, sensor_film_size, trace_counts_after)
 from ..render.scene import path_integrator, scene_sensor
 from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
@@ -48,7 +48,7 @@ from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_BAND_SEED_OF
                      SEQUENCE_PROBE_SEED_OFFSET, SEQUENCE_TOP_UP_SEED_OFFSET, stream)
 from .gradient import Probe, changed_share, probe_pixels, same_camera
 from .guard import GuardBand, Sides, centred_perspective, guard_band, revealed, worth_a_band
-from .history import (LIGHTING_FLOOR, PastFrame, Projection, Signature, agreement, fit_projection,
+from .history import (LIGHTING_FLOOR, SHIFT_SEEN, PastFrame, Projection, Signature, agreement, fit_projection,
                       history_weights, signature)
 from .reprojection import JitFrame, cubic_sample, gather_history, jit_frame
 
@@ -535,7 +535,7 @@ class SequenceRenderer:
         timings["placement_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        sums = SampleSums(pixels, quarters=settings.history > 0 and not settings.time and keeps_quarters(sensor))
+        sums = SampleSums(pixels, quarters=self._keeps_quarters(sensor, found.projection))
         slots = sorted(probes)
         probed = dict(zip(slots, _trace(sums, (scene, sensor, integrator), counts, seed, deadline,
                                         timed=bool(settings.time), ahead=[probes[slot] for slot in slots])))
@@ -595,6 +595,13 @@ class SequenceRenderer:
             self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time, traced)
         layers = _layers(image, count + kept, guides, budget, info)
         return SequenceFrame(shown, layers, info, timings)
+
+    def _keeps_quarters(self, sensor: mi.Sensor, projection: Projection) -> bool:
+        """Whether this frame keeps its samples by quarter of the pixel (:func:`keeps_quarters`): only a moving
+        camera's history reads them, so not where the camera stayed since the frame before (a still camera's frames
+        are then the same bits as without quarters), nor in a timed sequence or one without history."""
+        still = bool(self.past) and same_camera(self.past[-1].own_projection.matrix, projection.matrix)
+        return bool(self.settings.history) and not self.settings.time and not still and keeps_quarters(sensor)
 
     def _history(self, index: int, found: Survey, marks: Signature) -> History:
         """The past frames' samples reprojected into this frame (``found``: its :func:`survey`; ``marks``: its
@@ -686,7 +693,8 @@ class SequenceRenderer:
                         * (1.0 - light_changed) ** CARRY_LIGHT_POWER, np.float32)
         if budget >= CARRY_FADE_BUDGET:
             off = film[where] - 0.5  # pixel centres at whole numbers
-            carry *= 1 - 2 * np.abs(off - np.round(off)).max(axis=1)
+            off = np.abs(off - np.round(off)).max(axis=1)
+            carry *= 1 - 2 * np.where(off >= SHIFT_SEEN, off, 0)  # a still camera's reads land on the centres
         flat = denoised.reshape(-1, 3).copy()
         flat[where] = (1 - carry[:, None]) * flat[where] + carry[:, None] * cubic_sample(self.shown[1], film[where])
         return flat.reshape(denoised.shape), float(where.mean())
@@ -840,8 +848,9 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
     level = 0 if ahead else int(counts.min())
     first = 1 if deadline is not None and level else level
     start = time.perf_counter()
-    if first and sums.quarters is not None:  # the samples render_native's kernel draws, with their quarters
-        sums.trace(scene, sensor, integrator, np.arange(sums.size), first, seed)
+    if first and sums.quarters is not None:
+        image, quarters = render_native_quarters(scene, sensor, integrator, first, seed)
+        sums.add_native(image, first, quarters)
     elif first:
         sums.add_native(render_native(scene, sensor, integrator, first, seed, any_size=timed), first)
     pass_seconds = time.perf_counter() - start
