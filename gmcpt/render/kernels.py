@@ -290,13 +290,14 @@ def camera_key(sensor: mi.Sensor) -> tuple:
 
 
 def _pixel_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, pixels: mi.UInt32,
-                lane: mi.UInt32, seed: mi.UInt32, spp: int, camera: tuple, sums: list, quarters: list = ()) -> list:
+                lane: mi.UInt32, seed: mi.UInt32, spp: int, camera: tuple, sums: list,
+                quarters: list = ()) -> list | tuple[list, list]:
     """Path trace lane ``k * spp + s`` (``lane`` counts them) as sample ``s`` of pixel ``pixels[k]`` and add
     (R, G, B, squared norm, finite count) of the finite samples to ``sums`` (five zero arrays, one value a pixel),
     and where ``sums`` holds more arrays, the integrator's AOVs of every sample (the guides of
     :class:`~gmcpt.render.guided_path.GuidedPath`). With ``quarters`` (four zero arrays, four values a pixel of the
     film), also (R, G, B, finite count) by the film's pixel and the quarter of it each sample fell in
-    (:func:`trace_pixel_quarters`).
+    (:func:`trace_pixel_quarters`), returned as ``(sums, quarters)``.
 
     Every size comes from an argument's width, so :data:`_frozen_pixel_sums` replays its kernel for any
     pixel count; ``camera`` (:func:`camera_key`) only keys the recording.
