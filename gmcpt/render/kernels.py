@@ -435,7 +435,6 @@ def trace_counts_after(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sampli
     return total, squares, finite, own, by_quarter
 
 
-
 def _parts(lanes: np.ndarray, head: int) -> list[np.ndarray]:
     """``lanes`` split into as few parts of at most :data:`MAX_LANES` as there can be, evenly, except that the first
     holds at least the ``head`` lanes of the groups traced ahead (a group replays only in the lanes it had)."""
@@ -472,16 +471,13 @@ def render_native_quarters(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sa
     """:func:`render_native` of a box filter's film through the frozen kernel at any spp (the same samples), and its
     samples' sums by quarter of the pixel (N, 4, 4; :func:`trace_pixel_quarters`)."""
     height, width = sensor_film_size(sensor)
-    red, green, blue, _, count, *quarters = _traced_sums(scene, sensor, integrator, np.arange(height * width), spp,
-                                                         seed, quarters=True)
-    return (_film_mean(red, green, blue, count, spp),
-            np.stack([quarter.reshape(-1, 4) for quarter in quarters], axis=2))
+    total, _, count, quarters = trace_pixel_quarters(scene, sensor, integrator, np.arange(height * width), spp, seed)
+    return _film_mean(total, count, spp), quarters
 
 
-def _film_mean(red: np.ndarray, green: np.ndarray, blue: np.ndarray, count: np.ndarray, spp: int) -> np.ndarray:
-    """(N, 3) float32 the mean of each pixel's ``spp`` samples from the frozen kernel's sums, non-finite where one
-    of them was (the kernel leaves non-finite samples out; the film does not)."""
-    mean = np.stack([red, green, blue], axis=1)
+def _film_mean(mean: np.ndarray, count: np.ndarray, spp: int) -> np.ndarray:
+    """(N, 3) float32 the mean of each pixel's ``spp`` samples from the frozen kernel's sums ``mean`` (N, 3, divided
+    in place), non-finite where one of them was (the kernel leaves non-finite samples out; the film does not)."""
     if spp > 1:
         mean /= np.float32(spp)
     mean[count < spp] = np.nan
@@ -522,7 +518,7 @@ def _render_full(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
                                                            seed, aovs)
         if spp > 1:
             planes = [plane / np.float32(spp) for plane in planes]
-        return _film_mean(red, green, blue, count, spp), planes
+        return _film_mean(np.stack([red, green, blue], axis=1), count, spp), planes
     sampler = sensor.sampler()
     count = sampler.sample_count()
     try:
@@ -574,6 +570,7 @@ class SampleSums:
         :data:`MAX_LANES` lanes, each seeded by :func:`pass_seed`."""
         if pixels.size == 0:
             return
+        self.quarters = None  # this pass keeps no sums by quarter
         passes = max(1, -(-pixels.size * spp // MAX_LANES))
         pass_spp, done = -(-spp // passes), 0
         for index in range(passes):
@@ -581,7 +578,6 @@ class SampleSums:
             if this_spp <= 0:
                 break
             say(f"path tracing: {pixels.size} px x {spp} spp" + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
-            self.quarters = None  # not kept by this pass
             total, squares, count = trace_pixels(scene, sensor, integrator, pixels, this_spp,
                                                  pass_seed(seed, index, passes))
             if self._native_mean is not None:

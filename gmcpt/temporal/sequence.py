@@ -575,7 +575,7 @@ class SequenceRenderer:
             self.past.append(PastFrame(index, own_total.astype(np.float32), own_count.astype(np.float32),
                                        wide.positions, wide.normals, wide.projection, wide_marks,
                                        band.margin if band is not None else (0, 0),
-                                       None if own_quarters is None else own_quarters.astype(np.float32)))
+                                       own_quarters))  # float32 already, and this frame's own
             self.shown = (index, shown)
             self.reveal = worth_a_band(revealed(history.latest_film, history.latest_seen, (height, width),
                                                 settings.history), own, denoised, (height, width))
