@@ -46,8 +46,6 @@ FRAME_SEED_STEP = 0x9E37
 SEQUENCE_TOP_UP_SEED_OFFSET = 1
 #: a timed sequence frame's pass k (k >= 1) of one sample a pixel after its first draws from this offset + k
 SEQUENCE_PASS_SEED_OFFSET = 0x100
-#: a sequence frame's guard band beyond the film (gmcpt.temporal.guard): its samples and the pixels that get a fraction
-SEQUENCE_BAND_SEED_OFFSET = 0x200
 #: a sequence frame's light probe (gmcpt.temporal.gradient): its pixels and their samples, replayed by the next frame
 SEQUENCE_PROBE_SEED_OFFSET = 0x300
 

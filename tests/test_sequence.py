@@ -290,7 +290,7 @@ def test_a_moving_camera_reads_the_past_samples_that_fell_within_the_pixel(mi):
     for quarter, value in enumerate((left_half, right_half, left_half, right_half)):
         quarters[:, quarter, :3], quarters[:, quarter, 3] = value[:, None], 1.0
     past = PastFrame(0, quarters[:, :, :3].sum(axis=1), quarters[:, :, 3].sum(axis=1), past_positions, normals,
-                     Projection(matrix, size, size), marks, (0, 0), quarters)
+                     Projection(matrix, size, size), marks, quarters)
     pixel = np.flatnonzero((column == 4) & (film[:, 1] == 3.5))[0]  # its footprint: past x in [4.55, 5.55)
 
     def mean(frame: PastFrame) -> np.ndarray:
@@ -447,76 +447,6 @@ def _turn(mi, sensor, degrees: float) -> None:
     turned = mi.ScalarTransform4f(matrix) @ mi.ScalarTransform4f().rotate([0, 1, 0], degrees)
     parameters["to_world"] = type(parameters["to_world"])(turned)
     parameters.update()
-
-
-def test_the_guard_band_is_the_frames_own_rays_and_follows_the_camera(mi):
-    """The band's wide sensor sees the frame's own pixels through the same rays (its inner film), moves with the
-    frame's camera, and a still camera gets none."""
-    from gmcpt.temporal.guard import Sides, guard_band
-    from gmcpt.temporal.sequence import _inner, survey
-
-    scene = _scene()
-    sensor = scene.sensors()[0]
-    assert guard_band(sensor, Sides(), {}) is None
-    cache = {}
-    band = guard_band(sensor, Sides(left=3), cache)
-    assert band.margin[1] == 0 and band.margin[0] >= 3 and band.wide_shape == (SIZE[1], SIZE[0] + 2 * band.margin[0])
-    narrow, wide = survey(scene, sensor, 1), survey(scene, band.sensor, 1)
-    inner, _, _ = _inner(wide, band)
-    hit = np.isfinite(narrow.positions[:, 0])
-    assert np.array_equal(hit, np.isfinite(inner.positions[:, 0]))
-    np.testing.assert_allclose(inner.positions[hit], narrow.positions[hit], atol=1e-3)
-    points = np.concatenate([narrow.positions[hit], np.ones((hit.sum(), 1))], axis=1)
-    np.testing.assert_allclose(inner.projection.project(points)[0], narrow.projection.project(points)[0], atol=1e-2)
-    _turn(mi, sensor, 2.0)
-    assert guard_band(sensor, Sides(left=3), cache) is band  # made once, its camera moved with the frame's
-    moved, wide = survey(scene, sensor, 1), survey(scene, band.sensor, 1)
-    inner, _, _ = _inner(wide, band)
-    hit = np.isfinite(moved.positions[:, 0])
-    np.testing.assert_allclose(inner.positions[hit], moved.positions[hit], atol=1e-3)
-    assert np.nanmax(np.abs(moved.positions[hit] - narrow.positions[hit])) > 1e-2  # it did move
-
-
-def test_a_pan_brings_surfaces_into_view_with_history_from_the_guard_band(mi, monkeypatch):
-    """The columns a pan brings into view were traced on the band beforehand: they hold history where without a
-    band they hold none; the record counts the band's samples; a still camera traces no band."""
-    from gmcpt.temporal import sequence
-
-    gather = sequence.gather_history
-    counts = []
-
-    def spied(*arguments):
-        gathered = gather(*arguments)
-        counts.append(gathered.summed[:, 3].reshape(SIZE[1], SIZE[0]))
-        return gathered
-
-    monkeypatch.setattr(sequence, "gather_history", spied)
-    # whether a band pays is read from the noise along the side (tests/test_temporal.py): here it always does
-    monkeypatch.setattr(sequence, "worth_a_band", lambda sides, *frame: sides)
-
-    def pan():
-        scene = _scene(STILL_LIFE)  # a room all round: the Cornell box's sides reveal the void
-        renderer, records = _renderer(budget=1), []
-        counts.clear()
-        for index in range(6):
-            _turn(mi, scene.sensors()[0], 1.5 if index else 0.0)
-            records.append(renderer.render(scene, index)[1])
-        return renderer, records, counts[-1]
-
-    renderer, records, with_band = pan()
-    assert renderer.past[-1].margin[0] > 0 and records[0].band_samples == 0 and records[-1].band_samples > 0
-    reveal = renderer.reveal
-    assert (reveal.left > 0) != (reveal.right > 0) and not reveal.top and not reveal.bottom
-    edge = slice(0, 1) if reveal.left else slice(SIZE[0] - 1, SIZE[0])  # the column that came into view last
-    monkeypatch.setattr(sequence, "guard_band", lambda *arguments: None)
-    _, records, without = pan()
-    assert records[-1].band_samples == 0
-    # (read by quarter, a column next to the band's untraced depth takes what fell within it: about a frame's worth)
-    assert without[:, edge].mean() < 0.05 and with_band[:, edge].mean() > 0.5
-    still, scene = _renderer(), _scene()
-    for index in range(3):
-        still.render(scene, index)
-    assert not still.reveal and still.past[-1].margin == (0, 0)
 
 
 def test_a_perspective_camera_s_projection_in_closed_form_is_its_fit(mi):

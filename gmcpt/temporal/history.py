@@ -63,15 +63,6 @@ class Projection:
         with np.errstate(divide="ignore", invalid="ignore"):
             return vt[-1][:3] / vt[-1][3]
 
-    def inner(self, margin: tuple[int, int]) -> Projection:
-        """The same camera onto the film ``margin`` (x, y) pixels narrower on each side (a guard band's inner
-        pixels, :mod:`gmcpt.temporal.guard`): its pixels that many fewer from the corner (no second fit from rays)."""
-        mx, my = margin
-        matrix = np.array(self.matrix, np.float64)
-        matrix[0] -= mx * self.matrix[2]
-        matrix[1] -= my * self.matrix[2]
-        return Projection(matrix, self.width - 2 * mx, self.height - 2 * my)
-
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(film coordinates (N, 2), in front of the camera (N,) bool) of world ``points``, (N, 3) or homogeneous
         (N, 4), in their own precision."""
@@ -122,20 +113,9 @@ class PastFrame:
     normals: np.ndarray  # (N, 3)
     projection: Projection
     signature: "Signature | None" = None  # its lighting and albedo (for :func:`unchanged`)
-    margin: tuple[int, int] = (0, 0)  # (x, y) pixels of guard band on each side of the frame's own film
     #: (N, 4, 4) its samples' sums by the pixel's quarter they fell in (R, G, B, count; left top, right top, left
     #: bottom, right bottom), or None (a frame of Mitsuba's film: where in the pixel is not known)
     quarters: "np.ndarray | None" = None
-
-    @property
-    def own_projection(self) -> Projection:
-        """The :class:`Projection` onto the frame's own film, its guard band (:mod:`gmcpt.temporal.guard`) left out."""
-        return self.projection.inner(self.margin)
-
-    @property
-    def own_shape(self) -> tuple[int, int]:
-        """(height, width) of the frame's own film, its guard band (:mod:`gmcpt.temporal.guard`) left out."""
-        return self.projection.height - 2 * self.margin[1], self.projection.width - 2 * self.margin[0]
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,7 @@ light that did not change, as the last frame's light probes traced again with th
 with them; then OIDN over the sums; then the frame shown before, carried along the motion (Catmull-Rom, where the
 history held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every
 frame (the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after
-it, and where the camera's motion reveals a side of the film, also those of a guard band beyond that side
-(:mod:`gmcpt.temporal.guard`), so that what comes into view arrives with a history. :meth:`SequenceRenderer.state`
+it (a moving camera's by quarter of the pixel, so that the gather reads those within its pixel). :meth:`SequenceRenderer.state`
 and :meth:`SequenceRenderer.restore` carry the history across processes, so a stopped sequence resumes with the
 images an uninterrupted run gives.
 
@@ -27,7 +26,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import asdict, astuple, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 
 import drjit as dr
 import mitsuba as mi
@@ -44,10 +43,9 @@ from ..render.kernels import (FeatureMeans, FrozenKernel, SampleSums, box_filter
 from ..render.scene import path_integrator, scene_sensor
 from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
-from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_BAND_SEED_OFFSET, SEQUENCE_PASS_SEED_OFFSET,
-                     SEQUENCE_PROBE_SEED_OFFSET, SEQUENCE_TOP_UP_SEED_OFFSET, stream)
+from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_PASS_SEED_OFFSET, SEQUENCE_PROBE_SEED_OFFSET,
+                     SEQUENCE_TOP_UP_SEED_OFFSET, stream)
 from .gradient import Probe, changed_share, probe_pixels, same_camera
-from .guard import GuardBand, Sides, centred_perspective, guard_band, revealed, worth_a_band
 from .history import (LIGHTING_FLOOR, SHIFT_SEEN, PastFrame, Projection, Signature, agreement, fit_projection,
                       history_weights, signature)
 from .reprojection import JitFrame, cubic_sample, gather_history, jit_frame
@@ -307,6 +305,17 @@ def _hits(planes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
             np.where(hit, np.stack(planes[3:6], axis=1), np.float32(np.nan)))
 
 
+def centred_perspective(parameters) -> bool:
+    """Whether ``parameters`` (``mi.traverse`` of a sensor) are a perspective camera's with its principal point at the
+    film's centre and no crop window: a camera :func:`camera_projection` knows in closed form."""
+    if "x_fov" not in parameters or "to_world" not in parameters:
+        return False
+    cropped = "film.crop_offset" in parameters and (any(parameters["film.crop_offset"]) or tuple(
+        parameters["film.crop_size"]) != tuple(parameters["film.size"]))
+    return not cropped and all(scalar_parameter(parameters[key]) == 0
+                               for key in ("principal_point_offset_x", "principal_point_offset_y") if key in parameters)
+
+
 def camera_projection(sensor: mi.Sensor) -> Projection:
     """The sensor's :class:`~gmcpt.temporal.history.Projection`: a centred perspective camera's from its field of view
     and its camera (the same as the fit to 1e-5; the fit cost 2-5 ms a frame), any other's fitted from rays through
@@ -417,8 +426,6 @@ class SequenceRecord:
     dropped : the shares of pixels that lost a past frame's samples, a reason (:class:`DroppedShares`).
     carried_pixels : the share of pixels blended with the frame shown before (:data:`SHOWN_CARRY`).
     guide_rays : the guides' rays a pixel.
-    band_samples : samples traced beyond the film, on the guard band of the sides the camera's motion reveals
-        (:mod:`gmcpt.temporal.guard`), for the frames after it.
     time_short : a timed sequence's: whether its time bought the fewest samples a frame spends
         (:data:`TIMED_BUDGETS`) or fewer; None: not timed.
     """
@@ -436,7 +443,6 @@ class SequenceRecord:
     carried_pixels: float
     nonfinite_samples: int
     guide_rays: int
-    band_samples: int = 0
     time_short: bool | None = None
 
     def to_json(self) -> dict:
@@ -448,7 +454,6 @@ class SequenceRecord:
                 "history_samples": self.history_samples, "history_dropped": self.history_dropped,
                 "dropped": self.dropped.to_json(), "carried_pixels": self.carried_pixels,
                 "nonfinite_samples": self.nonfinite_samples, "guide_rays": self.guide_rays,
-                "band_samples": self.band_samples,
                 **({"time_short": self.time_short} if self.time_short is not None else {})}
 
 
@@ -489,8 +494,6 @@ class SequenceRenderer:
         self._jit: dict[int, tuple[PastFrame, JitFrame]] = {}  # the past frames in Dr.Jit, by id
         self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
         self.light_changed = 0.0  # the share of the last frame's pixels whose light changed (DroppedShares.lighting)
-        self.reveal = Sides()  # the sides the last frame's motion revealed (:func:`~gmcpt.temporal.guard.revealed`)
-        self._bands: dict = {}  # guard bands by camera and margin (:func:`~gmcpt.temporal.guard.guard_band`)
         self.probe: Probe | None = None  # the last frame's probe (:mod:`gmcpt.temporal.gradient`)
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
@@ -512,11 +515,10 @@ class SequenceRenderer:
 
         start = time.perf_counter()
         guide_rays = guide_spp(settings.budget, DEFAULT_FEATURE_SPP)
-        # a timed frame's time goes to its own pixels (its deadline has no room for a band)
-        band = guard_band(sensor, self.reveal, self._bands) if settings.history and not settings.time else None
         # one seed: a still camera's survey stays put
-        wide = survey(scene, band.sensor if band is not None else sensor, guide_rays, settings.seed)
-        found, marks, wide_marks = _inner(wide, band)
+        found = survey(scene, sensor, guide_rays, settings.seed)
+        albedo = (found.features.planes[0] + found.features.planes[1] + found.features.planes[2]) / np.float32(3)
+        marks = signature(found.lighting, albedo, width, height)
         guides = found.features.buffers()
         timings["features_s"] = time.perf_counter() - start
 
@@ -565,21 +567,14 @@ class SequenceRenderer:
                                        history.dropped.lighting)
         timings["carry_s"] = time.perf_counter() - start
 
-        band_samples = 0
         if settings.history:
             start = time.perf_counter()
-            own_total, own_count, own_quarters, band_samples = _with_band(total, count, sums.quarters, band,
-                                                                          (scene, integrator), self.reveal, budget,
-                                                                          seed)
             # float32, as the samples were traced: 8 past frames' gathers a frame at half float64's traffic
-            self.past.append(PastFrame(index, own_total.astype(np.float32), own_count.astype(np.float32),
-                                       wide.positions, wide.normals, wide.projection, wide_marks,
-                                       band.margin if band is not None else (0, 0),
-                                       own_quarters))  # float32 already, and this frame's own
+            self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), found.positions,
+                                       found.normals, found.projection, marks,
+                                       sums.quarters))  # float32 already, and this frame's own
             self.shown = (index, shown)
-            self.reveal = worth_a_band(revealed(history.latest_film, history.latest_seen, (height, width),
-                                                settings.history), own, denoised, (height, width))
-            timings["band_s"] = time.perf_counter() - start
+            timings["keep_s"] = time.perf_counter() - start
         decay, self.light_changed = self.decay, history.dropped.lighting  # the decay this frame's history had
         dropped = replace(history.dropped, disagreement=float(((history.count > 0) & ~agrees).mean()))
         info = SequenceRecord(frame=index, seed=seed, budget=budget, path_samples=sums.samples,
@@ -589,7 +584,6 @@ class SequenceRenderer:
                               history_dropped=float((history.offered & ~((history.count > 0) & agrees)).mean()),
                               dropped=dropped, carried_pixels=carried,
                               nonfinite_samples=int(sums.samples - count.sum()), guide_rays=guide_rays,
-                              band_samples=band_samples,
                               time_short=budget <= TIMED_BUDGETS[0] if settings.time else None)
         if settings.time:  # only a timed sequence reads its pace (what follows falls in the next frame's period)
             self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time, traced)
@@ -600,7 +594,7 @@ class SequenceRenderer:
         """Whether this frame keeps its samples by quarter of the pixel (:func:`keeps_quarters`): only a moving
         camera's history reads them, so not where the camera stayed since the frame before (a still camera's frames
         are then the same bits as without quarters), nor in a timed sequence or one without history."""
-        still = bool(self.past) and same_camera(self.past[-1].own_projection.matrix, projection.matrix)
+        still = bool(self.past) and same_camera(self.past[-1].projection.matrix, projection.matrix)
         return bool(self.settings.history) and not self.settings.time and not still and keeps_quarters(sensor)
 
     def _history(self, index: int, found: Survey, marks: Signature) -> History:
@@ -608,29 +602,28 @@ class SequenceRenderer:
         :class:`~gmcpt.temporal.history.Signature`), weighted by age, where each past pixel saw the same surface under
         the same light and material (:func:`~gmcpt.temporal.history.unchanged`)."""
         shape = found.features.shape
-        usable = [past for past in self.past if past.index < index and past.own_shape == shape]
+        usable = [past for past in self.past if past.index < index and (past.projection.height, past.projection.width) == shape]
         weights = history_weights([index - past.index for past in usable], self.decay)
         hits = found.lighting[np.isfinite(found.positions[:, 0])]
         floor = LIGHTING_FLOOR * float(hits.mean()) if hits.size else 0.0
         latest = self.shown[0] if self.shown is not None else None
         # a camera that moved by whole pixels lands on the past centres as a still one does (reprojection._match)
         frames = [(self._jit_frame(past), weight, past.index == latest,
-                   not same_camera(past.own_projection.matrix, found.projection.matrix))
+                   not same_camera(past.projection.matrix, found.projection.matrix))
                   for past, weight in zip(usable, weights)]
         gathered = gather_history(frames, found.positions, found.normals, marks, floor)
         shares = DroppedShares(
             lighting=float(gathered.lighting_dropped.mean()), material=float(gathered.material_dropped.mean()),
             unseen=float((~gathered.offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0)
-        # where on the latest frame's own film (its guard band off it): the carry reads the image it showed
-        margin = next((past.margin for past in usable if past.index == latest), (0, 0))
-        latest_film = np.where(gathered.latest_seen[:, None], gathered.latest_film - np.float32(margin), 0)
+        # where on the latest frame's film: the carry reads the image it showed
+        latest_film = np.where(gathered.latest_seen[:, None], gathered.latest_film, np.float32(0))
         return History(gathered.summed[:, :3], gathered.summed[:, 3], gathered.offered, gathered.latest_seen,
                        latest_film.astype(np.float32), len(usable), shares)
 
     def _camera_stayed(self, index: int, matrix: np.ndarray) -> bool:
         """Whether frame ``index``'s camera (its projection ``matrix``) is where the frame before it had its own."""
         last = self.past[-1] if self.past else None
-        return last is not None and last.index == index - 1 and last.margin == (0, 0) and \
+        return last is not None and last.index == index - 1 and \
             same_camera(last.projection.matrix, matrix)
 
     def _probes(self, index: int, matrix: np.ndarray, shape: tuple[int, int], seed: int,
@@ -685,7 +678,7 @@ class SequenceRenderer:
         between its pixels), read along the motion at ``film`` (N, 2, its film coordinates) where ``where`` (N,) says
         its surface was seen and its history held; the share of pixels blended)."""
         height, width = denoised.shape[:2]
-        # a surface the last frame saw on its guard band only was never shown
+        # a point beyond the edge of the film shown before (held by its edge pixel) was not in that image
         where = where & (film[:, 0] >= 0) & (film[:, 0] <= width) & (film[:, 1] >= 0) & (film[:, 1] <= height)
         if self.shown is None or not where.any():
             return denoised, 0.0
@@ -709,13 +702,11 @@ class SequenceRenderer:
             state[f"{slot}_index"] = np.array(past.index)
             state[f"{slot}_matrix"] = past.projection.matrix
             state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
-            state[f"{slot}_margin"] = np.array(past.margin)
             if past.quarters is not None:
                 state[f"{slot}_quarters"] = past.quarters
         if self.shown is not None:
             state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
         state["light_changed"] = np.array(self.light_changed)
-        state["reveal"] = np.array(astuple(self.reveal))
         if self.probe is not None:
             probe = self.probe
             state["probe_index"], state["probe_seed"] = np.array(probe.index), np.array(probe.seed)
@@ -736,49 +727,14 @@ class SequenceRenderer:
                                        state[f"{slot}_positions"], state[f"{slot}_normals"],
                                        Projection(state[f"{slot}_matrix"], width, height),
                                        signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height),
-                                       tuple(int(value) for value in state.get(f"{slot}_margin", (0, 0))),
                                        state[f"{slot}_quarters"] if f"{slot}_quarters" in state else None))
             slot += 1
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
         self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
-        self.reveal = Sides(*(int(value) for value in state["reveal"])) if "reveal" in state else Sides()
         self.probe = Probe(int(state["probe_index"]), int(state["probe_seed"]), state["probe_pixels"],
                            state["probe_values"], state["probe_matrix"],
                            tuple(int(value) for value in state["probe_shape"]),
                            int(state["probe_slot"])) if "probe_index" in state else None
-
-
-def _inner(wide: Survey, band: GuardBand | None) -> tuple[Survey, Signature, Signature]:
-    """(the frame's own :class:`Survey`, its :class:`~gmcpt.temporal.history.Signature`, the wide film's) of a survey
-    over ``band``'s wide film (None: the frame's film, the survey and signature as they are). The frame's signature is
-    the wide one's inner pixels: its spreads read with the band's pixels beside them."""
-    height, width = wide.features.shape
-    albedo = (wide.features.planes[0] + wide.features.planes[1] + wide.features.planes[2]) / np.float32(3)
-    marks = signature(wide.lighting, albedo, width, height)
-    if band is None:
-        return wide, marks, marks
-    features = FeatureMeans(tuple(band.inner(plane) for plane in wide.features.planes), wide.features.spp, None, 0,
-                            band.shape)
-    found = Survey(band.inner(wide.positions), band.inner(wide.normals), features, band.inner(wide.lighting),
-                   wide.projection.inner(band.margin))
-    own = Signature(*(band.inner(values) for values in (marks.lighting, marks.albedo, marks.lighting_spread,
-                                                        marks.albedo_spread)))
-    return found, own, marks
-
-
-def _with_band(total: np.ndarray, count: np.ndarray, quarters: np.ndarray | None, band: GuardBand | None,
-               where: tuple, sides: Sides, budget: float, seed: int) -> tuple:
-    """The frame's sums (``total`` (N, 3), ``count`` (N,), and by quarter ``quarters`` (N, 4, 4) or None) over
-    ``band``'s wide film, with the budget's samples traced on the band beyond the revealed ``sides`` (``where``:
-    scene, integrator), and how many were traced there; as they are without a band."""
-    if band is None:
-        return total, count, quarters, 0
-    scene, integrator = where
-    counts = band.band_counts(sides, budget, stream(seed, SEQUENCE_BAND_SEED_OFFSET))
-    band_total, _, band_count, _, band_quarters = trace_counts_after(
-        scene, band.sensor, integrator, counts, stream(seed, SEQUENCE_BAND_SEED_OFFSET), [], quarters is not None)
-    return (band.embed(total, band_total), band.embed(count, band_count),
-            None if quarters is None else band.embed(quarters, band_quarters), int(counts.sum()))
 
 
 def keeps_quarters(sensor: mi.Sensor) -> bool:
