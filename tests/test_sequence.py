@@ -143,6 +143,63 @@ def test_a_moving_shapes_old_shadow_is_gone_within_one_frame(mi):
     assert luminance[old_shadow].mean() > 0.9 * reference.mean(axis=1)[old_shadow].mean()
 
 
+def test_a_moving_shape_takes_its_history_from_where_it_was(mi, monkeypatch):
+    """The block moves 6-7 pixels a frame: its pixels find their surface where the block was on the past frames
+    (:mod:`gmcpt.temporal.motion`), where without it many of them have no history of it."""
+    from gmcpt.render.scene import load_scene
+    from gmcpt.temporal import sequence
+
+    gather, counts = sequence.gather_history, []
+
+    def spied(*arguments):
+        gathered = gather(*arguments)
+        counts.append(gathered.summed[:, 3])
+        return gathered
+
+    monkeypatch.setattr(sequence, "gather_history", spied)
+
+    def kept() -> float:
+        """The share of the block's pixels with history on the last frame."""
+        scene = load_scene(CORNELL, resolution=(96, 80))
+        parameters, key = mi.traverse(scene), "short_block.vertex_positions"
+        base = np.array(parameters[key]).reshape(-1, 3)
+        renderer = _renderer()
+        for index in range(4):
+            _move(mi, parameters, key, base, [-0.15 * index, 0.0, 0.0])
+            renderer.render(scene, index)
+        registry = sequence.survey(scene, scene.sensors()[0]).shapes
+        block = [place for place, shape in enumerate(scene.shapes()) if shape.id() == "short_block"][0]
+        on_block = sequence._moved_lanes(scene, registry, {block: np.eye(4)})[block]
+        return float((counts[-1][on_block] > 0).mean())
+
+    tracked = kept()
+    monkeypatch.setattr(sequence.ShapePoses, "update", lambda self, scene: {})
+    untracked = kept()
+    assert tracked > 0.9 and untracked < 0.8 * tracked, (tracked, untracked)
+
+
+def test_a_resumed_sequence_follows_a_moving_shape_as_an_uninterrupted_one(mi, tmp_path):
+    def frames(renderer, indices, scene=None):
+        scene = scene if scene is not None else _scene()
+        parameters, key = mi.traverse(scene), "short_block.vertex_positions"
+        base = np.array(parameters[key]).reshape(-1, 3)
+        images = []
+        for index in indices:
+            _move(mi, parameters, key, base, [-0.1 * index, 0.0, 0.0])
+            images.append(renderer.render(scene, index)[0])
+        return images
+
+    straight = frames(_renderer(), range(4))
+    first = _renderer()
+    frames(first, range(3))
+    assert first.poses.poses  # the block moved
+    np.savez(tmp_path / "state.npz", **first.state())
+    resumed = _renderer()
+    resumed.restore(dict(np.load(tmp_path / "state.npz")))
+    # a new process loads the scene anew, the block as the XML has it; frame 3 moves it from there
+    np.testing.assert_array_equal(frames(resumed, [3])[0], straight[3])
+
+
 def test_surface_pixels_without_history_get_more_fresh_samples_within_the_budget():
     from gmcpt.temporal.sequence import FRESH_BOOST, _placement
 
@@ -199,7 +256,7 @@ def test_the_jit_gather_keeps_what_the_numpy_tests_keep_and_edges_a_neighbour_s(
     floor = 0.01
     seen, source, film = matches(past, surfaces(current.positions, current.normals))
     lit, same = unchanged(past.signature, source, current.signature, seen, film, floor, camera_moved=True)
-    gathered = gather_history([(jit_frame(past), 0.5, True, True)], current.positions, current.normals,
+    gathered = gather_history([(jit_frame(past), 0.5, True, True, None)], current.positions, current.normals,
                               current.signature, floor)
     expected = np.zeros(current.count.size, bool)
     expected[seen[lit & same]] = True
@@ -261,7 +318,7 @@ def test_a_neighbour_serves_an_edge_only_where_the_camera_moved(mi):
         past = PastFrame(0, np.ones((size * size, 3), np.float32), np.ones(size * size, np.float32),
                          moved_away.astype(np.float32), normals, Projection(matrix, size, size),
                          marks)
-        return gather_history([(jit_frame(past), 1.0, True, False)], positions.astype(np.float32),
+        return gather_history([(jit_frame(past), 1.0, True, False, None)], positions.astype(np.float32),
                               normals, marks, 0.0).latest_seen
 
     still, panned = gathered(1e-3), gathered(0.25)  # a still camera's points land on the centres to rounding
@@ -294,7 +351,7 @@ def test_a_moving_camera_reads_the_past_samples_that_fell_within_the_pixel(mi):
     pixel = np.flatnonzero((column == 4) & (film[:, 1] == 3.5))[0]  # its footprint: past x in [4.55, 5.55)
 
     def mean(frame: PastFrame) -> np.ndarray:
-        summed = gather_history([(jit_frame(frame), 1.0, True, True)], positions.astype(np.float32), normals,
+        summed = gather_history([(jit_frame(frame), 1.0, True, True, None)], positions.astype(np.float32), normals,
                                 marks, 0.0).summed[pixel]
         return summed[:3] / summed[3]
 
@@ -345,7 +402,7 @@ def test_a_camera_moved_by_whole_pixels_is_allowed_what_a_moving_one_is(mi):
     edge = np.flatnonzero((column == 3.5) & (row == 3.5))[0]
 
     def held(camera_moved: bool) -> np.ndarray:
-        return gather_history([(jit_frame(past), 1.0, True, camera_moved)], positions.astype(np.float32), normals,
+        return gather_history([(jit_frame(past), 1.0, True, camera_moved, None)], positions.astype(np.float32), normals,
                               current, 0.0).latest_seen
 
     moved, still = held(True), held(False)

@@ -153,3 +153,45 @@ def test_a_switched_light_or_a_changed_material_is_no_longer_the_same():
     assert not unchanged(off, pixels, on, pixels, centred, 0.02)[0].any()
     lit, same = unchanged(on, pixels, dimmer, pixels, centred, 0.02)  # 5% dimmer light: within the ratio
     assert lit.all() and not same.any()
+
+
+def test_a_meshs_motion_is_fitted_and_a_point_on_it_taken_back_to_where_it_was(mi):
+    from gmcpt.temporal.motion import ShapePoses, affine_fit, points_then, shape_keys
+
+    rng = np.random.default_rng(2)
+    before = rng.normal(size=(50, 3))
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    fitted = affine_fit(before, before @ turn.T + [1.0, 2.0, 3.0])
+    np.testing.assert_allclose(fitted[:3, :3], turn, atol=1e-9)
+    np.testing.assert_allclose(fitted[:3, 3], [1.0, 2.0, 3.0], atol=1e-9)
+    # a point on mesh 4, moved by ``fitted`` since the past frame, was where the inverse takes it; others stay
+    positions = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]], np.float32)
+    normals = np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]], np.float32)
+    lanes = {4: np.array([1])}  # pixel 1 is on mesh 4
+    then_positions, then_normals = points_then(positions, normals, lanes, {4: fitted}, {})
+    np.testing.assert_allclose(then_positions, [[0, 0, 0], [0, 0, 0]], atol=1e-6)
+    np.testing.assert_allclose(then_normals, [[0, 1, 0], [1, 0, 0]], atol=1e-6)
+    assert points_then(positions, normals, lanes, {4: fitted}, {4: fitted}) is None
+    shifted = np.eye(4)
+    shifted[:3, 3] = [1.0, 2.0, 3.0]
+    assert points_then(positions, normals, lanes, {4: shifted}, {})[1] is None  # moved, not turned
+
+    import drjit as dr
+    from gmcpt.render.scene import load_scene
+    from conftest import CORNELL
+
+    scene = load_scene(CORNELL, resolution=(16, 16))
+    poses = ShapePoses()
+    assert poses.update(scene) == {}
+    parameters, key = mi.traverse(scene), "short_block.vertex_positions"
+    parameters[key] = mi.Float((np.array(parameters[key]).reshape(-1, 3) + [0.0, 0.0, 0.25]).ravel())
+    parameters.update()
+    moved = poses.update(scene)
+    block = [place for place, shape in enumerate(scene.shapes()) if shape.id() == "short_block"]
+    assert list(moved) == block
+    np.testing.assert_allclose(moved[block[0]][:3, 3], [0.0, 0.0, 0.25], atol=1e-5)
+    keys = shape_keys(scene)
+    registry = int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(scene.shapes()[block[0]]))[0])
+    assert keys[registry] == block[0]
+    # the scene loaded again (as a batch loads each frame): its block is back where it was, by the same place
+    np.testing.assert_allclose(poses.update(load_scene(CORNELL, resolution=(16, 16)))[block[0]], np.eye(4), atol=1e-5)

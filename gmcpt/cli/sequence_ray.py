@@ -55,7 +55,8 @@ def check(args) -> None:
 def warm_up_frames(history: int) -> int:
     """Frames a task renders before its first owed one: the history's, whose samples its first frame reuses, and two
     more before them: the history's first frames have history of their own, so they place and weigh their samples as
-    one process's do (without them the Cornell box's chunks in tests/test_sequence_ray.py read 0.5 dB under one process)."""
+    one process's do (without them the Cornell box's chunks in tests/test_sequence_ray.py read 0.5 dB under one
+    process)."""
     return history + 2 if history else 0
 
 

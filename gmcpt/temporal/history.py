@@ -116,6 +116,8 @@ class PastFrame:
     #: (N, 4, 4) its samples' sums by the pixel's quarter they fell in (R, G, B, count; left top, right top, left
     #: bottom, right bottom), or None (a frame of Mitsuba's film: where in the pixel is not known)
     quarters: "np.ndarray | None" = None
+    #: the poses of the meshes that had moved by this frame (:class:`~gmcpt.temporal.motion.ShapePoses`), or None
+    poses: "dict | None" = None
 
 
 @dataclass(frozen=True)

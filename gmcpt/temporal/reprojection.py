@@ -83,21 +83,27 @@ def jit_frame(past: PastFrame) -> JitFrame:
                     samples, quarters, matrix, centre, projection.width, projection.height)
 
 
-def gather_history(frames: list[tuple[JitFrame, float, bool, bool]], positions: np.ndarray, normals: np.ndarray,
-                   marks: Signature, lighting_floor: float) -> Gathered:
-    """The past ``frames`` ((frame, weight, whether it is the frame shown last, whether the camera moved since) each)
-    gathered into a frame whose pixels' centre rays hit ``positions`` (N, 3; NaN on a miss) with ``normals`` and whose
-    signature is ``marks``: where a past pixel saw the same surface (:func:`gmcpt.temporal.history.matches`) under the
-    same light and material (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``; where the camera
-    moved, a frame that kept its samples by quarter gives those that fell within the pixel (:func:`_by_quarters`)."""
+def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarray, marks: Signature,
+                   lighting_floor: float) -> Gathered:
+    """The past ``frames`` ((frame, weight, whether it is the frame shown last, whether the camera moved since, and
+    where the surface points were then where a shape moved (positions, and normals or None where none turned;
+    :func:`gmcpt.temporal.motion.points_then`) or None) each) gathered into a frame whose pixels' centre rays hit ``positions`` (N, 3; NaN on a
+    miss) with ``normals`` and whose signature is ``marks``: where a past pixel saw the same surface
+    (:func:`gmcpt.temporal.history.matches`) under the same light and material
+    (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``; where the camera moved, a frame that
+    kept its samples by quarter gives those that fell within the pixel (:func:`_by_quarters`)."""
     pixels = positions.shape[0]
     point, normal, current = _vector(positions, mi.Point3f), _vector(normals, mi.Vector3f), _marks(marks)
     floor = dr.opaque(mi.Float, float(lighting_floor))
     summed = [dr.zeros(mi.Float, pixels) for _ in range(4)]
     offered, lighting_dropped, material_dropped = (dr.zeros(mi.Bool, pixels) for _ in range(3))
     latest_seen, latest_film = np.zeros(pixels, bool), np.zeros((pixels, 2), np.float32)
-    for frame, weight, latest, camera_moved in frames:
-        match = _match(frame, point, normal, current, floor, camera_moved)
+    for frame, weight, latest, camera_moved, then in frames:
+        if then is None:
+            match = _match(frame, point, normal, current, floor, camera_moved)
+        else:
+            match = _match(frame, _vector(then[0], mi.Point3f),
+                           normal if then[1] is None else _vector(then[1], mi.Vector3f), current, floor, camera_moved)
         if camera_moved and frame.quarters is not None:
             taken = _by_quarters(frame, match)
         else:

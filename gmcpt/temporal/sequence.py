@@ -15,9 +15,10 @@ light that did not change, as the last frame's light probes traced again with th
 with them; then OIDN over the sums; then the frame shown before, carried along the motion (Catmull-Rom, where the
 history held), is blended into the denoised image, so that what OIDN leaves of the noise does not change every
 frame (the flicker of :mod:`gmcpt.evaluation.stability`). A frame keeps its own samples only, for the frames after
-it (a moving camera's by quarter of the pixel, so that the gather reads those within its pixel). :meth:`SequenceRenderer.state`
-and :meth:`SequenceRenderer.restore` carry the history across processes, so a stopped sequence resumes with the
-images an uninterrupted run gives.
+it (a moving camera's by quarter of the pixel, so that the gather reads those within its pixel); a surface on a mesh
+that moved is looked for where it was (:mod:`gmcpt.temporal.motion`). :meth:`SequenceRenderer.state` and
+:meth:`SequenceRenderer.restore` carry the history across processes, so a stopped sequence resumes with the images an
+uninterrupted run gives.
 
 With no history (the first frame, after a cut), a frame is the budget's samples spread evenly, then OIDN.
 """
@@ -48,6 +49,7 @@ from ..seeds import (FEATURE_SEED_OFFSET, FRAME_SEED_STEP, SEQUENCE_PASS_SEED_OF
 from .gradient import Probe, changed_share, probe_pixels, same_camera
 from .history import (LIGHTING_FLOOR, SHIFT_SEEN, PastFrame, Projection, Signature, agreement, fit_projection,
                       history_weights, signature)
+from .motion import ShapePoses, points_then, shape_keys
 from .reprojection import JitFrame, cubic_sample, gather_history, jit_frame
 
 #: Frames of history kept by default, and the weight of a frame's samples per frame of age (0.9 over 0.8: +0.1-0.2
@@ -211,19 +213,22 @@ class Survey:
     hit (N, 3; NaN on a miss) and the shading normal there (N, 3), the guides' feature means over the pixel's
     guide rays (:class:`~gmcpt.render.kernels.FeatureMeans`), each pixel's lighting signature (N,: the luminance of the
     direct light through fixed light samples with the surface's BSDF toward the camera, plus what the surface
-    emits, averaged over the guide rays), and the camera's :class:`~gmcpt.temporal.history.Projection`."""
+    emits, averaged over the guide rays), the camera's :class:`~gmcpt.temporal.history.Projection`, and the shape each
+    centre ray hit (N,: its Dr.Jit registry index, 0 on a miss; :func:`~gmcpt.temporal.motion.shape_keys`)."""
 
     positions: np.ndarray
     normals: np.ndarray
     features: FeatureMeans
     lighting: np.ndarray
     projection: Projection
+    shapes: np.ndarray
 
 
 def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_rays: int, camera: tuple) -> list:
     """The flat planes of :class:`Survey`: the feature planes and the lighting signature averaged over
     ``guide_rays`` rays a pixel, the first through its centre and the others jittered, then that centre ray's hit
-    (x, y, z, normal x, y, z, hit): one launch (a second one for the centre rays cost about 5 ms of a 128x128 frame).
+    (x, y, z, normal x, y, z, hit, the shape's registry index): one launch (a second one for the centre rays cost
+    about 5 ms of a 128x128 frame).
 
     The signature's light samples are a fixed 2x2 grid over the lights' sampling domain, one a guide ray in turn:
     the same every frame, so a static surface under static lights keeps its signature, and a changed one is light
@@ -251,8 +256,9 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     light += dr.select(hit, si.emitter(scene).eval(si, hit), 0.0)
     values.append(dr.select(hit, (light.x + light.y + light.z) / 3, 0.0))
     means = pixel_means(values, pixel, dr.opaque(mi.Float, 1 / guide_rays), height * width)
-    centres = [dr.zeros(mi.Float, height * width) for _ in range(7)]
-    for target, value in zip(centres, _hit_planes(si)):
+    centres = [dr.zeros(mi.Float, height * width) for _ in range(8)]
+    shape = mi.Float(dr.reinterpret_array(mi.UInt32, si.shape))  # exact: registry indices are far below 2^24
+    for target, value in zip(centres, [*_hit_planes(si), shape]):
         dr.scatter(target, value, pixel, first)
     return means + centres
 
@@ -292,9 +298,9 @@ def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 
               _frozen_survey(scene, lambda: (sensor, dr.opaque(mi.UInt32, feature_seed), guide_rays,
                                              camera_key(sensor)))]
     features, lighting = planes[:9], planes[9]
-    positions, normals = _hits(planes[10:])
+    positions, normals = _hits(planes[10:17])
     return Survey(positions, normals, FeatureMeans(tuple(features), guide_rays, None, 0, (height, width)), lighting,
-                  camera_projection(sensor))
+                  camera_projection(sensor), planes[17].astype(np.int64))
 
 
 def _hits(planes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -495,6 +501,7 @@ class SequenceRenderer:
         self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
         self.light_changed = 0.0  # the share of the last frame's pixels whose light changed (DroppedShares.lighting)
         self.probe: Probe | None = None  # the last frame's probe (:mod:`gmcpt.temporal.gradient`)
+        self.poses = ShapePoses()  # the meshes that moved (:mod:`gmcpt.temporal.motion`)
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
                sensor: mi.Sensor | None = None) -> tuple[np.ndarray, SequenceRecord, dict]:
@@ -523,7 +530,8 @@ class SequenceRenderer:
         timings["features_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
-        history = self._history(index, found, marks)
+        poses = self.poses.update(scene) if settings.history else {}
+        history = self._history(index, found, marks, _moved_lanes(scene, found.shapes, poses), poses)
         deadline = self.pace.deadline(settings.time, started) if settings.time else None
         if deadline is not None:  # what the frame's first part left of its time: the samples it places are those
             budget = min(budget, self.pace.budget_until(deadline, start))
@@ -572,7 +580,7 @@ class SequenceRenderer:
             # float32, as the samples were traced: 8 past frames' gathers a frame at half float64's traffic
             self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), found.positions,
                                        found.normals, found.projection, marks,
-                                       sums.quarters))  # float32 already, and this frame's own
+                                       sums.quarters, poses))  # float32 already, and this frame's own
             self.shown = (index, shown)
             timings["keep_s"] = time.perf_counter() - start
         decay, self.light_changed = self.decay, history.dropped.lighting  # the decay this frame's history had
@@ -597,19 +605,23 @@ class SequenceRenderer:
         still = bool(self.past) and same_camera(self.past[-1].projection.matrix, projection.matrix)
         return bool(self.settings.history) and not self.settings.time and not still and keeps_quarters(sensor)
 
-    def _history(self, index: int, found: Survey, marks: Signature) -> History:
+    def _history(self, index: int, found: Survey, marks: Signature, lanes: dict[int, np.ndarray],
+                 poses: dict[int, np.ndarray]) -> History:
         """The past frames' samples reprojected into this frame (``found``: its :func:`survey`; ``marks``: its
         :class:`~gmcpt.temporal.history.Signature`), weighted by age, where each past pixel saw the same surface under
-        the same light and material (:func:`~gmcpt.temporal.history.unchanged`)."""
+        the same light and material (:func:`~gmcpt.temporal.history.unchanged`); a point on a mesh that moved (its
+        pixels in ``lanes``, its pose in ``poses``, :mod:`gmcpt.temporal.motion`) looked for where it was."""
         shape = found.features.shape
-        usable = [past for past in self.past if past.index < index and (past.projection.height, past.projection.width) == shape]
+        usable = [past for past in self.past
+                  if past.index < index and (past.projection.height, past.projection.width) == shape]
         weights = history_weights([index - past.index for past in usable], self.decay)
         hits = found.lighting[np.isfinite(found.positions[:, 0])]
         floor = LIGHTING_FLOOR * float(hits.mean()) if hits.size else 0.0
         latest = self.shown[0] if self.shown is not None else None
         # a camera that moved by whole pixels lands on the past centres as a still one does (reprojection._match)
         frames = [(self._jit_frame(past), weight, past.index == latest,
-                   not same_camera(past.projection.matrix, found.projection.matrix))
+                   not same_camera(past.projection.matrix, found.projection.matrix),
+                   points_then(found.positions, found.normals, lanes, poses, past.poses or {}))
                   for past, weight in zip(usable, weights)]
         gathered = gather_history(frames, found.positions, found.normals, marks, floor)
         shares = DroppedShares(
@@ -704,9 +716,13 @@ class SequenceRenderer:
             state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
             if past.quarters is not None:
                 state[f"{slot}_quarters"] = past.quarters
+            if past.poses:
+                state[f"{slot}_pose_shapes"] = np.array(sorted(past.poses))
+                state[f"{slot}_poses"] = np.stack([past.poses[key] for key in sorted(past.poses)])
         if self.shown is not None:
             state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
         state["light_changed"] = np.array(self.light_changed)
+        state.update(self.poses.state())
         if self.probe is not None:
             probe = self.probe
             state["probe_index"], state["probe_seed"] = np.array(probe.index), np.array(probe.seed)
@@ -727,14 +743,27 @@ class SequenceRenderer:
                                        state[f"{slot}_positions"], state[f"{slot}_normals"],
                                        Projection(state[f"{slot}_matrix"], width, height),
                                        signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height),
-                                       state[f"{slot}_quarters"] if f"{slot}_quarters" in state else None))
+                                       state[f"{slot}_quarters"] if f"{slot}_quarters" in state else None,
+                                       dict(zip((int(key) for key in state[f"{slot}_pose_shapes"]),
+                                                state[f"{slot}_poses"])) if f"{slot}_poses" in state else None))
             slot += 1
+        self.poses.restore(state)
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
         self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
         self.probe = Probe(int(state["probe_index"]), int(state["probe_seed"]), state["probe_pixels"],
                            state["probe_values"], state["probe_matrix"],
                            tuple(int(value) for value in state["probe_shape"]),
                            int(state["probe_slot"])) if "probe_index" in state else None
+
+
+def _moved_lanes(scene: mi.Scene, registry: np.ndarray, poses: dict) -> dict[int, np.ndarray]:
+    """The pixels on each mesh that has moved (``poses``' keys: places in ``scene.shapes()``), from each pixel's
+    registry index ``registry`` (:attr:`Survey.shapes`); none while no mesh has moved."""
+    if not poses:
+        return {}
+    keys = shape_keys(scene)
+    places = np.where(registry < keys.size, keys[np.minimum(registry, keys.size - 1)], -1)
+    return {key: lanes for key in poses if (lanes := np.flatnonzero(places == key)).size}
 
 
 def keeps_quarters(sensor: mi.Sensor) -> bool:
