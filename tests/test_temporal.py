@@ -164,6 +164,10 @@ def test_a_meshs_motion_is_fitted_and_a_point_on_it_taken_back_to_where_it_was(m
     fitted = affine_fit(before, before @ turn.T + [1.0, 2.0, 3.0])
     np.testing.assert_allclose(fitted[:3, :3], turn, atol=1e-9)
     np.testing.assert_allclose(fitted[:3, 3], [1.0, 2.0, 3.0], atol=1e-9)
+    flat = before * [1.0, 1.0, 0.0]  # a flat mesh: only its shift is known, and the map stays invertible
+    shift = np.eye(4)
+    shift[0, 3] = 0.5
+    np.testing.assert_allclose(affine_fit(flat, flat + [0.5, 0.0, 0.0]), shift, atol=1e-12)
     # a point on mesh 4, moved by ``fitted`` since the past frame, was where the inverse takes it; others stay
     positions = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]], np.float32)
     normals = np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]], np.float32)

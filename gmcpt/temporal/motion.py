@@ -6,7 +6,7 @@ from their last vertices to their new ones (:func:`affine_fit`), and keeps each 
 was on the first frame it saw. A pixel whose centre ray hit a moved mesh then takes its history from where that point
 was on each past frame (:func:`points_then`), so the history of a moving object goes with it, where before it took
 the past frames' samples of the same pixel: another part of the object, or what was behind it, as long as it lay
-within the depth test (the living room's table smeared its legs and its shadow's edge).
+within the depth test (the living room's moving table smeared its legs).
 """
 from __future__ import annotations
 
@@ -29,10 +29,17 @@ def shape_keys(scene: mi.Scene) -> np.ndarray:
 
 
 def affine_fit(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """The (4, 4) affine map that takes the points ``before`` (V, 3) to ``after`` (V, 3), least squares."""
+    """The (4, 4) affine map that takes the points ``before`` (V, 3) to ``after`` (V, 3), least squares; the
+    translation of their centroids where ``before`` spans no volume (a flat or thin mesh: its map across the plane is
+    not known, and a guess there could not be inverted)."""
+    matrix = np.eye(4)
+    centre_before, centre_after = before.mean(axis=0), after.mean(axis=0)
+    spread = np.linalg.svd(before - centre_before, compute_uv=False) if before.shape[0] >= 4 else np.zeros(1)
+    if spread.size < 3 or spread[-1] <= 1e-6 * max(spread[0], 1e-12):
+        matrix[:3, 3] = centre_after - centre_before
+        return matrix
     ones = np.ones((before.shape[0], 1))
     solution, *_ = np.linalg.lstsq(np.concatenate([before, ones], axis=1), after, rcond=None)
-    matrix = np.eye(4)
     matrix[:3] = solution.T
     return matrix
 
