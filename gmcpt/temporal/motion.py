@@ -46,8 +46,10 @@ def affine_fit(before: np.ndarray, after: np.ndarray) -> np.ndarray:
 
 def _vertices(mesh: mi.Mesh, buffer) -> np.ndarray:
     """Up to :data:`FIT_VERTICES` vertices of ``mesh`` (its positions ``buffer``, flat xyz, Dr.Jit's or a resumed
-    state's numpy), (V, 3) float64. The whole buffer is read: a gather of the chosen ones launched a kernel a mesh,
-    slower on the living room's table (7 meshes, 7.6 ms a frame against 5.7)."""
+    state's numpy; or those already chosen, (V, 3)), (V, 3) float64. The whole buffer is read: a gather of the chosen
+    ones launched a kernel a mesh, slower on the living room's table (7 meshes, 7.6 ms a frame against 5.7)."""
+    if isinstance(buffer, np.ndarray) and buffer.ndim == 2:
+        return buffer
     count = mesh.vertex_count()
     chosen = np.unique(np.linspace(0, count - 1, min(count, FIT_VERTICES)).astype(np.int64))
     return np.asarray(buffer, np.float64).reshape(-1, 3)[chosen]
@@ -60,7 +62,8 @@ class ShapePoses:
     def __init__(self):
         self.poses: dict[int, np.ndarray] = {}
         # each mesh's bounding box and vertex buffer on the last frame (the buffer held, not copied: an update gives
-        # the mesh a new one, and the old one is what its motion is read from)
+        # the mesh a new one, and the old one is what its motion is read from), or for one that moved the vertices
+        # its motion was fitted on
         self._last: dict[int, tuple] = {}
         self._count = 0  # the shapes of the last frame's scene
 
@@ -81,8 +84,9 @@ class ShapePoses:
             before = last.get(key)
             if before is None or before[0] == corners or before[1] != self._last[key][1]:
                 continue
-            step = affine_fit(_vertices(shape, before[2]), _vertices(shape, buffer))
-            self.poses[key] = step @ self.poses.get(key, np.eye(4))
+            now = _vertices(shape, buffer)
+            self.poses[key] = affine_fit(_vertices(shape, before[2]), now) @ self.poses.get(key, np.eye(4))
+            self._last[key] = (*self._last[key][:2], now)  # a mesh that moves reads one buffer a frame, not two
         return dict(self.poses)
 
     def state(self) -> dict[str, np.ndarray]:
