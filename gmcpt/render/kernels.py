@@ -475,13 +475,13 @@ def render_native_quarters(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Sa
     return _film_mean(total, count, spp), quarters
 
 
-def _film_mean(mean: np.ndarray, count: np.ndarray, spp: int) -> np.ndarray:
-    """(N, 3) float32 the mean of each pixel's ``spp`` samples from the frozen kernel's sums ``mean`` (N, 3, divided
+def _film_mean(total: np.ndarray, count: np.ndarray, spp: int) -> np.ndarray:
+    """(N, 3) float32 the mean of each pixel's ``spp`` samples from the frozen kernel's sums ``total`` (N, 3, divided
     in place), non-finite where one of them was (the kernel leaves non-finite samples out; the film does not)."""
     if spp > 1:
-        mean /= np.float32(spp)
-    mean[count < spp] = np.nan
-    return mean
+        total /= np.float32(spp)
+    total[count < spp] = np.nan
+    return total
 
 
 def render_native_guided(scene: mi.Scene, sensor: mi.Sensor, twin: mi.SamplingIntegrator, spp: int,

@@ -90,27 +90,25 @@ class ShapePoses:
         return dict(self.poses)
 
     def state(self) -> dict[str, np.ndarray]:
-        """The poses and the last frame's vertices of the meshes that moved (for :func:`numpy.savez`): what
-        :meth:`restore` takes back, so that a resumed sequence reads the next frame's motion as an uninterrupted one
-        does (a mesh that never moved is read as moving from the frame after it first does)."""
+        """The last frame's vertices of the meshes that moved (for :func:`numpy.savez`): what :meth:`restore` takes
+        back with the last frame's poses (:attr:`gmcpt.temporal.history.PastFrame.poses`, saved with it), so that a
+        resumed sequence reads the next frame's motion as an uninterrupted one does (a mesh that never moved is read
+        as moving from the frame after it first does)."""
         state = {"mesh_count": np.array(self._count)}
-        for key in sorted(self.poses):
-            state[f"mesh_{key}_pose"] = self.poses[key]
-            if key in self._last:
-                (low, high), (name, count), buffer = self._last[key]
-                state[f"mesh_{key}_box"] = np.array([low, high], np.float64)
-                state[f"mesh_{key}_name"], state[f"mesh_{key}_count"] = np.array(name), np.array(count)
-                state[f"mesh_{key}_vertices"] = np.asarray(buffer)
+        for key in sorted(set(self.poses) & set(self._last)):
+            (low, high), (name, count), buffer = self._last[key]
+            state[f"mesh_{key}_box"] = np.array([low, high], np.float64)
+            state[f"mesh_{key}_name"], state[f"mesh_{key}_count"] = np.array(name), np.array(count)
+            state[f"mesh_{key}_vertices"] = np.asarray(buffer)
         return state
 
-    def restore(self, state) -> None:
-        """Take back a :meth:`state` (an older state without one: no poses, the next frame reads no motion)."""
-        keys = sorted({int(name.split("_")[1]) for name in state if name.startswith("mesh_") and
-                       name.endswith("_pose")})
-        self.poses = {key: np.asarray(state[f"mesh_{key}_pose"], np.float64) for key in keys}
+    def restore(self, state, poses: dict[int, np.ndarray]) -> None:
+        """Take back a :meth:`state` and the ``poses`` of the frame it was saved after (an older state without
+        one: the next frame reads no motion)."""
+        self.poses = dict(poses)
         self._last = {key: ((tuple(state[f"mesh_{key}_box"][0]), tuple(state[f"mesh_{key}_box"][1])),
                             (str(state[f"mesh_{key}_name"]), int(state[f"mesh_{key}_count"])),
-                            state[f"mesh_{key}_vertices"]) for key in keys if f"mesh_{key}_box" in state}
+                            state[f"mesh_{key}_vertices"]) for key in poses if f"mesh_{key}_box" in state}
         self._count = int(state["mesh_count"]) if "mesh_count" in state else 0
 
 

@@ -49,7 +49,7 @@ class Gathered:
     lighting_dropped: np.ndarray  # (N,) bool: a past frame's samples left out for changed lighting
     material_dropped: np.ndarray  # (N,) bool: ... for a changed albedo (the lighting held)
     latest_seen: np.ndarray  # (N,) bool: the ``latest`` past frame's samples kept
-    latest_film: np.ndarray  # (N, 2) where on that frame's film
+    latest_film: np.ndarray  # (N, 2) float32 where on that frame's film, 0 where not seen
 
 
 def _float(values: np.ndarray) -> mi.Float:
@@ -87,8 +87,9 @@ def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarr
                    lighting_floor: float) -> Gathered:
     """The past ``frames`` ((frame, weight, whether it is the frame shown last, whether the camera moved since, and
     where the surface points were then where a shape moved (positions, and normals or None where none turned;
-    :func:`gmcpt.temporal.motion.points_then`) or None) each) gathered into a frame whose pixels' centre rays hit ``positions`` (N, 3; NaN on a
-    miss) with ``normals`` and whose signature is ``marks``: where a past pixel saw the same surface
+    :func:`gmcpt.temporal.motion.points_then`) or None) each) gathered into a frame whose pixels' centre rays hit
+    ``positions`` (N, 3; NaN on a miss) with ``normals`` and whose signature is ``marks``: where a past pixel saw the
+    same surface
     (:func:`gmcpt.temporal.history.matches`) under the same light and material
     (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``; where the camera moved, a frame that
     kept its samples by quarter gives those that fell within the pixel (:func:`_by_quarters`)."""
@@ -99,11 +100,9 @@ def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarr
     offered, lighting_dropped, material_dropped = (dr.zeros(mi.Bool, pixels) for _ in range(3))
     latest_seen, latest_film = np.zeros(pixels, bool), np.zeros((pixels, 2), np.float32)
     for frame, weight, latest, camera_moved, then in frames:
-        if then is None:
-            match = _match(frame, point, normal, current, floor, camera_moved)
-        else:
-            match = _match(frame, _vector(then[0], mi.Point3f),
-                           normal if then[1] is None else _vector(then[1], mi.Vector3f), current, floor, camera_moved)
+        point_then, normal_then = (point, normal) if then is None else (
+            _vector(then[0], mi.Point3f), normal if then[1] is None else _vector(then[1], mi.Vector3f))
+        match = _match(frame, point_then, normal_then, current, floor, camera_moved)
         if camera_moved and frame.quarters is not None:
             taken = _by_quarters(frame, match)
         else:

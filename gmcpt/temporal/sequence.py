@@ -627,16 +627,14 @@ class SequenceRenderer:
         shares = DroppedShares(
             lighting=float(gathered.lighting_dropped.mean()), material=float(gathered.material_dropped.mean()),
             unseen=float((~gathered.offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0)
-        # where on the latest frame's film: the carry reads the image it showed
-        latest_film = np.where(gathered.latest_seen[:, None], gathered.latest_film, np.float32(0))
+        # where on the latest frame's film (zero where not seen): the carry reads the image it showed
         return History(gathered.summed[:, :3], gathered.summed[:, 3], gathered.offered, gathered.latest_seen,
-                       latest_film.astype(np.float32), len(usable), shares)
+                       gathered.latest_film, len(usable), shares)
 
     def _camera_stayed(self, index: int, matrix: np.ndarray) -> bool:
         """Whether frame ``index``'s camera (its projection ``matrix``) is where the frame before it had its own."""
         last = self.past[-1] if self.past else None
-        return last is not None and last.index == index - 1 and \
-            same_camera(last.projection.matrix, matrix)
+        return last is not None and last.index == index - 1 and same_camera(last.projection.matrix, matrix)
 
     def _probes(self, index: int, matrix: np.ndarray, shape: tuple[int, int], seed: int,
                 history: History) -> tuple[dict[int, tuple[np.ndarray, int]], Probe | None]:
@@ -747,7 +745,7 @@ class SequenceRenderer:
                                        dict(zip((int(key) for key in state[f"{slot}_pose_shapes"]),
                                                 state[f"{slot}_poses"])) if f"{slot}_poses" in state else None))
             slot += 1
-        self.poses.restore(state)
+        self.poses.restore(state, self.past[-1].poses or {} if self.past else {})
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
         self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
         self.probe = Probe(int(state["probe_index"]), int(state["probe_seed"]), state["probe_pixels"],
