@@ -71,6 +71,9 @@ def test_the_line_at_a_glance_gives_the_speedups_on_camera_and_on_scene_motion_a
     old = dict(SEQUENCES, settings={"res": 256, "motion": "pan"},
                verdicts=[{k: v for k, v in _verdict("pan", 1.6, 0.5).items() if k != "motion"}])
     assert "1.60x on pans and dollies (above" in glance_line(old) and "objects" not in glance_line(old)
+    still = dict(SEQUENCES, verdicts=SEQUENCES["verdicts"] + [_verdict("still", 2.7, 0.2)])
+    line = glance_line(still)
+    assert "2.70x with nothing moving" in line and "flicker 0.40-0.90x" in line  # its flicker not in the span
 
 
 def test_the_results_section_has_a_table_and_verdicts_per_motion_and_the_glance_leads_with_the_sequences():

@@ -27,7 +27,8 @@ MOTION_WORDS = {"pan": "The camera turns about its own up axis", "dolly": "The c
                 "object": "The camera stays; an object slides across the room, its shadow with it",
                 "light": "The camera stays; the scene's main light turns about the vertical through the scene's "
                          "centre, as the sun does, its patches and shadows with it",
-                "still": "Nothing moves"}
+                "still": "Nothing moves: every past sample lands where it was traced and none goes stale, what reusing "
+                         "them gives at this cost a frame, the ceiling of the motions above"}
 #: The plot's ceiling, as issue 75 sets it: path tracing + OIDN at this many times the sequence's samples a pixel a
 #: frame, the quality that reusing earlier frames' samples is held against.
 CEILING_SAMPLES = 7.6
@@ -126,15 +127,16 @@ def glance_line(sequences: dict) -> str:
     def spans(baseline: str) -> list[str]:
         said = []
         for label, chosen in (("on pans and dollies", lambda motion: motion in CAMERA_MOTIONS),
-                              ("on moving objects and lights", lambda motion: motion in ("object", "light"))):
+                              ("on moving objects and lights", lambda motion: motion in ("object", "light")),
+                              ("with nothing moving", lambda motion: motion == "still")):
             speedups = [v["speedup"] for v in verdicts
                         if v["baseline"] == baseline and chosen(motion_of(v, settings))]
             if speedups:
                 said.append(f"{_span(speedups, '.2f')} {label}")
         return said
 
-    flicker = [v["flicker_ratio"] for v in verdicts
-               if v["baseline"] == "path+oidn" and v.get("flicker_ratio") is not None]
+    flicker = [v["flicker_ratio"] for v in verdicts if v["baseline"] == "path+oidn"
+               and v.get("flicker_ratio") is not None and motion_of(v, settings) != "still"]
     accumulation = spans("accumulation+oidn")
     return (f"**Sequences** (`benchmarks/sequence.py`, {len({v['scene'] for v in verdicts})} scenes at "
             f"{settings['res']}x{settings['res']}): the sequence mode's speed-up at equal quality over per-frame path "
