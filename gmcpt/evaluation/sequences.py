@@ -120,8 +120,9 @@ def _span(values: list[float], form: str) -> str:
 
 def glance_line(sequences: dict) -> str:
     """One line on the sequence mode's verdicts from the benchmark's record: its speed-up at equal quality over
-    per-frame path tracing + OIDN (the yardstick) on camera motion and on moving objects and lights, its flicker
-    over that baseline's at equal time, and its speed-up over accumulation + OIDN."""
+    per-frame path tracing + OIDN (the yardstick) on camera motion, on moving objects and lights and with nothing
+    moving, its flicker over that baseline's at equal time where something moves, and its speed-up over
+    accumulation + OIDN."""
     settings, verdicts = sequences["settings"], sequences["verdicts"]
 
     def spans(baseline: str) -> list[str]:
