@@ -179,8 +179,8 @@ def test_a_moving_shape_takes_its_history_from_where_it_was(mi, monkeypatch):
 
 
 def test_a_resumed_sequence_follows_a_moving_shape_as_an_uninterrupted_one(mi, tmp_path):
-    def frames(renderer, indices, scene=None):
-        scene = scene if scene is not None else _scene()
+    def frames(renderer, indices):
+        scene = _scene()
         parameters, key = mi.traverse(scene), "short_block.vertex_positions"
         base = np.array(parameters[key]).reshape(-1, 3)
         images = []

@@ -89,8 +89,7 @@ def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarr
     where the surface points were then where a shape moved (positions, and normals or None where none turned;
     :func:`gmcpt.temporal.motion.points_then`) or None) each) gathered into a frame whose pixels' centre rays hit
     ``positions`` (N, 3; NaN on a miss) with ``normals`` and whose signature is ``marks``: where a past pixel saw the
-    same surface
-    (:func:`gmcpt.temporal.history.matches`) under the same light and material
+    same surface (:func:`gmcpt.temporal.history.matches`) under the same light and material
     (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``; where the camera moved, a frame that
     kept its samples by quarter gives those that fell within the pixel (:func:`_by_quarters`)."""
     pixels = positions.shape[0]

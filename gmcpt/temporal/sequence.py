@@ -745,7 +745,7 @@ class SequenceRenderer:
                                        dict(zip((int(key) for key in state[f"{slot}_pose_shapes"]),
                                                 state[f"{slot}_poses"])) if f"{slot}_poses" in state else None))
             slot += 1
-        self.poses.restore(state, self.past[-1].poses or {} if self.past else {})
+        self.poses.restore(state, (self.past[-1].poses or {}) if self.past else {})
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
         self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
         self.probe = Probe(int(state["probe_index"]), int(state["probe_seed"]), state["probe_pixels"],
