@@ -30,7 +30,10 @@ at a ladder of samples a pixel a frame:
   and OIDN: SVGF's accumulation, the strongest simple alternative;
 - ``sequence`` (``--budgets``): :class:`gmcpt.temporal.sequence.SequenceRenderer` at the same budget.
 
-The contenders take turns frame by frame, so a machine whose pace drifts slows them alike. Printed per scene,
+The contenders take turns frame by frame, so a machine whose pace drifts slows them alike. Before them the
+sequences run once through the frames untimed: a sequence's memory grows with its history through its first frames,
+and on a virtual machine that backs memory on first touch (this project's: 64 MB new to the process in about 170 ms,
+reused in 12) that growth, not the mode, would be timed (docs/experiments.md). Printed per scene,
 motion and setting, over the frames after the first ``--warm`` (history needs frames to build): mean PSNR;
 ``psnr_changed``, the PSNR over the pixels whose true image changed since the frame before (a moving object's old
 and new place, its shadow, a light's patches, what a camera move uncovers: where stale history shows;
@@ -374,6 +377,9 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
         return Run("accumulation+oidn", spp,
                    lambda frame, seed: (accumulation.render(scene, integrator, aov, spp, seed), {}))
 
+    # the process's memory warmed: throwaway sequences, as many as the contest runs side by side, untimed
+    take_turns([sequence_run(scene, integrator, budget, seed=3) for budget in args.budgets], range(args.frames),
+               changes.at, lambda frame: 1000 + frame)
     runs = [path_oidn_run(scene, integrator, aov, spp) for spp in args.path_spp] \
         + [accumulation_run(spp) for spp in args.path_spp] \
         + [sequence_run(scene, integrator, budget, seed=3) for budget in args.budgets]
