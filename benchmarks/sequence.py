@@ -377,13 +377,17 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
         return Run("accumulation+oidn", spp,
                    lambda frame, seed: (accumulation.render(scene, integrator, aov, spp, seed), {}))
 
-    # the process's memory warmed: throwaway sequences, as many as the contest runs side by side, untimed
-    take_turns([sequence_run(scene, integrator, budget, seed=3) for budget in args.budgets], range(args.frames),
-               changes.at, lambda frame: 1000 + frame)
+    def sequence_runs():
+        return [sequence_run(scene, integrator, budget, seed=3) for budget in args.budgets]
+
+    def frame_seed(frame):
+        return 1000 + frame
+
+    # the process's memory warmed: throwaway sequences, as the contest then runs them side by side, untimed
+    take_turns(sequence_runs(), range(args.frames), changes.at, frame_seed)
     runs = [path_oidn_run(scene, integrator, aov, spp) for spp in args.path_spp] \
-        + [accumulation_run(spp) for spp in args.path_spp] \
-        + [sequence_run(scene, integrator, budget, seed=3) for budget in args.budgets]
-    take_turns(runs, range(args.frames), changes.at, lambda frame: 1000 + frame)
+        + [accumulation_run(spp) for spp in args.path_spp] + sequence_runs()
+    take_turns(runs, range(args.frames), changes.at, frame_seed)
     rows = []
     for run in runs:
         row = {"scene": name, "motion": changes.motion, "contender": run.contender, "rate": 1.0, "spp": run.amount,
