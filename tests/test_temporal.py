@@ -85,6 +85,15 @@ def test_fireflies_among_the_current_samples_are_no_changed_light():
     assert not agreement(current, lit, has).any()
 
 
+def test_a_firefly_in_the_history_keeps_the_history_with_it():
+    rng = np.random.default_rng(2)
+    current, history = (0.3 * rng.exponential(size=(48, 48, 3)) for _ in range(2))
+    flies = rng.random((48, 48)) < 0.004
+    history[flies] *= 300  # a past sample that found a light, its pixel 300x its neighbours now
+    kept = agreement(current, history, np.ones((48, 48), bool))
+    assert kept[flies].all() and kept.mean() > 0.99  # dropping it would take the pixel's other samples too
+
+
 def test_catmull_rom_reads_pixel_centres_as_they_are_and_a_ramp_between_them():
     rows, columns = np.mgrid[0:12, 0:16].astype(np.float32)
     image = np.stack([columns, rows, 2 * columns + rows + 1], axis=-1)

@@ -30,9 +30,6 @@ DISAGREE_RADIUS = 7
 #: A pixel's luminance counts in the test up to this many times its image's mean: one firefly among a frame's
 #: few samples is no changed light (unclipped, the dining room's pan lost 6-9% of its history to them).
 DISAGREE_CLIP = 4.0
-#: History brighter than this many times the brightest current pixel around it, plus the image's mean, is left out
-#: (:func:`agreement`).
-OUTLIER_RATIO = 8.0
 #: A past pixel's history is kept only where its lighting signature (:func:`gmcpt.temporal.sequence.survey`: direct
 #: light through fixed light samples, the same every frame) and the current pixel's differ by at most this share of the
 #: larger, :data:`LIGHTING_FLOOR` x the frame's mean and what a sub-pixel shift explains (:func:`unchanged`): a
@@ -232,21 +229,15 @@ def agreement(current_mean: np.ndarray, history_mean: np.ndarray, has_history: n
     15x15 neighbourhood and a factor of 3 dropped 1% of a still camera's history at 2 spp. Each luminance is
     clipped at :data:`DISAGREE_CLIP` x its image's mean, so fireflies do not count as a change.
 
-    And unclipped, pixel by pixel: history brighter than :data:`OUTLIER_RATIO` x (the brightest of the current
-    samples' 3x3 neighbourhood + the image's mean) is left out: the trailing edge of a light that moved, whose
-    samples a few guide rays need not see (:func:`unchanged`), is far brighter than anything near it now. The
-    image's mean keeps the test off dark noise: against the neighbourhood alone, one sample a pixel often left it
-    dark by chance, and the history kept where it was dark lost 1.6 dB on a still camera at budget 1.
+    No pixel's history is judged alone against its neighbours' current samples: a firefly among the history's
+    samples would drop the rest with it, and that selection cost OIDN more than the emitter edges it caught
+    (docs/experiments.md, fifty-fifth session).
     """
     current, history = _luminance(current_mean), _luminance(history_mean)
-    mean = max(float(current.mean()), 1e-12)
-    floor = 0.05 * mean  # dark regions: noise, not a changed light
+    floor = 0.05 * max(float(current.mean()), 1e-12)  # dark regions: noise, not a changed light
     near = box_sum(np.where(has_history, _clipped(current), 0.0)) + floor
     far = box_sum(np.where(has_history, _clipped(history), 0.0)) + floor
-    height, width = current.shape
-    brightest = _neighbourhood_range(current.ravel(), width, height)[1].reshape(current.shape)
-    stale = history > OUTLIER_RATIO * (brightest + mean)
-    return ~has_history | ((near <= DISAGREE_RATIO * far) & (far <= DISAGREE_RATIO * near) & ~stale)
+    return ~has_history | ((near <= DISAGREE_RATIO * far) & (far <= DISAGREE_RATIO * near))
 
 
 def _luminance(image: np.ndarray) -> np.ndarray:
