@@ -115,9 +115,6 @@ class PastFrame:
     quarters: "np.ndarray | None" = None
     #: the poses of the meshes that had moved by this frame (:class:`~gmcpt.temporal.motion.ShapePoses`), or None
     poses: "dict | None" = None
-    #: (N, 6) its survey's guide rays summed (albedo R, G, B, shading normal x, y, z), or None
-    guides: "np.ndarray | None" = None
-    guide_rays: int = 0  # the rays a pixel those sums hold
 
 
 @dataclass(frozen=True)

@@ -34,8 +34,6 @@ class JitFrame:
     marks: tuple  # lighting, albedo, lighting spread, albedo spread (mi.Float each)
     samples: tuple  # R, G, B sums and the count (mi.Float each)
     quarters: tuple | None  # the same by the pixel's quarters (four values a pixel: pixel * 4 + quarter), or None
-    guides: tuple | None  # its guide rays' sums (six planes: albedo, shading normal), or None
-    guide_rays: int  # the rays a pixel they hold
     matrix: list  # the projection's 12 entries, opaque
     centre: mi.Point3f  # the camera's pinhole, opaque
     width: int
@@ -52,7 +50,6 @@ class Gathered:
     material_dropped: np.ndarray  # (N,) bool: ... for a changed albedo (the lighting held)
     latest_seen: np.ndarray  # (N,) bool: the ``latest`` past frame's samples kept
     latest_film: np.ndarray  # (N, 2) float32 where on that frame's film, 0 where not seen
-    guides: np.ndarray  # (N, 7) the past guide rays kept, weighted: six planes' sums (albedo, normal), then the rays
 
 
 def _float(values: np.ndarray) -> mi.Float:
@@ -82,9 +79,8 @@ def jit_frame(past: PastFrame) -> JitFrame:
     centre = mi.Point3f(*(dr.opaque(mi.Float, float(value)) for value in projection.centre))
     samples = tuple(_float(column) for column in (*past.total.T, past.count))
     quarters = None if past.quarters is None else tuple(_float(past.quarters[:, :, value]) for value in range(4))
-    guides = None if past.guides is None else tuple(_float(past.guides[:, plane]) for plane in range(6))
     return JitFrame(_vector(past.positions, mi.Point3f), _vector(past.normals, mi.Vector3f), _marks(past.signature),
-                    samples, quarters, guides, past.guide_rays, matrix, centre, projection.width, projection.height)
+                    samples, quarters, matrix, centre, projection.width, projection.height)
 
 
 def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarray, marks: Signature,
@@ -95,14 +91,11 @@ def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarr
     ``positions`` (N, 3; NaN on a miss) with ``normals`` and whose signature is ``marks``: where a past pixel saw the
     same surface (:func:`gmcpt.temporal.history.matches`) under the same light and material
     (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``; where the camera moved, a frame that
-    kept its samples by quarter gives those that fell within the pixel (:func:`_by_quarters`), and its guide rays
-    (nearest pixel) count ``weight`` too: a moved camera's rays are other rays through the surface, where a still
-    camera's survey casts the same ones every frame."""
+    kept its samples by quarter gives those that fell within the pixel (:func:`_by_quarters`)."""
     pixels = positions.shape[0]
     point, normal, current = _vector(positions, mi.Point3f), _vector(normals, mi.Vector3f), _marks(marks)
     floor = dr.opaque(mi.Float, float(lighting_floor))
     summed = [dr.zeros(mi.Float, pixels) for _ in range(4)]
-    guided = [dr.zeros(mi.Float, pixels) for _ in range(7)]
     offered, lighting_dropped, material_dropped = (dr.zeros(mi.Bool, pixels) for _ in range(3))
     latest_seen, latest_film = np.zeros(pixels, bool), np.zeros((pixels, 2), np.float32)
     for frame, weight, latest, camera_moved, then in frames:
@@ -116,15 +109,10 @@ def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarr
                      for values in frame.samples]
         scale = dr.opaque(mi.Float, float(weight))
         summed = [total + value * scale for total, value in zip(summed, taken)]
-        if camera_moved and frame.guides is not None:
-            rays = dr.opaque(mi.Float, float(weight * frame.guide_rays))
-            guided = [total + dr.select(match.held, dr.gather(mi.Float, values, match.source, match.held), 0.0)
-                      * scale for total, values in zip(guided, frame.guides)] + \
-                [guided[6] + dr.select(match.held, rays, 0.0)]
         offered |= match.offered
         lighting_dropped |= ~match.held & ~match.lit
         material_dropped |= ~match.held & match.lit & ~match.same_material
-        outputs = [*summed, *guided, offered, lighting_dropped, material_dropped] + \
+        outputs = [*summed, offered, lighting_dropped, material_dropped] + \
             ([match.held, match.u, match.v] if latest else [])
         dr.eval(*outputs)  # one kernel a past frame, all its outputs together
         if latest:
@@ -132,8 +120,7 @@ def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarr
             latest_film = np.stack([np.asarray(match.u, np.float32), np.asarray(match.v, np.float32)], axis=1)
     return Gathered(np.stack([np.asarray(total, np.float32) for total in summed], axis=1), np.asarray(offered, bool),
                     np.asarray(lighting_dropped, bool), np.asarray(material_dropped, bool), latest_seen,
-                    np.where(latest_seen[:, None], latest_film, np.float32(0)),
-                    np.stack([np.asarray(total, np.float32) for total in guided], axis=1))
+                    np.where(latest_seen[:, None], latest_film, np.float32(0)))
 
 
 #: The four past pixels whose centres surround a point, as (column, row) steps from the top left one

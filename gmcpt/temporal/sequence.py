@@ -83,11 +83,6 @@ CARRY_FADE_BUDGET = 4.0
 #: 8 past frames and their Dr.Jit copies 70 MB; at 1920x1080 that would be 2 GB), which a moving camera's history
 #: reads (:mod:`gmcpt.temporal.reprojection`); larger ones, and frames traced by Mitsuba's film, are read by pixel.
 QUARTER_PIXELS = 1 << 19
-#: A moving camera's survey casts at most this many guide rays a pixel: its guides are also the past frames' rays
-#: where their samples held (:func:`_guides_with_history`), about 12 a pixel at decay 0.9, where 4 of its own gave
-#: the same images over the benchmark's pans and dollies for 13 ms more a 256x256 frame (1 ray lost 0.06 dB;
-#: docs/experiments.md). A still camera's survey casts the same rays every frame (its signature's), so it keeps all.
-MOVING_GUIDE_RAYS = 2
 
 
 @dataclass(frozen=True)
@@ -295,10 +290,8 @@ _frozen_survey = FrozenKernel(_survey_planes)
 _frozen_centres = FrozenKernel(_centre_planes)
 
 
-def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 0,
-           projection: Projection | None = None) -> Survey:
-    """This frame's :class:`Survey` over ``guide_rays`` rays a pixel (seeded by ``seed``), in one pass
-    (``projection``: the camera's, where already known)."""
+def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 0) -> Survey:
+    """This frame's :class:`Survey` over ``guide_rays`` rays a pixel (seeded by ``seed``), in one pass."""
     height, width = sensor_film_size(sensor)
     feature_seed = (seed + FEATURE_SEED_OFFSET) % SEED_LIMIT
     planes = [np.asarray(plane, np.float32) for plane in
@@ -307,7 +300,7 @@ def survey(scene: mi.Scene, sensor: mi.Sensor, guide_rays: int = 4, seed: int = 
     features, lighting = planes[:9], planes[9]
     positions, normals = _hits(planes[10:17])
     return Survey(positions, normals, FeatureMeans(tuple(features), guide_rays, None, 0, (height, width)), lighting,
-                  projection if projection is not None else camera_projection(sensor), planes[17].astype(np.int64))
+                  camera_projection(sensor), planes[17].astype(np.int64))
 
 
 def _hits(planes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -409,7 +402,6 @@ class History:
     latest_film: np.ndarray  # (N, 2) where on that frame's film
     frames: int  # past frames used
     dropped: DroppedShares  # the shares of pixels that lost a past frame's samples, a reason (disagreement: 0 here)
-    guides: np.ndarray | None = None  # (N, 7) the past frames' guide rays kept (:class:`~.reprojection.Gathered`)
 
     def scaled(self, keep: np.ndarray) -> History:
         """This history with each pixel's samples weighted by ``keep`` (N,), what it left out recorded
@@ -439,8 +431,7 @@ class SequenceRecord:
         past frames saw their surface but whose history was left out.
     dropped : the shares of pixels that lost a past frame's samples, a reason (:class:`DroppedShares`).
     carried_pixels : the share of pixels blended with the frame shown before (:data:`SHOWN_CARRY`).
-    guide_rays : the survey's guide rays a pixel. guide_rays_carried : the past frames' guide rays a pixel that its
-        guides also average (weighted by age; a moving camera's, :data:`MOVING_GUIDE_RAYS`).
+    guide_rays : the guides' rays a pixel.
     time_short : a timed sequence's: whether its time bought the fewest samples a frame spends
         (:data:`TIMED_BUDGETS`) or fewer; None: not timed.
     """
@@ -458,7 +449,6 @@ class SequenceRecord:
     carried_pixels: float
     nonfinite_samples: int
     guide_rays: int
-    guide_rays_carried: float = 0.0
     time_short: bool | None = None
 
     def to_json(self) -> dict:
@@ -470,7 +460,6 @@ class SequenceRecord:
                 "history_samples": self.history_samples, "history_dropped": self.history_dropped,
                 "dropped": self.dropped.to_json(), "carried_pixels": self.carried_pixels,
                 "nonfinite_samples": self.nonfinite_samples, "guide_rays": self.guide_rays,
-                "guide_rays_carried": self.guide_rays_carried,
                 **({"time_short": self.time_short} if self.time_short is not None else {})}
 
 
@@ -532,21 +521,17 @@ class SequenceRenderer:
         pixels, seed, timings = height * width, settings.frame_seed(index), {}
 
         start = time.perf_counter()
-        full_rays = guide_spp(settings.budget, DEFAULT_FEATURE_SPP)
-        projection = camera_projection(sensor)
-        moving = bool(settings.history) and bool(self.past) and \
-            not same_camera(self.past[-1].projection.matrix, projection.matrix)
-        guide_rays = min(full_rays, MOVING_GUIDE_RAYS) if moving else full_rays
-        found, marks = self._survey(scene, sensor, guide_rays, projection)
+        guide_rays = guide_spp(settings.budget, DEFAULT_FEATURE_SPP)
+        # one seed: a still camera's survey stays put
+        found = survey(scene, sensor, guide_rays, settings.seed)
+        albedo = (found.features.planes[0] + found.features.planes[1] + found.features.planes[2]) / np.float32(3)
+        marks = signature(found.lighting, albedo, width, height)
+        guides = found.features.buffers()
         timings["features_s"] = time.perf_counter() - start
 
         start = time.perf_counter()
         poses = self.poses.update(scene) if settings.history else {}
         history = self._history(index, found, marks, _moved_lanes(scene, found.shapes, poses), poses)
-        if guide_rays < full_rays and not (history.count > 0).any():  # a cut: the single frame's guides
-            guide_rays = full_rays
-            found, marks = self._survey(scene, sensor, guide_rays, projection)
-        guides = _guides_with_history(found.features, history.guides).buffers()
         deadline = self.pace.deadline(settings.time, started) if settings.time else None
         if deadline is not None:  # what the frame's first part left of its time: the samples it places are those
             budget = min(budget, self.pace.budget_until(deadline, start))
@@ -595,9 +580,7 @@ class SequenceRenderer:
             # float32, as the samples were traced: 8 past frames' gathers a frame at half float64's traffic
             self.past.append(PastFrame(index, total.astype(np.float32), count.astype(np.float32), found.positions,
                                        found.normals, found.projection, marks,
-                                       sums.quarters, poses,  # float32 already, and this frame's own
-                                       np.stack(found.features.planes[:6], axis=1) * np.float32(guide_rays),
-                                       guide_rays))
+                                       sums.quarters, poses))  # float32 already, and this frame's own
             self.shown = (index, shown)
             timings["keep_s"] = time.perf_counter() - start
         decay, self.light_changed = self.decay, history.dropped.lighting  # the decay this frame's history had
@@ -609,21 +592,11 @@ class SequenceRenderer:
                               history_dropped=float((history.offered & ~((history.count > 0) & agrees)).mean()),
                               dropped=dropped, carried_pixels=carried,
                               nonfinite_samples=int(sums.samples - count.sum()), guide_rays=guide_rays,
-                              guide_rays_carried=float(history.guides[:, 6].mean()) if history.guides is not None
-                              else 0.0,
                               time_short=budget <= TIMED_BUDGETS[0] if settings.time else None)
         if settings.time:  # only a timed sequence reads its pace (what follows falls in the next frame's period)
             self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time, traced)
         layers = _layers(image, count + kept, guides, budget, info)
         return SequenceFrame(shown, layers, info, timings)
-
-    def _survey(self, scene: mi.Scene, sensor: mi.Sensor, guide_rays: int,
-                projection: Projection) -> tuple[Survey, Signature]:
-        """This frame's :func:`survey` and its :class:`~gmcpt.temporal.history.Signature`."""
-        height, width = sensor_film_size(sensor)
-        found = survey(scene, sensor, guide_rays, self.settings.seed, projection)  # one seed: a still camera's stays
-        albedo = (found.features.planes[0] + found.features.planes[1] + found.features.planes[2]) / np.float32(3)
-        return found, signature(found.lighting, albedo, width, height)
 
     def _keeps_quarters(self, sensor: mi.Sensor, projection: Projection) -> bool:
         """Whether this frame keeps its samples by quarter of the pixel (:func:`keeps_quarters`): only a moving
@@ -656,7 +629,7 @@ class SequenceRenderer:
             unseen=float((~gathered.offered & np.isfinite(found.positions[:, 0])).mean()) if usable else 0.0)
         # where on the latest frame's film (zero where not seen): the carry reads the image it showed
         return History(gathered.summed[:, :3], gathered.summed[:, 3], gathered.offered, gathered.latest_seen,
-                       gathered.latest_film, len(usable), shares, gathered.guides)
+                       gathered.latest_film, len(usable), shares)
 
     def _camera_stayed(self, index: int, matrix: np.ndarray) -> bool:
         """Whether frame ``index``'s camera (its projection ``matrix``) is where the frame before it had its own."""
@@ -741,8 +714,6 @@ class SequenceRenderer:
             state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
             if past.quarters is not None:
                 state[f"{slot}_quarters"] = past.quarters
-            if past.guides is not None:
-                state[f"{slot}_guides"], state[f"{slot}_guide_rays"] = past.guides, np.array(past.guide_rays)
             if past.poses:
                 state[f"{slot}_pose_shapes"] = np.array(sorted(past.poses))
                 state[f"{slot}_poses"] = np.stack([past.poses[key] for key in sorted(past.poses)])
@@ -772,8 +743,7 @@ class SequenceRenderer:
                                        signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height),
                                        state[f"{slot}_quarters"] if f"{slot}_quarters" in state else None,
                                        dict(zip((int(key) for key in state[f"{slot}_pose_shapes"]),
-                                                state[f"{slot}_poses"])) if f"{slot}_poses" in state else None,
-                                       state.get(f"{slot}_guides"), int(state.get(f"{slot}_guide_rays", 0))))
+                                                state[f"{slot}_poses"])) if f"{slot}_poses" in state else None))
             slot += 1
         self.poses.restore(state, (self.past[-1].poses or {}) if self.past else {})
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
@@ -782,19 +752,6 @@ class SequenceRenderer:
                            state["probe_values"], state["probe_matrix"],
                            tuple(int(value) for value in state["probe_shape"]),
                            int(state["probe_slot"])) if "probe_index" in state else None
-
-
-def _guides_with_history(features: FeatureMeans, carried: np.ndarray | None) -> FeatureMeans:
-    """``features`` (the survey's) with their albedo and normal averaged over the survey's rays and the past frames'
-    ``carried`` ((N, 7): six planes' weighted sums, then their rays; :class:`~gmcpt.temporal.reprojection.Gathered`),
-    or as they are where nothing was carried."""
-    if carried is None or not carried[:, 6].any():
-        return features
-    rays = np.float32(features.spp) + carried[:, 6]
-    planes = tuple(((plane * np.float32(features.spp) + carried[:, axis]) / rays).astype(np.float32)
-                   for axis, plane in enumerate(features.planes[:6]))
-    # a mean of unit normals is made unit again, as for any mean of more than one ray
-    return replace(features, planes=planes + tuple(features.planes[6:]), spp=max(features.spp, 2))
 
 
 def _moved_lanes(scene: mi.Scene, registry: np.ndarray, poses: dict) -> dict[int, np.ndarray]:
