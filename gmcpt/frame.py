@@ -21,7 +21,7 @@ PIXEL_BUFFERS = {"radiance": 3, "mask": None, "variance": None, "albedo": 3, "no
 
 #: The sidecar entries of a budget's or a time budget's choice, in the sidecar's order (:meth:`FrameInfo.to_json`).
 CHOICE_ENTRIES = ("budget_choice", "probe", "relative_variance", "edge_share", "guide_spp", "dense_placement",
-                  "error_concentration", "denoiser_proxy", "time_spent", "costs")
+                  "error_concentration", "error_reliability", "denoiser_proxy", "time_spent", "costs")
 
 
 @dataclass(frozen=True)
@@ -41,8 +41,9 @@ class FrameInfo:
     relative_variance, edge_share : what a budget's choice read (None: not read); probe : ``traced`` or ``none``.
     sparse_time_share : the sparse way's extra time, a share of the dense frame's. guide_spp : a budget's guide rays.
     guides : where a dense frame's guides came from, ``pass`` or ``render``.
-    error_concentration, dense_placement : a dense frame's reading of its error and its placement (``adaptive`` or
-        ``even``). denoiser_proxy : the reading of what OIDN's large model buys (:mod:`gmcpt.sampling.large_model`).
+    error_concentration, error_reliability, dense_placement : a dense frame's readings of its error (how concentrated;
+        how far two launches agree on where, None where not read) and its placement (``adaptive`` or ``even``).
+    denoiser_proxy : the reading of what OIDN's large model buys (:mod:`gmcpt.sampling.large_model`).
     time_budget, time_short, time_spent : a time budget's seconds, whether they bought less than one sample a pixel
         and the completion, the seconds the frame took in all.
     dropped_nonfinite_pixels : pixels left out of the mask for non-finite samples
@@ -67,6 +68,7 @@ class FrameInfo:
     guide_spp: int | None = None
     guides: str | None = None
     error_concentration: float | None = None
+    error_reliability: float | None = None
     dense_placement: str | None = None
     denoiser_proxy: float | None = None
     time_budget: float | None = None

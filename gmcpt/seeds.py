@@ -32,6 +32,8 @@ GUIDE_RAYS_SEED_OFFSET = 0x6D1F
 CLEAN_GUIDE_SEED_OFFSET = 0xC1EA
 #: adaptive path tracing's second pass
 EXTRA_SEED_OFFSET = 0xADA97
+#: the second launch of a dense frame's first pass that is read twice (gmcpt.sampling.budget.reads_reliability)
+RELIABILITY_SEED_OFFSET = 0x2E11A
 
 # --- sample placement (gmcpt.sampling.masks) ---
 #: the mask patterns' generator, beside the frame's seed ('mask')

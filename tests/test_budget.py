@@ -299,7 +299,8 @@ def test_cli_without_a_rate_spends_the_default_budget(tmp_path):
 
 
 def test_error_concentration_is_the_share_of_the_noisiest_pixels():
-    from gmcpt.sampling.budget import DENSE_ABOVE, TOP_SHARE, adaptive_first_spp, error_concentration
+    from gmcpt.sampling.budget import (DENSE_ABOVE, TOP_SHARE, adaptive_first_spp, error_concentration,
+                                       probes_for_placement, reads_reliability)
 
     assert error_concentration(np.ones((40, 50))) == pytest.approx(TOP_SHARE)
     spot = np.zeros((40, 50))
@@ -307,10 +308,13 @@ def test_error_concentration_is_the_share_of_the_noisiest_pixels():
     assert error_concentration(spot) == 1.0 and error_concentration(np.zeros((4, 4))) == 0.0
     ramp = np.arange(2000.0).reshape(40, 50)
     assert TOP_SHARE < error_concentration(ramp) < error_concentration(ramp ** 4) < 1
+    assert [adaptive_first_spp(budget) for budget in (3.1, 3.2, 4, 4.8, 8, 16, 100)] == [0, 2, 2, 3, 5, 10, 62]
     quiet, noisy = DENSE_ABOVE / 2, DENSE_ABOVE * 2
-    assert [adaptive_first_spp(budget, quiet) for budget in (3.1, 3.2, 4, 4.8, 8, 16, 100)] == [0, 2, 2, 3, 5, 10, 62]
-    for noise in (noisy, None):  # a noisy scene, or one never probed: from budget 4.8 (a first pass of 3 spp)
-        assert [adaptive_first_spp(budget, noise) for budget in (3.2, 4.7, 4.8, 8, 16)] == [0, 0, 3, 5, 10]
+    assert not any(reads_reliability(budget, quiet) for budget in (3.1, 3.2, 4.7, 4.8, 8))
+    for noise in (noisy, None):  # a noisy scene, or one never probed: from budget 3.2 to 4.8 (a first pass of 2 spp)
+        assert [reads_reliability(budget, noise) for budget in (3.1, 3.2, 4.7, 4.8, 8)] == [False, True, True, False,
+                                                                                               False]
+    assert [probes_for_placement(budget) for budget in (3.1, 3.2, 4.7, 4.8)] == [False, True, True, False]
 
 
 @pytest.mark.parametrize("threshold,placement", [(0.0, "adaptive"), (math.inf, "even")])
@@ -334,27 +338,51 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
     assert launches == ([6] if placement == "adaptive" else [6, 4])
 
 
-@pytest.mark.parametrize("noise,launches", [(0.01, [2]), (1.0, [3])])  # the probe's samples are left out
-def test_below_budget_4_8_only_a_quiet_scene_places_its_rest_where_the_error_is(mi, monkeypatch, noise, launches):
+@pytest.mark.parametrize("noise,reliable_above,launches,placement", [
+    (0.01, math.inf, [2], "adaptive"),  # quiet: one launch, its concentration alone decides
+    (1.0, -1.0, [1, 1], "adaptive"),  # noisy: two launches of 1 whose error maps agree well enough
+    (1.0, math.inf, [1, 1, 1], "even"),  # ... or not: the rest evenly (less the probe's samples: 1 and a top-up)
+])  # the probe's samples are left out
+def test_below_budget_4_8_a_noisy_scene_reads_its_first_pass_twice(mi, monkeypatch, noise, reliable_above, launches,
+                                                                   placement):
     """Every frame of a budget from 3.2 to 4.8 probes for its placement, dense or not: its own probe says whether it is
-    quiet."""
+    quiet, and a frame that is not places adaptively only where two launches of its first pass agree on where the
+    error is."""
     from gmcpt.sampling import budget, strategies
     from gmcpt.render.scene import load_scene
 
     monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", 0.0)  # any concentration pays
+    monkeypatch.setattr(budget, "RELIABLE_ABOVE", reliable_above)
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense by the edges: no probe for the choice
     monkeypatch.setattr(strategies, "relative_variance", lambda *args: noise)  # what the probe reads
     quiet = noise <= budget.DENSE_ABOVE
     scene = load_scene(CORNELL, resolution=SIZE)
     traced = record_launches(monkeypatch)
+    readings = []
     for _ in range(2):
         traced.clear()
         frame = _render(scene, 4.0)
         assert traced == launches and frame.info.path_samples == 4 * SIZE[0] * SIZE[1]
         assert frame.info.probe == "traced" and frame.info.budget_choice == "dense"
-        assert frame.info.dense_placement == ("adaptive" if quiet else None)
+        assert frame.info.dense_placement == placement
+        readings.append(frame.info.error_reliability)
+    assert readings[0] == readings[1]  # the same seed, the same reading
+    assert readings[0] is None if quiet else 0.3 < readings[0] <= 1.0  # the Cornell box's edges and light agree
     assert _render(scene, 4.8).info.probe == "none"  # from 4.8 the placement needs no probe
+
+
+def test_error_reliability_is_the_agreement_of_two_error_maps():
+    from gmcpt.sampling.budget import error_reliability
+
+    rng = np.random.default_rng(3)
+    edge = np.zeros((40, 50))
+    edge[:, 20:23] = 1.0
+    first, second = edge + 0.1 * rng.random(edge.shape), edge + 0.1 * rng.random(edge.shape)
+    assert error_reliability(first, second) > 0.95  # the error where the scene puts it, in both
+    scattered = rng.random((2, 40, 50)) ** 8  # fireflies: wherever each launch's fell
+    assert abs(error_reliability(*scattered)) < 0.1
+    assert error_reliability(edge, np.ones_like(edge)) == 0.0  # a flat map says nothing
 
 
 def test_every_frame_reads_its_own_concentration(mi, monkeypatch):

@@ -65,6 +65,29 @@ def test_a_dense_frame_that_reads_splits_its_launch(mi, monkeypatch, samples):
     assert launches == [samples] and frame.info.denoiser_proxy is None and frame.info.guide_spp == 4
 
 
+@pytest.mark.parametrize("reliable_above,launches,reads", [(math.inf, [1, 1, 1], True), (-1.0, [1, 1], False)])
+def test_a_first_pass_read_twice_serves_the_denoiser_reading_where_the_rest_is_even(mi, monkeypatch, reliable_above,
+                                                                                    launches, reads):
+    """A noisy frame from 3.2 to 4.8 traces its first pass as two launches of 1 spp: where the rest goes evenly they
+    are the quarter and the quarter of the large model's reading, with no launch more; where it goes adaptively
+    nothing is read."""
+    from budget_helpers import record_launches
+    from gmcpt.sampling import budget, strategies
+    from gmcpt.render.scene import load_scene
+
+    monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", math.inf)
+    monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", 0.0)
+    monkeypatch.setattr(budget, "RELIABLE_ABOVE", reliable_above)
+    monkeypatch.setattr(strategies, "relative_variance", lambda *args: 1.0)  # noisy
+    scene = load_scene(CORNELL, resolution=SIZE)
+    traced = record_launches(monkeypatch)
+    frame = _render(scene, 4.0)
+    assert traced == launches and frame.info.error_reliability is not None
+    assert frame.info.dense_placement == ("even" if reads else "adaptive")
+    assert (frame.info.denoiser_proxy is not None) is reads and frame.info.path_samples == 4 * SIZE[0] * SIZE[1]
+
+
 def test_a_frame_of_one_sample_a_pixel_or_with_a_first_pass_reads_no_denoiser(mi, monkeypatch):
     from gmcpt.sampling import budget
     from gmcpt.render.scene import load_scene

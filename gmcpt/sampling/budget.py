@@ -10,7 +10,10 @@ the default's at rate ``budget / SPARSE_SPP`` x :data:`SPARSE_SPP` spp. A probe'
   denoises the whole frame. From :data:`ADAPTIVE_FROM_BUDGET` samples a pixel, where a first pass of every
   pixel finds the error concentrated (:func:`adaptive_pays`), the rest of the budget goes where the
   displayed image is noisiest, as adaptive path tracing places it (:mod:`gmcpt.sampling.adaptive`); below that budget,
-  and where the error is spread, adaptive placement lost to even samples (docs/experiments.md).
+  and where the error is spread, adaptive placement lost to even samples (docs/experiments.md). Below
+  :data:`RELIABILITY_BELOW_BUDGET` a scene the probe did not read quiet also needs two launches of its first pass to
+  agree on where the error is (:func:`error_reliability`): a noisy interior's first pass of 2 spp finds its fireflies
+  concentrated.
   It wins on real interiors, where indirect light leaves even the 16-spp means noisy and a filled pixel
   is worse than a few samples of its own.
 
@@ -84,15 +87,18 @@ DENSE_GAIN_PER_DOUBLING = 2.0
 #: dB the sparse way is expected to gain over a dense frame at the same samples where the signals choose it: the
 #: mean over the synthetic evaluation scenes (docs/experiments.md).
 SPARSE_GAIN = 1.4
-#: From this budget a dense frame of a quiet scene (its probe's :func:`relative_variance` at most
-#: :data:`DENSE_ABOVE`, as the sparse way needs too) may place part of its samples adaptively: first passes of
-#: 2-4 spp read where the error is; below it (a first pass of 1 spp) the reading did not tell the scenes that gain
-#: from those that lose (docs/experiments.md). 3.2: the least budget whose first pass is 2 spp.
+#: From this budget a dense frame may place part of its samples adaptively: first passes of 2 spp and more read
+#: where the error is; below it (a first pass of 1 spp) the reading did not tell the scenes that gain from those that
+#: lose (docs/experiments.md). 3.2: the least budget whose first pass is 2 spp.
 ADAPTIVE_FROM_BUDGET = 3.2
-#: From this budget a dense frame of any scene may (the probe's reading aside): the concentrated real interiors
-#: gained there; below it their first pass of 2 spp reads noise as concentration (docs/experiments.md). 4.8: the
-#: least budget whose first pass is 3 spp.
-ADAPTIVE_NOISY_FROM_BUDGET = 4.8
+#: Below this budget a frame whose probe did not read it quiet (:data:`DENSE_ABOVE`) also needs its first pass's
+#: error map to be reliable (:func:`error_reliability`): there a noisy interior's first pass of 2 spp reads noise as
+#: concentration (docs/experiments.md). 4.8: the least budget whose first pass is 3 spp.
+RELIABILITY_BELOW_BUDGET = 4.8
+#: The split-half agreement of the first pass's error maps (:func:`error_reliability`) from which that error is
+#: where the frame's error is: the real interior that gains from adaptive placement at 3.2 reads 0.89-0.90 at
+#: 128-512 pixels a side, the ones that lose 0.53-0.77 (docs/experiments.md).
+RELIABLE_ABOVE = 0.85
 #: The share of the first pass's display error held by its noisiest :data:`TOP_SHARE` of pixels above which
 #: adaptive placement pays: it parts the evaluation scenes that gained from those that did not
 #: (docs/experiments.md).
@@ -283,21 +289,26 @@ def even_fill(current: np.ndarray, samples: int, seed: int) -> np.ndarray:
     return more
 
 
-def adaptive_first_spp(budget: float, noise: float | None = None) -> int:
+def adaptive_first_spp(budget: float) -> int:
     """Samples of every pixel in a dense frame's first pass when the rest may be placed adaptively
-    (:data:`~gmcpt.sampling.adaptive.FIRST_SHARE` of the budget), 0 where it may not (no first pass): below
-    :data:`ADAPTIVE_FROM_BUDGET`, and below :data:`ADAPTIVE_NOISY_FROM_BUDGET` unless the frame's probe read
-    its ``noise`` (:func:`relative_variance`; None: no probe) at most :data:`DENSE_ABOVE`."""
+    (:data:`~gmcpt.sampling.adaptive.FIRST_SHARE` of the budget), 0 below :data:`ADAPTIVE_FROM_BUDGET` (no first
+    pass)."""
+    return max(1, int(FIRST_SHARE * budget)) if budget >= ADAPTIVE_FROM_BUDGET else 0
+
+
+def reads_reliability(budget: float, noise: float | None) -> bool:
+    """True when a dense frame of ``budget`` traces its first pass as two launches and places adaptively only where
+    their error maps agree (:func:`error_reliability`): below :data:`RELIABILITY_BELOW_BUDGET`, unless the frame's
+    probe read its ``noise`` (:func:`relative_variance`; None: no probe) at most :data:`DENSE_ABOVE`."""
     quiet = noise is not None and noise <= DENSE_ABOVE
-    return max(1, int(FIRST_SHARE * budget)) if budget >= (ADAPTIVE_FROM_BUDGET if quiet
-                                                            else ADAPTIVE_NOISY_FROM_BUDGET) else 0
+    return bool(adaptive_first_spp(budget)) and budget < RELIABILITY_BELOW_BUDGET and not quiet
 
 
 def probes_for_placement(budget: float) -> bool:
-    """True when a frame of ``budget`` probes for :func:`adaptive_first_spp` alone, whatever its choice: the probe's
-    reading would change a dense frame's first pass. Every such frame probes, as a reading serves only its own
-    frame."""
-    return adaptive_first_spp(budget, 0.0) != adaptive_first_spp(budget, None)
+    """True when a frame of ``budget`` probes for its placement alone, whatever its choice: the probe's reading
+    would change how a dense frame reads its first pass (:func:`reads_reliability`). Every such frame probes, as a
+    reading serves only its own frame."""
+    return reads_reliability(budget, 0.0) != reads_reliability(budget, None)
 
 
 def error_concentration(error: np.ndarray) -> float:
@@ -311,6 +322,18 @@ def error_concentration(error: np.ndarray) -> float:
     return float(np.partition(error, error.size - top)[error.size - top:].sum() / total)
 
 
-def adaptive_pays(concentration: float) -> bool:
-    """True when a dense frame's first pass reads its error as concentrated enough for adaptive placement."""
-    return concentration >= ADAPTIVE_ABOVE
+def error_reliability(first: np.ndarray, second: np.ndarray) -> float:
+    """How far two independent error maps of one frame (:func:`gmcpt.sampling.adaptive.display_error` of two
+    launches) agree: their correlation, in [-1, 1] (0 where either is flat). Where the error of a first pass of few
+    samples is mostly where its fireflies fell, two launches put it in different places; where it is the scene's
+    (bright edges, a sun patch), in the same."""
+    first, second = (np.asarray(error, np.float64).ravel() for error in (first, second))
+    first, second = first - first.mean(), second - second.mean()
+    scale = math.sqrt(float(first @ first) * float(second @ second))
+    return float(first @ second / scale) if scale > 0 else 0.0
+
+
+def adaptive_pays(concentration: float, reliability: float | None = None) -> bool:
+    """True when a dense frame's first pass reads its error as concentrated enough for adaptive placement, and, where
+    it read it twice (``reliability``, :func:`error_reliability`), in the same places."""
+    return concentration >= ADAPTIVE_ABOVE and (reliability is None or reliability >= RELIABLE_ABOVE)

@@ -21,9 +21,11 @@ from ..image.denoise import CLEAN_GUIDE_RAYS
 from ..limits import SEED_LIMIT
 from ..render.guided_path import twin_of
 from ..render.kernels import render_native, render_native_guided
-from ..seeds import EVEN_SEED_OFFSET, GUIDE_RAYS_SEED_OFFSET, SPLIT_SEED_OFFSETS, TOP_UP_SEED_OFFSET
+from ..seeds import (EVEN_SEED_OFFSET, GUIDE_RAYS_SEED_OFFSET, RELIABILITY_SEED_OFFSET, SPLIT_SEED_OFFSETS,
+                     TOP_UP_SEED_OFFSET, stream)
 from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
-from .budget import BudgetPlan, adaptive_first_spp, adaptive_pays, error_concentration, even_fill
+from .budget import (BudgetPlan, adaptive_first_spp, adaptive_pays, error_concentration, error_reliability, even_fill,
+                     reads_reliability)
 from .large_model import CLEAN_GUIDE_SEED_OFFSET, large_model_rays, read_denoiser
 from .trace import FrameTrace
 
@@ -71,19 +73,22 @@ def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: f
     """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
     render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
     that no pixel has more than ``ceil(budget)``. Where :func:`~gmcpt.sampling.budget.adaptive_first_spp` allows it
-    (from budget 3.2 on a scene whose probe read it quiet, from 4.8 on any) the bulk is two renders, and where the first
-    finds the error concentrated (:func:`~gmcpt.sampling.budget.adaptive_pays`) the second is adaptive path tracing's
-    placement instead (:func:`_adaptive_rest`); ``noise`` is the frame's probe reading (None: no probe), and every
-    such frame reads its own concentration. With ``split``, an even launch of 2 samples a pixel or more is traced
-    in three instead (:func:`_split_native`); returns (the first quarter's image, the half's), else None."""
+    (from budget 3.2) the bulk is a first pass and the rest, and where the first finds the error concentrated
+    (:func:`~gmcpt.sampling.budget.adaptive_pays`) the rest is adaptive path tracing's placement instead
+    (:func:`_adaptive_rest`); below 4.8, unless its probe read the scene quiet (``noise``: the probe's reading, None:
+    no probe), the first pass is two launches whose error maps must also agree
+    (:func:`~gmcpt.sampling.budget.reads_reliability`). Every such frame reads its own concentration. With
+    ``split``, an even launch of 2 samples a pixel or more is traced in three instead (:func:`_split_native`; a first
+    pass read twice that leaves the rest even is those launches' first two); returns (the first quarter's image, the
+    half's), else None."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
     trace.discard_samples()
     trace.count_first_pass(probe.sum())
-    current, first = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget, noise)
+    current, first, images = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget), None
     if first:
-        native_pass(trace, first, seed)
-        if _adaptive_rest(trace, left - first * plan.pixels, seed):
+        reliability, images = _first_pass(trace, first, seed, reads_reliability(plan.budget, noise))
+        if _adaptive_rest(trace, left - first * plan.pixels, seed, reliability):
             trace.mark_all_traced()
             return None
         # the second launch draws other samples than the first
@@ -94,11 +99,11 @@ def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: f
     # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
     # drawn with it too, are left out of the image)
     trace.mark_all_traced()
-    images = None
     if split and not current.any() and counts.min() >= 2:
         images = _split_native(trace, int(counts.min()), seed)
     else:
         native_pass(trace, int(counts.min()), seed)
+    images = images if split else None
     trace.trace(np.flatnonzero(counts > counts.min()), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the rest
     return images
 
@@ -128,20 +133,43 @@ def _split_native(trace: FrameTrace, spp: int, seed: int) -> tuple[np.ndarray, n
     quarter, images = max(1, spp // 4), []
     for count, offset in ((quarter, 0), (quarter, SPLIT_SEED_OFFSETS[0]), (spp - 2 * quarter, SPLIT_SEED_OFFSETS[1])):
         images.append(native_pass(trace, count, (seed + offset) % SEED_LIMIT))
-    image = lambda flat: np.nan_to_num(flat, posinf=0.0, neginf=0.0).reshape(*trace.shape, 3)  # noqa: E731
-    return image(images[0]), image((images[0] + images[1]) / 2)
+    return _finite_image(trace, images[0]), _finite_image(trace, (images[0] + images[1]) / 2)
 
 
-def _adaptive_rest(trace: FrameTrace, samples: int, seed: int) -> bool:
+def _finite_image(trace: FrameTrace, flat: np.ndarray) -> np.ndarray:
+    """A launch's flat (N, 3) image as (H, W, 3), non-finite pixels as 0."""
+    return np.nan_to_num(flat, posinf=0.0, neginf=0.0).reshape(*trace.shape, 3)
+
+
+def _first_pass(trace: FrameTrace, spp: int, seed: int, twice: bool) -> tuple[float | None, tuple | None]:
+    """A dense frame's first pass of ``spp`` samples a pixel; ``twice``: as a launch of 1 and one of the rest (another
+    seed). Returns their error maps' agreement (:func:`~gmcpt.sampling.budget.error_reliability`) and (the first
+    launch's image, the pass's), (H, W, 3): a quarter and a half of a frame of 3 or 4 samples a pixel, as
+    :func:`_split_native` gives them for the large model's reading; else (None, None)."""
+    if not twice:
+        native_pass(trace, spp, seed)
+        return None, None
+    one = _finite_image(trace, native_pass(trace, 1, seed))
+    rest = _finite_image(trace, native_pass(trace, spp - 1, stream(seed, RELIABILITY_SEED_OFFSET)))
+    start = time.perf_counter()
+    reliability = error_reliability(display_error(one), display_error(rest))
+    trace.timed("mask_s", start)
+    return reliability, (one, (one + (spp - 1) * rest) / spp)
+
+
+def _adaptive_rest(trace: FrameTrace, samples: int, seed: int, reliability: float | None = None) -> bool:
     """After a dense frame's first pass, ``samples`` more where the displayed image is noisiest, as
-    :func:`gmcpt.sampling.adaptive.render_adaptive` places them, if its error is concentrated enough to pay
-    (:func:`~gmcpt.sampling.budget.adaptive_pays`). Returns whether it traced them; ``info`` records the reading."""
+    :func:`gmcpt.sampling.adaptive.render_adaptive` places them, if its error is concentrated enough to pay and,
+    where the first pass was read twice (``reliability``), in the same places
+    (:func:`~gmcpt.sampling.budget.adaptive_pays`).
+    Returns whether it traced them; ``info`` records the readings."""
     start = time.perf_counter()
     mean, _ = trace.sums.estimate()
     error = display_error(mean.reshape(*trace.shape, 3))
     concentration = error_concentration(error)
-    adaptive = adaptive_pays(concentration)
-    trace.record(error_concentration=concentration, dense_placement="adaptive" if adaptive else "even")
+    adaptive = adaptive_pays(concentration, reliability)
+    trace.record(error_concentration=concentration, error_reliability=reliability,
+                 dense_placement="adaptive" if adaptive else "even")
     if adaptive:
         cap = max(MAX_EXTRA, 2 * -(-samples // trace.sums.size))  # room for the rest at budgets above 64
         counts = allocate(error ** EXPONENT, samples, cap)

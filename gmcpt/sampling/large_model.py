@@ -16,7 +16,7 @@ import time
 
 from ..image.denoise import CLEAN_GUIDE_RAYS, denoise_oidn
 from ..seeds import CLEAN_GUIDE_SEED_OFFSET
-from .budget import BudgetPlan, adaptive_first_spp, denoiser_proxy, large_model_pays
+from .budget import BudgetPlan, adaptive_first_spp, denoiser_proxy, large_model_pays, reads_reliability
 from .trace import FrameTrace
 
 
@@ -24,9 +24,11 @@ def large_model_rays(trace: FrameTrace, plan: BudgetPlan, rays: int, noise: floa
     """(the guide rays a dense frame of guides of ``rays`` rays takes, the price of a reading or None): ``rays``, and
     the price (the large model's extra seconds and the frame's, by ``trace.costs``) where the frame reads what the
     large model buys (:func:`read_denoiser`, which chooses the rays then). A frame reads where its one even launch
-    can be split (2 samples a pixel or more, no adaptive first pass: ``noise`` is its probe's reading) and the
-    large model with the reading's own OIDN runs could pay (:func:`~gmcpt.sampling.budget.large_model_pays`)."""
-    if not 0 < rays < CLEAN_GUIDE_RAYS or int(plan.budget) < 2 or adaptive_first_spp(plan.budget, noise):
+    can be split (2 samples a pixel or more, no first pass, or one read twice that leaves the rest even:
+    :func:`~gmcpt.sampling.budget.reads_reliability`; ``noise`` is its probe's reading) and the large model with the
+    reading's own OIDN runs could pay (:func:`~gmcpt.sampling.budget.large_model_pays`)."""
+    if not 0 < rays < CLEAN_GUIDE_RAYS or int(plan.budget) < 2 or (adaptive_first_spp(plan.budget)
+                                                                      and not reads_reliability(plan.budget, noise)):
         return rays, None
     model, pixels = trace.costs, plan.pixels
     price = (model.large_model_seconds(pixels, rays, CLEAN_GUIDE_RAYS), model.dense_seconds(pixels, plan.budget, rays))
