@@ -450,14 +450,16 @@ def test_path_tracing_at_equal_samples_reads_between_whole_counts(monkeypatch):
         return np.full((2, 2, 3), float(spp) + seed / 100, np.float32)
 
     monkeypatch.setattr(measure, "render_full", render_full)
-    monkeypatch.setattr(measure, "denoise_oidn", lambda image, albedo, normal, rays: image)
+    monkeypatch.setattr(measure, "denoise_oidn", lambda image, albedo, normal, rays: image + albedo)
     monkeypatch.setattr(measure, "all_metrics", lambda image, reference: {"psnr": float(image.mean())})
     loaded = measure.LoadedScene("s", None, None, np.zeros((2, 2, 3), np.float32))
-    guides = {count: {"albedo": None, "normal": None} for count in (1, 4, 5)}
-    assert [run["psnr"] for run in measure.path_oidn_at(loaded, 4.0, [0, 1], guides)] == pytest.approx([4.0, 4.01])
+    # each seed's own guides (an albedo of 10 x the seed here, which the stand-in denoiser adds)
+    guides = {seed: {count: {"albedo": np.float32(10 * seed), "normal": None} for count in (1, 4, 5)}
+              for seed in (0, 1)}
+    assert [run["psnr"] for run in measure.path_oidn_at(loaded, 4.0, [0, 1], guides)] == pytest.approx([4.0, 14.01])
     assert sorted(rendered) == [(4, 0), (4, 1)]
     weight = np.log(4.8 / 4) / np.log(5 / 4)
     assert measure.path_oidn_at(loaded, 4.8, [0], guides)[0]["psnr"] == pytest.approx(4 + weight)
     assert measure.path_oidn_at(loaded, 0.5, [0], guides)[0]["psnr"] == pytest.approx(1.0)  # below one: one sample
-    # the adaptive baseline's guide rays are always one of the two counts, whose guide pass it shares
+    # the adaptive baseline's guide rays are always one of the two counts, whose guide pass (of its seed) it shares
     assert all(measure.baseline_guide_rays(s) in measure.whole_counts(s) for s in (0.5, 1, 3.2, 4.5, 4.8, 6.4, 8))
