@@ -68,8 +68,8 @@ def test_a_dense_frame_that_reads_splits_its_launch(mi, monkeypatch, samples):
 @pytest.mark.parametrize("reliable_above,launches,reads", [(math.inf, [1, 1, 1], True), (-1.0, [1, 1], False)])
 def test_a_first_pass_read_twice_serves_the_denoiser_reading_where_the_rest_is_even(mi, monkeypatch, reliable_above,
                                                                                     launches, reads):
-    """A noisy frame from 3.2 to 4.8 traces its first pass as two launches of 1 spp: where the rest goes evenly they
-    are the quarter and the quarter of the large model's reading, with no launch more; where it goes adaptively
+    """A noisy frame from 3.2 to 4.8 traces its first pass as two launches of 1 spp: where the rest goes evenly the
+    first is the large model's reading's quarter and both its half, with no launch more; where it goes adaptively
     nothing is read."""
     from budget_helpers import record_launches
     from gmcpt.sampling import budget, strategies
