@@ -42,7 +42,8 @@ class FrameInfo:
     sparse_time_share : the sparse way's extra time, a share of the dense frame's. guide_spp : a budget's guide rays.
     guides : where a dense frame's guides came from, ``pass`` or ``render``.
     error_concentration, error_reliability, dense_placement : a dense frame's readings of its error (how concentrated;
-        how far two launches agree on where, None where not read) and its placement (``adaptive`` or ``even``).
+        how far two launches agree on where, read only where the concentration pays, else None) and its placement
+        (``adaptive`` or ``even``).
     denoiser_proxy : the reading of what OIDN's large model buys (:mod:`gmcpt.sampling.large_model`).
     time_budget, time_short, time_spent : a time budget's seconds, whether they bought less than one sample a pixel
         and the completion, the seconds the frame took in all.

@@ -338,20 +338,21 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
     assert launches == ([6] if placement == "adaptive" else [6, 4])
 
 
-@pytest.mark.parametrize("noise,reliable_above,launches,placement", [
-    (0.01, math.inf, [2], "adaptive"),  # quiet: one launch, its concentration alone decides
-    (1.0, -1.0, [1, 1], "adaptive"),  # noisy: two launches of 1 whose error maps agree well enough
-    (1.0, math.inf, [1, 1, 1], "even"),  # ... or not: the rest evenly (less the probe's samples: 1 and a top-up)
+@pytest.mark.parametrize("noise,adaptive_above,reliable_above,launches,placement", [
+    (0.01, 0.0, math.inf, [2], "adaptive"),  # quiet: one launch, its concentration alone decides
+    (1.0, 0.0, -1.0, [1, 1], "adaptive"),  # noisy: two launches of 1 whose error maps agree well enough
+    (1.0, 0.0, math.inf, [1, 1, 1], "even"),  # ... or not: the rest evenly (less the probe's samples: 1 and a top-up)
+    (1.0, math.inf, -1.0, [1, 1, 1], "even"),  # ... or a concentration that does not pay: their agreement unread
 ])  # the probe's samples are left out
-def test_below_budget_4_8_a_noisy_scene_reads_its_first_pass_twice(mi, monkeypatch, noise, reliable_above, launches,
-                                                                   placement):
+def test_below_budget_4_8_a_noisy_scene_reads_its_first_pass_twice(mi, monkeypatch, noise, adaptive_above,
+                                                                   reliable_above, launches, placement):
     """Every frame of a budget from 3.2 to 4.8 probes for its placement, dense or not: its own probe says whether it is
     quiet, and a frame that is not places adaptively only where two launches of its first pass agree on where the
-    error is."""
+    error is; where its concentration alone does not pay, their agreement is not read."""
     from gmcpt.sampling import budget, strategies
     from gmcpt.render.scene import load_scene
 
-    monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", 0.0)  # any concentration pays
+    monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", adaptive_above)
     monkeypatch.setattr(budget, "RELIABLE_ABOVE", reliable_above)
     monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)
     monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)  # dense by the edges: no probe for the choice
@@ -368,7 +369,8 @@ def test_below_budget_4_8_a_noisy_scene_reads_its_first_pass_twice(mi, monkeypat
         assert frame.info.dense_placement == placement
         readings.append(frame.info.error_reliability)
     assert readings[0] == readings[1]  # the same seed, the same reading
-    assert readings[0] is None if quiet else 0.3 < readings[0] <= 1.0  # the Cornell box's edges and light agree
+    unread = quiet or adaptive_above == math.inf
+    assert readings[0] is None if unread else 0.3 < readings[0] <= 1.0  # the Cornell box's edges and light agree
     assert _render(scene, 4.8).info.probe == "none"  # from 4.8 the placement needs no probe
 
 

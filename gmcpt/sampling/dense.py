@@ -87,8 +87,10 @@ def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: f
     trace.count_first_pass(probe.sum())
     current, first, images = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget), None
     if first:
-        reliability, images = _first_pass(trace, first, seed, reads_reliability(plan.budget, noise))
-        if _adaptive_rest(trace, left - first * plan.pixels, seed, reliability):
+        launches = _first_pass(trace, first, seed, reads_reliability(plan.budget, noise))
+        if launches is not None:  # a quarter and a half of a frame of 3 or 4 samples a pixel, as _split_native's
+            images = (launches[0], (launches[0] + (first - 1) * launches[1]) / first)
+        if _adaptive_rest(trace, left - first * plan.pixels, seed, launches):
             trace.mark_all_traced()
             return None
         # the second launch draws other samples than the first
@@ -141,32 +143,28 @@ def _finite_image(trace: FrameTrace, flat: np.ndarray) -> np.ndarray:
     return np.nan_to_num(flat, posinf=0.0, neginf=0.0).reshape(*trace.shape, 3)
 
 
-def _first_pass(trace: FrameTrace, spp: int, seed: int, twice: bool) -> tuple[float | None, tuple | None]:
+def _first_pass(trace: FrameTrace, spp: int, seed: int, twice: bool) -> tuple | None:
     """A dense frame's first pass of ``spp`` samples a pixel; ``twice``: as a launch of 1 and one of the rest (another
-    seed). Returns their error maps' agreement (:func:`~gmcpt.sampling.budget.error_reliability`) and (the first
-    launch's image, the pass's), (H, W, 3): a quarter and a half of a frame of 3 or 4 samples a pixel, as
-    :func:`_split_native` gives them for the large model's reading; else (None, None)."""
+    seed), whose images, (H, W, 3) with non-finite pixels as 0, it returns (else None)."""
     if not twice:
         native_pass(trace, spp, seed)
-        return None, None
+        return None
     one = _finite_image(trace, native_pass(trace, 1, seed))
-    rest = _finite_image(trace, native_pass(trace, spp - 1, stream(seed, RELIABILITY_SEED_OFFSET)))
-    start = time.perf_counter()
-    reliability = error_reliability(display_error(one), display_error(rest))
-    trace.timed("mask_s", start)
-    return reliability, (one, (one + (spp - 1) * rest) / spp)
+    return one, _finite_image(trace, native_pass(trace, spp - 1, stream(seed, RELIABILITY_SEED_OFFSET)))
 
 
-def _adaptive_rest(trace: FrameTrace, samples: int, seed: int, reliability: float | None = None) -> bool:
+def _adaptive_rest(trace: FrameTrace, samples: int, seed: int, launches: tuple | None = None) -> bool:
     """After a dense frame's first pass, ``samples`` more where the displayed image is noisiest, as
     :func:`gmcpt.sampling.adaptive.render_adaptive` places them, if its error is concentrated enough to pay and,
-    where the first pass was read twice (``reliability``), in the same places
-    (:func:`~gmcpt.sampling.budget.adaptive_pays`).
-    Returns whether it traced them; ``info`` records the readings."""
+    where the first pass was read twice (``launches``, the images of its two launches), in the same places
+    (:func:`~gmcpt.sampling.budget.adaptive_pays`; their agreement is read only where the concentration pays, two
+    error maps that cost 4% of a frame at budget 4). Returns whether it traced them; ``info`` records the readings."""
     start = time.perf_counter()
     mean, _ = trace.sums.estimate()
     error = display_error(mean.reshape(*trace.shape, 3))
-    concentration = error_concentration(error)
+    concentration, reliability = error_concentration(error), None
+    if launches is not None and adaptive_pays(concentration):
+        reliability = error_reliability(*(display_error(image) for image in launches))
     adaptive = adaptive_pays(concentration, reliability)
     trace.record(error_concentration=concentration, error_reliability=reliability,
                  dense_placement="adaptive" if adaptive else "even")
