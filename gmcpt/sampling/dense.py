@@ -88,11 +88,11 @@ def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: f
     current, first, images = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget), None
     if first:
         launches = _first_pass(trace, first, seed, reads_reliability(plan.budget, noise))
-        if launches is not None:  # a quarter and a half of a frame of 3 or 4 samples a pixel, as _split_native's
-            images = (launches[0], (launches[0] + (first - 1) * launches[1]) / first)
         if _adaptive_rest(trace, left - first * plan.pixels, seed, launches):
             trace.mark_all_traced()
             return None
+        if split and launches is not None:  # a quarter and a half of a frame of 3 or 4 spp, as _split_native's
+            images = (launches[0], (launches[0] + (first - 1) * launches[1]) / first)
         # the second launch draws other samples than the first
         current[:], left, seed = first, left - first * plan.pixels, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
     start = time.perf_counter()
@@ -105,7 +105,6 @@ def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: f
         images = _split_native(trace, int(counts.min()), seed)
     else:
         native_pass(trace, int(counts.min()), seed)
-    images = images if split else None
     trace.trace(np.flatnonzero(counts > counts.min()), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the rest
     return images
 
