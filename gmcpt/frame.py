@@ -33,8 +33,7 @@ class FrameInfo:
     ----------
     pattern : the mask pattern of the settings; seed : their seed.
     feature_spp : the rays a pixel of the feature buffers (a dense frame's guides: ``guide_spp``).
-    traced_pixels, path_samples, nonfinite_samples : pixels traced, samples traced (a dense frame's discarded probe
-        included), samples that were NaN/Inf.
+    traced_pixels, path_samples, nonfinite_samples : pixels traced, samples traced, samples that were NaN/Inf.
     first_pass_pixels : the pixels of the first radiance pass (a dense frame: its probe's).
     costs : the cost model a budget or a time budget weighed time with (:meth:`gmcpt.sampling.costs.CostModel.record`).
     budget : a budget's samples a pixel; a time budget's spent ones. budget_choice : ``sparse`` or ``dense``.

@@ -21,12 +21,21 @@ def render_budget(scene, budget, seed=0, costs=None):
 
 
 def record_launches(monkeypatch) -> list:
-    """The samples a pixel of each of a dense frame's renders of every pixel, with or without its guides, as a list
-    that fills as frames render."""
-    from gmcpt.sampling import dense
+    """The samples a pixel of each of a dense frame's launches over (nearly) every pixel: Mitsuba's renders, with or
+    without its guides, and pixel-lists of all but a probe's pixels (at least 90% of the frame), as a list that fills
+    as frames render."""
+    from gmcpt.sampling import dense, trace
 
     launches = []
     for name in ("render_native", "render_native_guided"):
         launch = getattr(dense, name)
         monkeypatch.setattr(dense, name, lambda *args, launch=launch: launches.append(args[3]) or launch(*args))
+    pixel_list = trace.FrameTrace.trace
+
+    def traced(self, pixels, spp, seed):
+        if pixels.size >= 0.9 * self.sums.size:
+            launches.append(spp)
+        return pixel_list(self, pixels, spp, seed)
+
+    monkeypatch.setattr(trace.FrameTrace, "trace", traced)
     return launches

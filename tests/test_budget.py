@@ -341,9 +341,9 @@ def test_a_dense_frame_from_budget_8_places_its_rest_where_the_error_is(mi, monk
 @pytest.mark.parametrize("noise,adaptive_above,reliable_above,launches,placement", [
     (0.01, 0.0, math.inf, [2], "adaptive"),  # quiet: one launch, its concentration alone decides
     (1.0, 0.0, -1.0, [1, 1], "adaptive"),  # noisy: two launches of 1 whose error maps agree well enough
-    (1.0, 0.0, math.inf, [1, 1, 1], "even"),  # ... or not: the rest evenly (less the probe's samples: 1 and a top-up)
-    (1.0, math.inf, -1.0, [1, 1, 1], "even"),  # ... or a concentration that does not pay: their agreement unread
-])  # the probe's samples are left out
+    (1.0, 0.0, math.inf, [1, 1, 2], "even"),  # ... or not: the rest evenly, one launch to the probe's 4 samples
+    (1.0, math.inf, -1.0, [1, 1, 2], "even"),  # ... or a concentration that does not pay: their agreement unread
+])  # the probe's samples stay in the image: its pixels are left out of the launches, at 4 samples already
 def test_below_budget_4_8_a_noisy_scene_reads_its_first_pass_twice(mi, monkeypatch, noise, adaptive_above,
                                                                    reliable_above, launches, placement):
     """Every frame of a budget from 3.2 to 4.8 probes for its placement, dense or not: its own probe says whether it is
@@ -427,3 +427,53 @@ def test_guides_take_about_the_budgets_rays_within_their_range(budget, feature_s
     from gmcpt.sampling.budget import guide_spp
 
     assert guide_spp(budget, feature_spp) == rays
+
+
+@pytest.mark.parametrize("frame_budget,quiet", [(2.0, False), (4.0, False), (4.0, True), (4.8, False), (8.0, False)])
+def test_a_dense_frame_keeps_its_probes_samples_and_stays_even(mi, monkeypatch, frame_budget, quiet):
+    """The probe's samples stay in a dense frame's image: every sample of the budget is in it, each pixel has as many
+    as integers allow (the probe's pixels at least their probe's), and where the probe's count is the level, no
+    top-up launch is needed."""
+    from gmcpt.render import kernels
+    from gmcpt.sampling import budget, dense, strategies
+    from gmcpt.render.scene import load_scene
+
+    monkeypatch.setattr(budget, "ADAPTIVE_ABOVE", math.inf)  # even
+    monkeypatch.setattr(budget, "LARGE_MODEL_SHARE_BELOW", 0.0)
+    if quiet:  # dense by the edges, probed for the placement alone (budgets 3.2 to 4.8)
+        monkeypatch.setattr(budget, "EDGES_ABOVE", -1.0)
+        monkeypatch.setattr(strategies, "relative_variance", lambda *args: 0.0)
+    else:  # dense by the probe's reading
+        monkeypatch.setattr(budget, "DENSE_ABOVE", 1e-12)
+    pixels = SIZE[0] * SIZE[1]
+    counts, launches = np.zeros(pixels, np.int64), []
+    trace_pixels = kernels.SampleSums.trace
+
+    def traced(self, scene, sensor, integrator, where, spp, seed, say=None):
+        counts[where] += spp
+        launches.append(where.size)
+        return trace_pixels(self, scene, sensor, integrator, where, spp, seed)
+
+    def native(*args):
+        counts[:] += args[3]
+        return render_native(*args)
+
+    render_native = dense.render_native
+    monkeypatch.setattr(kernels.SampleSums, "trace", traced)
+    monkeypatch.setattr(dense, "render_native", native)
+    in_image = []  # the samples of each pixel the frame's image is the mean of
+    buffers = strategies.FrameTrace.buffers
+    monkeypatch.setattr(strategies.FrameTrace, "buffers", lambda self: in_image.append(self.sums.finite) or buffers(self))
+    # a sparse way that costs next to nothing: only the probe's reading sends the frame dense
+    frame = _render(load_scene(CORNELL, resolution=SIZE), frame_budget, costs=fixed_costs(sparse_extra=1e-12))
+    assert frame.info.probe == "traced" and frame.info.budget_choice == "dense"
+    assert counts.sum() == frame.info.path_samples == round(frame_budget * pixels)
+    np.testing.assert_array_equal(in_image[-1], counts)  # none left out of the image
+    probe = np.zeros(pixels, bool)
+    probe[np.argsort(-counts, kind="stable")[:frame.info.first_pass_pixels]] = True
+    others = counts[~probe]
+    assert others.max() - others.min() <= 1 and counts[probe].min() >= max(others.max(), budget.PROBE_SPP)
+    assert math.floor(frame_budget) - 1 <= others.min() <= frame_budget <= others.max() + 1
+    if frame_budget == 4.0:  # the probe's pixels at the level: the probe, then pixel lists of all the others alone
+        assert (counts == 4).all() and launches[0] == frame.info.first_pass_pixels
+        assert set(launches[1:]) == {pixels - launches[0]}

@@ -65,7 +65,7 @@ def test_a_dense_frame_that_reads_splits_its_launch(mi, monkeypatch, samples):
     assert launches == [samples] and frame.info.denoiser_proxy is None and frame.info.guide_spp == 4
 
 
-@pytest.mark.parametrize("reliable_above,launches,reads", [(math.inf, [1, 1, 1], True), (-1.0, [1, 1], False)])
+@pytest.mark.parametrize("reliable_above,launches,reads", [(math.inf, [1, 1, 2], True), (-1.0, [1, 1], False)])
 def test_a_first_pass_read_twice_serves_the_denoiser_reading_where_the_rest_is_even(mi, monkeypatch, reliable_above,
                                                                                     launches, reads):
     """A noisy frame from 3.2 to 4.8 traces its first pass as two launches of 1 spp: where the rest goes evenly the

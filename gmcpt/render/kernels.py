@@ -565,14 +565,16 @@ class SampleSums:
         self._total, self._native_mean = value, None
 
     def trace(self, scene, sensor, integrator, pixels: np.ndarray, spp: int, seed: int,
-              say: Callable[[str], None] = lambda message: None) -> None:
+              say: Callable[[str], None] = lambda message: None) -> np.ndarray | None:
         """``spp`` samples of each flat pixel in ``pixels`` (consecutive lanes), in launches of at most
-        :data:`MAX_LANES` lanes, each seeded by :func:`pass_seed`."""
+        :data:`MAX_LANES` lanes, each seeded by :func:`pass_seed`. Returns their own mean, (n, 3) float32, NaN
+        where none was finite (None for no pixels)."""
         if pixels.size == 0:
-            return
+            return None
         self.quarters = None  # this pass keeps no sums by quarter
         passes = max(1, -(-pixels.size * spp // MAX_LANES))
         pass_spp, done = -(-spp // passes), 0
+        own_total, own_count = np.zeros((pixels.size, 3), np.float32), np.zeros(pixels.size, np.float32)
         for index in range(passes):
             this_spp = min(pass_spp, spp - done)
             if this_spp <= 0:
@@ -580,15 +582,32 @@ class SampleSums:
             say(f"path tracing: {pixels.size} px x {spp} spp" + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
             total, squares, count = trace_pixels(scene, sensor, integrator, pixels, this_spp,
                                                  pass_seed(seed, index, passes))
+            own_total += total
+            own_count += count
             if self._native_mean is not None:
                 self._fold(pixels, total, count)
             else:
-                self.total[pixels] += total
-                self.squares[pixels] += squares
-                self.finite[pixels] += count
-                self.squared_samples[pixels] += count
+                self._add(pixels, total, squares, count)
             done += this_spp
         self.samples += pixels.size * spp
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return own_total / own_count[:, None]
+
+    def _add(self, pixels: np.ndarray, total: np.ndarray, squares: np.ndarray, count: np.ndarray) -> None:
+        """Add a pixel-list pass's sums (``total`` (n, 3), ``squares`` and finite ``count`` (n,)) of the flat
+        ``pixels`` (each once) to the float64 sums: written into zeros and added where the list is most of the frame,
+        which costs half of adding at the list (1.3 ms a pass at 256x256)."""
+        if 2 * pixels.size < self.size:
+            self.total[pixels] += total
+            self.squares[pixels] += squares
+            self.finite[pixels] += count
+            self.squared_samples[pixels] += count
+            return
+        for target, values in ((self.total, total), (self.squares, squares), (self.finite, count),
+                               (self.squared_samples, count)):
+            spread = np.zeros(target.shape)
+            spread[pixels] = values
+            target += spread
 
     def _fold(self, pixels: np.ndarray, total: np.ndarray, count: np.ndarray) -> None:
         """Fold the finite samples' sums ``total`` ((n, 3)) and counts of the flat ``pixels`` into the native mean."""
@@ -637,14 +656,19 @@ class SampleSums:
             self.finite[finite] += spp
         self.samples += image.shape[0] * spp
 
+    def mean(self, where: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """(n, 3) the mean of the finite samples of the flat pixels ``where`` (0 where none)."""
+        if self._native_mean is not None:
+            return self._native_mean[where]
+        return self.total[where] * (1.0 / np.maximum(self.finite[where], 1))[:, None]
+
     def estimate(self, where: np.ndarray | slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """(mean (n, 3), variance of the mean (n,)) of the flat pixels ``where``; the variance comes from the samples
         that brought their squares, scaled to the pixel's whole count."""
+        mean = self.mean(where)
         if self._native_mean is not None:  # one native pass: its image is the mean, and it brings no squares
-            mean = self._native_mean[where]
             return mean, np.zeros(mean.shape[0])
         inverse_count = 1.0 / np.maximum(self.finite[where], 1)
-        mean = self.total[where] * inverse_count[:, None]
         squared = self.squared_samples[where]
         if not squared.any():  # native passes alone bring no squares
             return mean, np.zeros(mean.shape[0])

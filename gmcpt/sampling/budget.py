@@ -22,9 +22,9 @@ budget's samples a pixel, :func:`guide_spp`, without shadow rays) and, where the
 (:func:`needs_probe`), a probe, :data:`PROBE_SHARE` of the pixels at :data:`PROBE_SPP` spread as blue noise.
 Every reading is this frame's own: none is carried to the next frames, so that the same arguments and cost model
 give the same image whatever came before (:mod:`gmcpt.sampling.costs`). A dense frame then costs what Mitsuba's own
-render at the same samples plus an albedo/normal pass plus OIDN costs: its bulk is ``mi.render`` itself, the probe's
-samples are left out of it so that no pixel has more than ``ceil(budget)`` samples (OIDN expects even noise), and the
-samples left over go one each to blue-noise pixels. A sparse frame tops the guides up to the full feature
+render at the same samples plus an albedo/normal pass plus OIDN costs: its bulk is ``mi.render`` itself (over the
+pixels the probe's samples have not already brought to its level: they stay in the image), and the samples left over
+go one each to blue-noise pixels. A sparse frame tops the guides up to the full feature
 pass (shadow rays included) and the probe's pixels up to :data:`SPARSE_SPP`, as part of its first pass.
 Two signals choose dense, and so does time (:func:`sparse_pays`): the sparse way's extra work (the rest of
 the feature pass, the placement, the generator), priced by the machine's cost model
@@ -146,8 +146,7 @@ class BudgetPlan:
 
     @property
     def dense_after_probe(self) -> bool:
-        """True when what the probe leaves of the budget gives every pixel a sample at least (the dense frame
-        leaves the probe's samples out)."""
+        """True when what the probe leaves of the budget gives every pixel a sample at least."""
         return self.samples - self.probe_pixels * PROBE_SPP >= self.pixels
 
     @property

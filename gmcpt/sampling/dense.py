@@ -24,8 +24,8 @@ from ..render.kernels import render_native, render_native_guided
 from ..seeds import (EVEN_SEED_OFFSET, GUIDE_RAYS_SEED_OFFSET, RELIABILITY_SEED_OFFSET, SPLIT_SEED_OFFSETS,
                      TOP_UP_SEED_OFFSET, stream)
 from .adaptive import EXPONENT, EXTRA_SEED_OFFSET, MAX_EXTRA, allocate, display_error
-from .budget import (BudgetPlan, adaptive_first_spp, adaptive_pays, error_concentration, error_reliability, even_fill,
-                     reads_reliability)
+from .budget import (PROBE_SPP, BudgetPlan, adaptive_first_spp, adaptive_pays, error_concentration, error_reliability,
+                     even_fill, reads_reliability)
 from .large_model import CLEAN_GUIDE_SEED_OFFSET, large_model_rays, read_denoiser
 from .trace import FrameTrace
 
@@ -70,9 +70,9 @@ def topped_up(trace: FrameTrace, guides, rays: int, seed_offset: int):
 
 def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: float | None = None,
                 split: bool = False) -> tuple | None:
-    """The dense way: what the probe left of the budget, as evenly as integers allow; the bulk Mitsuba's own
-    render, the rest one sample each on blue-noise pixels. The probe's samples are left out of the image, so
-    that no pixel has more than ``ceil(budget)``. Where :func:`~gmcpt.sampling.budget.adaptive_first_spp` allows it
+    """The dense way: what the probe left of the budget, as evenly as integers allow, the probe's samples kept in
+    the image; the bulk Mitsuba's own render (over the pixels the probe did not already bring to its level), the
+    rest one sample each on blue-noise pixels. Where :func:`~gmcpt.sampling.budget.adaptive_first_spp` allows it
     (from budget 3.2) the bulk is a first pass and the rest, and where the first finds the error concentrated
     (:func:`~gmcpt.sampling.budget.adaptive_pays`) the rest is adaptive path tracing's placement instead
     (:func:`_adaptive_rest`); below 4.8, unless its probe read the scene quiet (``noise``: the probe's reading, None:
@@ -83,30 +83,57 @@ def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: f
     half's), else None."""
     seed = trace.settings.seed
     left = plan.samples - trace.sums.samples
-    trace.discard_samples()
     trace.count_first_pass(probe.sum())
-    current, first, images = np.zeros(trace.shape, np.int64), adaptive_first_spp(plan.budget), None
+    current = np.where(probe, PROBE_SPP, 0)  # the samples a pixel so far
+    first, images = adaptive_first_spp(plan.budget), None
     if first:
-        launches = _first_pass(trace, first, seed, reads_reliability(plan.budget, noise))
-        if _adaptive_rest(trace, left - first * plan.pixels, seed, launches):
+        below = current < first  # a probe's pixels at the first pass's samples already are left out of it
+        launches = _first_pass(trace, first, seed, reads_reliability(plan.budget, noise), below)
+        current[below] += first
+        left -= first * int(below.sum())
+        if _adaptive_rest(trace, left, seed, launches):
             trace.mark_all_traced()
             return None
         if split and launches is not None:  # a quarter and a half of a frame of 3 or 4 spp, as _split_native's
             images = (launches[0], (launches[0] + (first - 1) * launches[1]) / first)
         # the second launch draws other samples than the first
-        current[:], left, seed = first, left - first * plan.pixels, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
+        seed = (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
     start = time.perf_counter()
-    counts = even_fill(current, left, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT).ravel()
+    counts = even_fill(current.reshape(trace.shape), left, (seed + EVEN_SEED_OFFSET) % SEED_LIMIT).ravel()
     trace.timed("mask_s", start)
-    # the frame's own seed: at an integral budget the frame is Mitsuba's render of that seed (a probe's samples,
-    # drawn with it too, are left out of the image)
+    # the frame's own seed: at an integral budget without a probe the frame is Mitsuba's render of that seed
     trace.mark_all_traced()
-    if split and not current.any() and counts.min() >= 2:
-        images = _split_native(trace, int(counts.min()), seed)
-    else:
-        native_pass(trace, int(counts.min()), seed)
-    trace.trace(np.flatnonzero(counts > counts.min()), 1, (seed + TOP_UP_SEED_OFFSET) % SEED_LIMIT)  # the rest
+    level = int(counts[counts > 0].min()) if counts.any() else 0
+    bulk = counts >= level
+    if split and not first and level >= 2:
+        images = _split_native(trace, level, seed, bulk)
+    elif level:
+        _launch(trace, bulk, level, seed)
+    _top_up(trace, np.where(bulk, counts - level, counts), seed)
     return images
+
+
+def _top_up(trace: FrameTrace, counts: np.ndarray, seed: int) -> None:
+    """``counts`` more samples of each flat pixel, one launch for each count (one sample each on blue-noise pixels;
+    a probe's pixels below the level, more), each count's own seed."""
+    for count in np.unique(counts[counts > 0]):
+        trace.trace(np.flatnonzero(counts == count), int(count), stream(seed, TOP_UP_SEED_OFFSET * int(count)))
+
+
+def _launch(trace: FrameTrace, where: np.ndarray, spp: int, seed: int, image: bool = False) -> np.ndarray | None:
+    """``spp`` samples of the flat pixels ``where`` (bool): Mitsuba's render (:func:`native_pass`) where that is
+    every pixel, else the pixel-list kernel. With ``image``, the launch's own image, (H, W, 3) with non-finite pixels
+    as 0 and the pixels it left out as the frame's estimate before it."""
+    if where.all():
+        flat = native_pass(trace, spp, seed)
+        return _finite_image(trace, flat) if image else None
+    before = trace.sums.mean() if image else None
+    own = trace.trace(np.flatnonzero(where), spp, seed)
+    if not image:
+        return None
+    flat = np.array(before, np.float32)
+    flat[where] = own
+    return _finite_image(trace, flat)
 
 
 def native_pass(trace: FrameTrace, spp: int, seed: int, any_size: bool = False, note: str = "") -> np.ndarray | None:
@@ -127,14 +154,14 @@ def native_pass(trace: FrameTrace, spp: int, seed: int, any_size: bool = False, 
     return image
 
 
-def _split_native(trace: FrameTrace, spp: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Mitsuba's render of every pixel at ``spp`` as a quarter, a quarter and a half (seeds of their own; below 4
-    samples, one, one and the rest): the first quarter's image and the half's, (H, W, 3) float32, non-finite
-    pixels as 0."""
+def _split_native(trace: FrameTrace, spp: int, seed: int, where: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``spp`` samples of the flat pixels ``where`` (:func:`_launch`) as a quarter, a quarter and a half (seeds of
+    their own; below 4 samples, one, one and the rest): the first quarter's image and the half's, (H, W, 3) float32,
+    non-finite pixels as 0."""
     quarter, images = max(1, spp // 4), []
     for count, offset in ((quarter, 0), (quarter, SPLIT_SEED_OFFSETS[0]), (spp - 2 * quarter, SPLIT_SEED_OFFSETS[1])):
-        images.append(native_pass(trace, count, (seed + offset) % SEED_LIMIT))
-    return _finite_image(trace, images[0]), _finite_image(trace, (images[0] + images[1]) / 2)
+        images.append(_launch(trace, where, count, (seed + offset) % SEED_LIMIT, image=len(images) < 2))
+    return images[0], (images[0] + images[1]) / 2
 
 
 def _finite_image(trace: FrameTrace, flat: np.ndarray) -> np.ndarray:
@@ -142,14 +169,14 @@ def _finite_image(trace: FrameTrace, flat: np.ndarray) -> np.ndarray:
     return np.nan_to_num(flat, posinf=0.0, neginf=0.0).reshape(*trace.shape, 3)
 
 
-def _first_pass(trace: FrameTrace, spp: int, seed: int, twice: bool) -> tuple | None:
-    """A dense frame's first pass of ``spp`` samples a pixel; ``twice``: as a launch of 1 and one of the rest (another
-    seed), whose images, (H, W, 3) with non-finite pixels as 0, it returns (else None)."""
+def _first_pass(trace: FrameTrace, spp: int, seed: int, twice: bool, where: np.ndarray) -> tuple | None:
+    """A dense frame's first pass of ``spp`` samples of the flat pixels ``where`` (:func:`_launch`); ``twice``: as a
+    launch of 1 and one of the rest (another seed), whose images (:func:`_launch`'s) it returns (else None)."""
     if not twice:
-        native_pass(trace, spp, seed)
+        _launch(trace, where, spp, seed)
         return None
-    one = _finite_image(trace, native_pass(trace, 1, seed))
-    return one, _finite_image(trace, native_pass(trace, spp - 1, stream(seed, RELIABILITY_SEED_OFFSET)))
+    one = _launch(trace, where, 1, seed, image=True)
+    return one, _launch(trace, where, spp - 1, stream(seed, RELIABILITY_SEED_OFFSET), image=True)
 
 
 def _adaptive_rest(trace: FrameTrace, samples: int, seed: int, launches: tuple | None = None) -> bool:
@@ -159,7 +186,7 @@ def _adaptive_rest(trace: FrameTrace, samples: int, seed: int, launches: tuple |
     (:func:`~gmcpt.sampling.budget.adaptive_pays`; their agreement is read only where the concentration pays, two
     error maps that cost 4% of a frame at budget 4). Returns whether it traced them; ``info`` records the readings."""
     start = time.perf_counter()
-    mean, _ = trace.sums.estimate()
+    mean = trace.sums.mean()
     error = display_error(mean.reshape(*trace.shape, 3))
     concentration, reliability = error_concentration(error), None
     if launches is not None and adaptive_pays(concentration):

@@ -272,7 +272,7 @@ def render_sparse_frame(scene: mi.Scene, integrator: mi.SamplingIntegrator, sens
     dense_guides = trace.info.budget_choice == DENSE and trace.info.guide_spp is not None
     info = trace.info.with_values(pattern=settings.pattern, seed=settings.seed,
                                   feature_spp=trace.info.guide_spp if dense_guides else settings.feature_spp,
-                                  traced_pixels=int(traced.sum()), path_samples=int(sums.samples + trace.discarded),
+                                  traced_pixels=int(traced.sum()), path_samples=int(sums.samples),
                                   nonfinite_samples=int(sums.samples - sums.finite.sum()),
                                   first_pass_pixels=int(trace.first_pass_pixels))
     frame = SparseFrame(radiance=radiance.reshape(height, width, 3), mask=traced.reshape(height, width),

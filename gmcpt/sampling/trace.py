@@ -36,7 +36,6 @@ class FrameTrace:
     started: float = field(default_factory=time.perf_counter)
     costs: CostModel | None = None  # what a budget or a time budget weighs time with (None: a rate weighs none)
     first_pass_pixels: int = 0
-    discarded: int = 0  # samples traced and left out of the image (a dense frame's probe)
     info: FrameInfo = field(default_factory=FrameInfo)  # what it recorded of its choices so far
     twin: mi.SamplingIntegrator | None = None  # the integrator's guided twin, where the render brings the guides
     native_guides: FeatureMeans | None = None  # the guides of the twin's first hits so far
@@ -64,11 +63,6 @@ class FrameTrace:
         """Record the pixels of the first pass (a dense frame: its probe's)."""
         self.first_pass_pixels = int(pixels)
 
-    def discard_samples(self) -> None:
-        """Leave the samples so far out of the image (a dense frame's probe), counted as ``discarded``."""
-        if self.sums.samples:
-            self.discarded, self.sums = self.sums.samples, SampleSums(self.sums.size)
-
     def mark_all_traced(self) -> None:
         """Every pixel counts as traced (a dense frame)."""
         self.traced[:] = True
@@ -87,12 +81,13 @@ class FrameTrace:
     def timed(self, key: str, start: float) -> None:
         self.timings[key] = self.timings.get(key, 0.0) + time.perf_counter() - start
 
-    def trace(self, pixels: np.ndarray, spp: int, seed: int) -> None:
-        """``spp`` samples of each flat pixel in ``pixels``."""
+    def trace(self, pixels: np.ndarray, spp: int, seed: int) -> np.ndarray | None:
+        """``spp`` samples of each flat pixel in ``pixels``; their own mean, (n, 3), NaN where none was finite."""
         start = time.perf_counter()
-        self.sums.trace(self.scene, self.sensor, self.integrator, pixels, spp, seed, self.say)
+        mean = self.sums.trace(self.scene, self.sensor, self.integrator, pixels, spp, seed, self.say)
         self.traced[pixels] = True
         self.timed("render_s", start)
+        return mean
 
     def trace_counts(self, counts: np.ndarray, seed: int) -> None:
         """``counts`` samples of each pixel (:meth:`~gmcpt.render.kernels.SampleSums.trace_counts`)."""
