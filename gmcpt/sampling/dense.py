@@ -13,7 +13,9 @@ The functions take the frame's trace (:class:`gmcpt.sampling.trace.FrameTrace`) 
 """
 from __future__ import annotations
 
+import functools
 import time
+from typing import Callable
 
 import numpy as np
 
@@ -88,14 +90,15 @@ def trace_dense(trace: FrameTrace, plan: BudgetPlan, probe: np.ndarray, noise: f
     first, images = adaptive_first_spp(plan.budget), None
     if first:
         below = current < first  # a probe's pixels at the first pass's samples already are left out of it
-        launches = _first_pass(trace, first, seed, reads_reliability(plan.budget, noise), below)
+        launch_images = _first_pass(trace, first, seed, reads_reliability(plan.budget, noise), below)
         current[below] += first
         left -= first * int(below.sum())
-        if _adaptive_rest(trace, left, seed, launches):
+        if _adaptive_rest(trace, left, seed, launch_images):
             trace.mark_all_traced()
             return None
-        if split and launches is not None:  # a quarter and a half of a frame of 3 or 4 spp, as _split_native's
-            images = (launches[0], (launches[0] + (first - 1) * launches[1]) / first)
+        if split and launch_images is not None:  # a quarter and a half of a frame of 3 or 4 spp, as _split_native's
+            one, rest = launch_images()
+            images = (one, (one + (first - 1) * rest) / first)
         # the second launch draws other samples than the first
         seed = (seed + EVEN_SEED_OFFSET) % SEED_LIMIT
     start = time.perf_counter()
@@ -120,20 +123,28 @@ def _top_up(trace: FrameTrace, counts: np.ndarray, seed: int) -> None:
         trace.trace(np.flatnonzero(counts == count), int(count), stream(seed, TOP_UP_SEED_OFFSET * int(count)))
 
 
-def _launch(trace: FrameTrace, where: np.ndarray, spp: int, seed: int, image: bool = False) -> np.ndarray | None:
+def _launch(trace: FrameTrace, where: np.ndarray, spp: int, seed: int) -> np.ndarray | None:
     """``spp`` samples of the flat pixels ``where`` (bool): Mitsuba's render (:func:`native_pass`) where that is
-    every pixel, else the pixel-list kernel. With ``image``, the launch's own image, (H, W, 3) with non-finite pixels
-    as 0 and the pixels it left out as the frame's estimate before it."""
+    every pixel, else the pixel-list kernel. Returns the launch's own image, flat: (N, 3), or (n, 3) over ``where``
+    (:func:`_launch_images` makes frames of them)."""
     if where.all():
-        flat = native_pass(trace, spp, seed)
-        return _finite_image(trace, flat) if image else None
-    before = trace.sums.mean() if image else None
-    own = trace.trace(np.flatnonzero(where), spp, seed)
-    if not image:
-        return None
-    flat = np.array(before, np.float32)
-    flat[where] = own
-    return _finite_image(trace, flat)
+        return native_pass(trace, spp, seed)
+    return trace.trace(np.flatnonzero(where), spp, seed)
+
+
+def _launch_images(trace: FrameTrace, where: np.ndarray, *launches: np.ndarray) -> list[np.ndarray]:
+    """Launches' own images over ``where`` (:func:`_launch`) as (H, W, 3), non-finite pixels as 0 and the pixels they
+    left out as the frame's estimate there (a probe's pixels, which the launches of a first pass or a split leave
+    as they are)."""
+    if where.all():
+        return [_finite_image(trace, flat) for flat in launches]
+    elsewhere = np.array(trace.sums.mean(), np.float32)
+    images = []
+    for own in launches:
+        flat = elsewhere.copy()
+        flat[where] = own
+        images.append(_finite_image(trace, flat))
+    return images
 
 
 def native_pass(trace: FrameTrace, spp: int, seed: int, any_size: bool = False, note: str = "") -> np.ndarray | None:
@@ -158,10 +169,11 @@ def _split_native(trace: FrameTrace, spp: int, seed: int, where: np.ndarray) -> 
     """``spp`` samples of the flat pixels ``where`` (:func:`_launch`) as a quarter, a quarter and a half (seeds of
     their own; below 4 samples, one, one and the rest): the first quarter's image and the half's, (H, W, 3) float32,
     non-finite pixels as 0."""
-    quarter, images = max(1, spp // 4), []
+    quarter, launches = max(1, spp // 4), []
     for count, offset in ((quarter, 0), (quarter, SPLIT_SEED_OFFSETS[0]), (spp - 2 * quarter, SPLIT_SEED_OFFSETS[1])):
-        images.append(_launch(trace, where, count, (seed + offset) % SEED_LIMIT, image=len(images) < 2))
-    return images[0], (images[0] + images[1]) / 2
+        launches.append(_launch(trace, where, count, (seed + offset) % SEED_LIMIT))
+    first, second = _launch_images(trace, where, *launches[:2])
+    return first, (first + second) / 2
 
 
 def _finite_image(trace: FrameTrace, flat: np.ndarray) -> np.ndarray:
@@ -169,28 +181,30 @@ def _finite_image(trace: FrameTrace, flat: np.ndarray) -> np.ndarray:
     return np.nan_to_num(flat, posinf=0.0, neginf=0.0).reshape(*trace.shape, 3)
 
 
-def _first_pass(trace: FrameTrace, spp: int, seed: int, twice: bool, where: np.ndarray) -> tuple | None:
+def _first_pass(trace: FrameTrace, spp: int, seed: int, twice: bool, where: np.ndarray) -> Callable | None:
     """A dense frame's first pass of ``spp`` samples of the flat pixels ``where`` (:func:`_launch`); ``twice``: as a
-    launch of 1 and one of the rest (another seed), whose images (:func:`_launch`'s) it returns (else None)."""
+    launch of 1 and one of the rest (another seed), whose images (:func:`_launch_images`) the function it returns
+    makes, once, where a reading asks for them (else None)."""
     if not twice:
         _launch(trace, where, spp, seed)
         return None
-    one = _launch(trace, where, 1, seed, image=True)
-    return one, _launch(trace, where, spp - 1, stream(seed, RELIABILITY_SEED_OFFSET), image=True)
+    one = _launch(trace, where, 1, seed)
+    rest = _launch(trace, where, spp - 1, stream(seed, RELIABILITY_SEED_OFFSET))
+    return functools.cache(lambda: _launch_images(trace, where, one, rest))
 
 
-def _adaptive_rest(trace: FrameTrace, samples: int, seed: int, launches: tuple | None = None) -> bool:
+def _adaptive_rest(trace: FrameTrace, samples: int, seed: int, launch_images: Callable | None = None) -> bool:
     """After a dense frame's first pass, ``samples`` more where the displayed image is noisiest, as
     :func:`gmcpt.sampling.adaptive.render_adaptive` places them, if its error is concentrated enough to pay and,
-    where the first pass was read twice (``launches``, the images of its two launches), in the same places
-    (:func:`~gmcpt.sampling.budget.adaptive_pays`; their agreement is read only where the concentration pays, two
-    error maps that cost 4% of a frame at budget 4). Returns whether it traced them; ``info`` records the readings."""
+    where the first pass was read twice (``launch_images``, which makes the images of its two launches), in the same
+    places (:func:`~gmcpt.sampling.budget.adaptive_pays`; their images and agreement are made only where the
+    concentration pays: two error maps cost 4% of a frame at budget 4). Returns whether it traced them; ``info`` records the readings."""
     start = time.perf_counter()
     mean = trace.sums.mean()
     error = display_error(mean.reshape(*trace.shape, 3))
     concentration, reliability = error_concentration(error), None
-    if launches is not None and adaptive_pays(concentration):
-        reliability = error_reliability(*(display_error(image) for image in launches))
+    if launch_images is not None and adaptive_pays(concentration):
+        reliability = error_reliability(*(display_error(image) for image in launch_images()))
     adaptive = adaptive_pays(concentration, reliability)
     trace.record(error_concentration=concentration, error_reliability=reliability,
                  dense_placement="adaptive" if adaptive else "even")
