@@ -463,7 +463,8 @@ def test_a_dense_frame_keeps_its_probes_samples_and_stays_even(mi, monkeypatch, 
     monkeypatch.setattr(dense, "render_native", native)
     in_image = []  # the samples of each pixel the frame's image is the mean of
     buffers = strategies.FrameTrace.buffers
-    monkeypatch.setattr(strategies.FrameTrace, "buffers", lambda self: in_image.append(self.sums.finite) or buffers(self))
+    monkeypatch.setattr(strategies.FrameTrace, "buffers",
+                        lambda self: in_image.append(self.sums.finite) or buffers(self))
     # a sparse way that costs next to nothing: only the probe's reading sends the frame dense
     frame = _render(load_scene(CORNELL, resolution=SIZE), frame_budget, costs=fixed_costs(sparse_extra=1e-12))
     assert frame.info.probe == "traced" and frame.info.budget_choice == "dense"

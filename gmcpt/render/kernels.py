@@ -574,7 +574,7 @@ class SampleSums:
         self.quarters = None  # this pass keeps no sums by quarter
         passes = max(1, -(-pixels.size * spp // MAX_LANES))
         pass_spp, done = -(-spp // passes), 0
-        own_total, own_count = np.zeros((pixels.size, 3), np.float32), np.zeros(pixels.size, np.float32)
+        own_total = own_count = None  # this call's own sums, over its passes
         for index in range(passes):
             this_spp = min(pass_spp, spp - done)
             if this_spp <= 0:
@@ -582,8 +582,7 @@ class SampleSums:
             say(f"path tracing: {pixels.size} px x {spp} spp" + (f" (pass {index + 1}/{passes})" if passes > 1 else ""))
             total, squares, count = trace_pixels(scene, sensor, integrator, pixels, this_spp,
                                                  pass_seed(seed, index, passes))
-            own_total += total
-            own_count += count
+            own_total, own_count = (total, count) if own_total is None else (own_total + total, own_count + count)
             if self._native_mean is not None:
                 self._fold(pixels, total, count)
             else:

@@ -198,7 +198,8 @@ def _adaptive_rest(trace: FrameTrace, samples: int, seed: int, launch_images: Ca
     :func:`gmcpt.sampling.adaptive.render_adaptive` places them, if its error is concentrated enough to pay and,
     where the first pass was read twice (``launch_images``, which makes the images of its two launches), in the same
     places (:func:`~gmcpt.sampling.budget.adaptive_pays`; their images and agreement are made only where the
-    concentration pays: two error maps cost 4% of a frame at budget 4). Returns whether it traced them; ``info`` records the readings."""
+    concentration pays: two error maps cost 4% of a frame at budget 4). Returns whether it traced them; ``info``
+    records the readings."""
     start = time.perf_counter()
     mean = trace.sums.mean()
     error = display_error(mean.reshape(*trace.shape, 3))
