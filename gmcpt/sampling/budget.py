@@ -328,8 +328,8 @@ def error_reliability(first: np.ndarray, second: np.ndarray) -> float:
     (bright edges, a sun patch), in the same."""
     first, second = (np.asarray(error, np.float64).ravel() for error in (first, second))
     first, second = first - first.mean(), second - second.mean()
-    # products summed by numpy, not BLAS: a BLAS dot wakes OpenBLAS's threads, whose spinning afterwards took
-    # a third of the CPU from the frame's OIDN (docs/experiments.md)
+    # products summed by numpy, not BLAS: where numpy was imported before gmcpt, a BLAS dot wakes OpenBLAS's threads,
+    # whose spinning then slowed the frame's next launches and OIDN by about 10% (docs/experiments.md)
     scale = math.sqrt(float(np.sum(first * first)) * float(np.sum(second * second)))
     return float(np.sum(first * second) / scale) if scale > 0 else 0.0
 
