@@ -54,6 +54,24 @@ def test_replayed_trace_equals_a_fresh_trace_for_any_pixel_count_and_seed(mi, co
         np.testing.assert_array_equal(squares, plain_squares)
 
 
+def test_uneven_samples_sum_into_their_own_pixels(mi, cornell, path_tracer):
+    """trace_counts sums each pixel's samples inside the kernel: the same sums as tracing every sample as a lane of
+    its own and binning the lanes by pixel, and a pixel given no samples stays empty."""
+    from gmcpt.render.kernels import trace_counts, trace_pixels
+
+    sensor = cornell.sensors()[0]
+    counts = np.random.default_rng(3).integers(0, 5, 48 * 40)
+    total, squares, finite = trace_counts(cornell, sensor, path_tracer, counts, 5)
+    lanes = np.repeat(np.arange(counts.size), counts)
+    lane_total, lane_squares, lane_finite = trace_pixels(cornell, sensor, path_tracer, lanes, 1, 5)
+    binned = lambda values: np.bincount(lanes, weights=values, minlength=counts.size)  # noqa: E731
+    np.testing.assert_allclose(total, np.stack([binned(lane_total[:, c]) for c in range(3)], axis=1),
+                               rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(squares, binned(lane_squares), rtol=1e-5, atol=1e-4)
+    np.testing.assert_array_equal(finite, binned(lane_finite))
+    assert total[counts == 0].max() == 0 and total.max() > 0
+
+
 def test_a_new_spp_reuses_the_compiled_kernels(mi, cornell, path_tracer):
     """A time budget's passes come in sizes the frame picks as it goes: a kernel compiled for each spp (about
     1 s on 2 cores) overran a 1.5-s budget by 70% in CI. Only the recording is new; the kernel is the same."""
