@@ -377,8 +377,8 @@ def trace_film_pixels(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.Samplin
                       pixels: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One sample of each entry of ``pixels`` (flat pixels of the film, repeated as often as they are to be
     sampled, each pixel's entries together), summed by film pixel: :func:`trace_pixels`' (sum (N, 3), sum of
-    squared norms (N,), finite count (N,)) over the film's N pixels. A pass of uneven samples a pixel then returns
-    the film's sums, not one row a sample (at 256x256 and 2 samples a pixel, 4-8 ms less a pass)."""
+    squared norms (N,), finite count (N,)) over the film's N pixels: a pass of uneven samples a pixel returns the
+    film's sums, not one row a sample to be binned afterwards (docs/experiments.md, sixty-first session)."""
     red, green, blue, squares, count = _traced_sums(scene, sensor, integrator, pixels, 1, seed, by_film=True)
     return np.stack([red, green, blue], axis=1), squares, count
 
