@@ -230,11 +230,12 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     (x, y, z, normal x, y, z, hit, the shape's registry index): one launch (a second one for the centre rays cost
     about 5 ms of a 128x128 frame).
 
-    The signature's light samples are a fixed 2x2 grid over the lights' sampling domain, one a guide ray in turn:
-    the same every frame, so a static surface under static lights keeps its signature, and a changed one is light
-    that changed (a shadow that moved, a light switched or moved, a highlight that slid). Averaged over the pixel's
-    rays, not read at its centre: an emitter's or a shadow's edge covering part of a pixel moves away unseen by a
-    centre ray."""
+    The signature's light samples are four fixed points of the lights' sampling domain, one a guide ray in turn, a
+    rook pattern (each a quarter of either coordinate: the first also picks the light, and a 2x2 grid gave each of
+    two lights two points of one line): the same every frame, so a static surface under static lights keeps its
+    signature, and a changed one is light that changed (a shadow that moved, a light switched or moved, a highlight
+    that slid). Averaged over the pixel's rays, not read at its centre: an emitter's or a shadow's edge covering part
+    of a pixel moves away unseen by a centre ray."""
     width, height = camera[0]
     lanes = height * width * guide_rays
     sampler = seeded_sampler(sensor, guide_rays, seed, lanes)
@@ -250,7 +251,7 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     bsdf = si.bsdf(ray)
     values = first_hit_features(si, bsdf)
     corner = (lane - pixel * dr.opaque(mi.UInt32, guide_rays)) & 3
-    light_sample = mi.Point2f(mi.Float(corner & 1) * 0.5 + 0.25, mi.Float(corner >> 1) * 0.5 + 0.25)
+    light_sample = mi.Point2f((mi.Float(corner) + 0.5) * 0.25, (mi.Float((3 * corner + 1) & 3) + 0.5) * 0.25)
     towards, weight = scene.sample_emitter_direction(si, light_sample, True, hit)
     light = bsdf.eval(mi.BSDFContext(), si, si.to_local(towards.d), hit & (towards.pdf > 0)) * weight
     light += dr.select(hit, si.emitter(scene).eval(si, hit), 0.0)
