@@ -43,6 +43,23 @@ def test_the_frame_shown_before_weighs_less_where_much_of_the_light_changed():
     assert CARRY_LIGHT_POWER > 0
 
 
+@pytest.mark.parametrize("lights", [1, 2, 4])
+def test_each_light_gets_signature_samples_apart_in_both_coordinates(mi, lights):
+    """Mitsuba picks the light by the sample's first coordinate and hands the light that coordinate stretched: a
+    light whose points shared one (the 2x2 grid gave two lights a line each) saw a penumbra move unseen."""
+    from gmcpt.temporal.sequence import signature_light_sample
+
+    points = signature_light_sample(mi.UInt32(list(range(8))))
+    x, y = np.array(points.x, np.float64), np.array(points.y, np.float64)
+    assert np.array_equal(x[:4], x[4:]) and np.array_equal(y[:4], y[4:])  # four points, in turn
+    light = np.floor(x[:4] * lights)
+    stretched = x[:4] * lights - light
+    for chosen in np.unique(light):
+        mine = light == chosen
+        assert mine.sum() == 4 // lights
+        assert np.unique(stretched[mine]).size == mine.sum() and np.unique(y[:4][mine]).size == mine.sum()
+
+
 def test_same_seed_same_frames_and_a_resumed_sequence_gives_the_same_images(mi, tmp_path):
     from gmcpt.temporal.sequence import SequenceRenderer, SequenceSettings
 

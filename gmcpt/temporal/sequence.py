@@ -242,17 +242,16 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     lane = dr.arange(mi.UInt32, lanes)
     pixel = lane // dr.opaque(mi.UInt32, guide_rays)
     ray, _ = primary_rays(sensor, sampler, pixel, width, guide_rays)
+    ray_index = lane - pixel * dr.opaque(mi.UInt32, guide_rays)
     # each pixel's first guide ray goes through its centre: the reprojection's ray, in the same launch
-    first = (lane - pixel * dr.opaque(mi.UInt32, guide_rays)) == 0
+    first = ray_index == 0
     centre = _centre_ray(sensor, pixel, (width, height))
     ray.o, ray.d = dr.select(first, centre.o, ray.o), dr.select(first, centre.d, ray.d)
     si = scene.ray_intersect(ray)
     hit = si.is_valid()
     bsdf = si.bsdf(ray)
     values = first_hit_features(si, bsdf)
-    corner = (lane - pixel * dr.opaque(mi.UInt32, guide_rays)) & 3
-    light_sample = mi.Point2f((mi.Float(corner) + 0.5) * 0.25, (mi.Float((3 * corner + 1) & 3) + 0.5) * 0.25)
-    towards, weight = scene.sample_emitter_direction(si, light_sample, True, hit)
+    towards, weight = scene.sample_emitter_direction(si, signature_light_sample(ray_index), True, hit)
     light = bsdf.eval(mi.BSDFContext(), si, si.to_local(towards.d), hit & (towards.pdf > 0)) * weight
     light += dr.select(hit, si.emitter(scene).eval(si, hit), 0.0)
     values.append(dr.select(hit, (light.x + light.y + light.z) / 3, 0.0))
@@ -262,6 +261,13 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     for target, value in zip(centres, [*_hit_planes(si), shape]):
         dr.scatter(target, value, pixel, first)
     return means + centres
+
+
+def signature_light_sample(ray: mi.UInt32) -> mi.Point2f:
+    """The fixed light sample of a pixel's guide ray ``ray`` (0, 1, ...) for its lighting signature: four points in
+    turn, a rook pattern over the lights' sampling domain (each point in its own quarter of either coordinate)."""
+    corner = ray & 3
+    return mi.Point2f((mi.Float(corner) + 0.5) * 0.25, (mi.Float((3 * corner + 1) & 3) + 0.5) * 0.25)
 
 
 def _centre_planes(scene: mi.Scene, sensor: mi.Sensor, size: tuple[int, int]) -> list:
