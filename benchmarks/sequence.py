@@ -270,7 +270,7 @@ class Accumulation:
         """The next frame (every stage is charged to it: :func:`gmcpt.evaluation.sequences.take_turns`)."""
         from gmcpt.evaluation.sequences import denoised_with_aov_guides
         from gmcpt.render.kernels import render_native
-        from gmcpt.temporal.sequence import geometry
+        from gmcpt.temporal.survey import geometry
         from gmcpt.temporal.history import PastFrame, reproject
 
         sensor = scene.sensors()[0]
@@ -360,7 +360,7 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
     from gmcpt.evaluation.sequences import (Run, Truth, path_oidn_run, sequence_figures, sequence_run, stage_means,
                                             take_turns)
     from gmcpt.evaluation.stability import FrameGeometry
-    from gmcpt.temporal.sequence import geometry
+    from gmcpt.temporal.survey import geometry
 
     sensor = scene.sensors()[0]
     firsts, seconds, geometries = [], [], []

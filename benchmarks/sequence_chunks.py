@@ -53,7 +53,7 @@ def truth(args) -> tuple[list, list, list]:
     from gmcpt.render.kernels import render_native
     from gmcpt.render.scene import load_scene, path_integrator
     from gmcpt.seeds import SEQUENCE_REFERENCE_SEEDS
-    from gmcpt.temporal.sequence import geometry
+    from gmcpt.temporal.survey import geometry
 
     firsts, seconds, geometries = [], [], []
     for frame in range(args.frames):

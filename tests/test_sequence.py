@@ -47,7 +47,7 @@ def test_the_frame_shown_before_weighs_less_where_much_of_the_light_changed():
 def test_each_light_gets_signature_samples_apart_in_both_coordinates(mi, lights):
     """Mitsuba picks the light by the sample's first coordinate and hands the light that coordinate stretched: a
     light whose points shared one (the 2x2 grid gave two lights a line each) saw a penumbra move unseen."""
-    from gmcpt.temporal.sequence import signature_light_sample
+    from gmcpt.temporal.survey import signature_light_sample
 
     points = signature_light_sample(mi.UInt32(list(range(8))))
     x, y = np.array(points.x, np.float64), np.array(points.y, np.float64)
@@ -138,7 +138,7 @@ def _move(mi, parameters, key, base, offset):
 def test_a_moving_shapes_old_shadow_is_gone_within_one_frame(mi):
     from gmcpt.render.kernels import render_native
     from gmcpt.render.scene import path_integrator
-    from gmcpt.temporal.sequence import survey
+    from gmcpt.temporal.survey import survey
 
     scene = _scene()
     sensor, integrator = scene.sensors()[0], path_integrator(scene)
@@ -432,7 +432,7 @@ def test_a_camera_moved_by_whole_pixels_is_allowed_what_a_moving_one_is(mi):
 
 
 def test_a_timed_sequence_sizes_each_frame_from_the_pace_of_the_frames_before():
-    from gmcpt.temporal.sequence import FramePace
+    from gmcpt.temporal.pace import FramePace
 
     pace, clock = FramePace(), 0.0
     assert pace.budget(1.0, first=3.0) == 3.0  # nothing measured yet
@@ -524,7 +524,7 @@ def _turn(mi, sensor, degrees: float) -> None:
 
 
 def test_a_perspective_camera_s_projection_in_closed_form_is_its_fit(mi):
-    from gmcpt.temporal.sequence import camera_projection, fitted_projection
+    from gmcpt.temporal.survey import camera_projection, fitted_projection
 
     for path in (CORNELL, STILL_LIFE):
         sensor = _scene(path).sensors()[0]

@@ -271,7 +271,7 @@ def _frame_truth(args, animation, frames: range, size: tuple[int, int], say):
     """Each frame's two references (cached: :func:`gmcpt.evaluation.reference.cached_reference`, keyed by the scene
     file, the frame, size, samples and seed) and geometry, as a :class:`~gmcpt.evaluation.sequences.Truth`."""
     from ..runtime.progress import Progress
-    from ..temporal.sequence import geometry
+    from ..temporal.survey import geometry
     from ..evaluation.reference import cache_dir, cached_reference, reference_key
     from ..evaluation.sequences import Truth
     from ..evaluation.stability import FrameGeometry

@@ -30,7 +30,7 @@ DISAGREE_RADIUS = 7
 #: A pixel's luminance counts in the test up to this many times its image's mean: one firefly among a frame's
 #: few samples is no changed light (unclipped, the dining room's pan lost 6-9% of its history to them).
 DISAGREE_CLIP = 4.0
-#: A past pixel's history is kept only where its lighting signature (:func:`gmcpt.temporal.sequence.survey`: direct
+#: A past pixel's history is kept only where its lighting signature (:func:`gmcpt.temporal.survey.survey`: direct
 #: light through fixed light samples, the same every frame) and the current pixel's differ by at most this share of the
 #: larger, :data:`LIGHTING_FLOOR` x the frame's mean and what a sub-pixel shift explains (:func:`unchanged`): a
 #: shadow that moved, a light switched or moved, a highlight that slid.
