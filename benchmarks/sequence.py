@@ -49,7 +49,8 @@ behind where the scene changed; :mod:`gmcpt.evaluation.sequences`).
         [--step pan=0.5 light=1] [--record docs/sequences.json]
 
 ``--record``: the rows, the verdicts and the settings as JSON, a plot beside it (``.png``); ``--merge PART.json ...
---record OUT.json`` joins runs on other scenes into one record; ``gmcpt eval --from docs/results.json`` then puts
+--record OUT.json`` joins runs on other scenes into one record; ``--references-only`` renders and caches the
+references alone (untimed: a busy machine may do it), so that the contest's run on a quiet machine measures only; ``gmcpt eval --from docs/results.json`` then puts
 them in ``docs/results.md``.
 """
 from __future__ import annotations
@@ -256,7 +257,9 @@ def reference(loaded_scene, name: str, label: str, frame: int, spp: int, res: in
         total = total + render_native(scene, scene.sensors()[0], integrator, chunk, seed + frame * 97 + index)
     image = (total / passes).reshape(res, res, 3).astype(np.float32)
     path.parent.mkdir(parents=True, exist_ok=True)
-    np.save(path, image)
+    partial = path.with_name(path.name + ".partial.npy")  # a stopped run leaves no half-written reference behind
+    np.save(partial, image)
+    partial.replace(path)
     return image
 
 
@@ -316,6 +319,9 @@ def main() -> int:
     parser.add_argument("--record", type=Path, help="write the rows and verdicts here (JSON) and a plot beside it")
     parser.add_argument("--merge", type=Path, nargs="+", metavar="PART.json",
                         help="measure nothing: merge records of runs on other scenes into --record (and its plot)")
+    parser.add_argument("--references-only", action="store_true",
+                        help="measure nothing: render and cache the references alone (untimed, so a busy machine "
+                             "may do it), for a later run on a quiet one")
     args = parser.parse_args()
     if args.merge:
         if not args.record:
@@ -345,20 +351,26 @@ def main() -> int:
             except NoMotion as reason:
                 print(f"skipping {eval_scene.name} {motion}: {reason}", flush=True)
                 continue
+            if args.references_only:
+                start = time.time()
+                references(args, eval_scene.name, scene, integrator, changes)
+                changes.at(0)
+                print(f"{eval_scene.name} {motion}: {args.frames} frames' references ({time.time() - start:.0f} s)",
+                      flush=True)
+                continue
             found = measure(args, eval_scene.name, scene, integrator, aov, changes)
             changes.at(0)  # the scene as loaded, for the next motion
             rows += found
             verdicts += judge(found, eval_scene.name, motion)
             moving.setdefault(eval_scene.name, {})[motion] = changes.description
-    if args.record:
+    if args.record and not args.references_only:
         record(args, rows, verdicts, moving, time.time() - started, commit)
     return 0
 
 
-def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> list[dict]:
-    """The rows of every contender on one scene in one motion (printed as they come)."""
-    from gmcpt.evaluation.sequences import (Run, Truth, path_oidn_run, sequence_figures, sequence_run, stage_means,
-                                            take_turns)
+def references(args, name: str, scene, integrator, changes: SceneMotion) -> tuple[list, list, list]:
+    """Each frame's two references (rendered once, then read from the cache) and its geometry, the scene left as it
+    is at the last frame: (firsts, seconds, geometries)."""
     from gmcpt.evaluation.stability import FrameGeometry
     from gmcpt.temporal.survey import geometry
 
@@ -370,7 +382,15 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
         seconds.append(reference((scene, integrator), name, changes.label, frame, args.reference_spp, args.res,
                                  second=True))
         geometries.append(FrameGeometry(*geometry(scene, sensor)))
-    truth = Truth.of(firsts, seconds, geometries, args.warm)
+    return firsts, seconds, geometries
+
+
+def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> list[dict]:
+    """The rows of every contender on one scene in one motion (printed as they come)."""
+    from gmcpt.evaluation.sequences import (Run, Truth, path_oidn_run, sequence_figures, sequence_run, stage_means,
+                                            take_turns)
+
+    truth = Truth.of(*references(args, name, scene, integrator, changes), args.warm)
 
     def accumulation_run(spp):
         accumulation = Accumulation()
