@@ -45,6 +45,7 @@ def main() -> int:
     from gmcpt.completion import complete
     from gmcpt.evaluation.scenes import by_name
     from gmcpt.image.metrics import all_metrics
+    from gmcpt.io.files import atomic_output
     from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
 
     mi.set_log_level(mi.LogLevel.Error)
@@ -70,8 +71,9 @@ def main() -> int:
             if args.save_frames:
                 out = Path(args.save_frames) / f"{name}-r{rate:.2f}.npz"
                 out.parent.mkdir(parents=True, exist_ok=True)
-                np.savez_compressed(out, reference=reference, **{k: getattr(frame, k) for k in (
-                    "radiance", "mask", "variance", "albedo", "normal", "depth", "visibility")})
+                with atomic_output(out) as temporary, open(temporary, "wb") as handle:
+                    np.savez_compressed(handle, reference=reference, **{k: getattr(frame, k) for k in (
+                        "radiance", "mask", "variance", "albedo", "normal", "depth", "visibility")})
             for method in args.methods:
                 start = time.perf_counter()
                 result = complete(frame, method)

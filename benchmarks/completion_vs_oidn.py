@@ -33,6 +33,7 @@ def render_inputs(scene_path: Path, width: int, height: int, rate: float, spp: i
     import numpy as np
 
     from gmcpt.frame import PIXEL_BUFFERS
+    from gmcpt.io.files import atomic_output
     from gmcpt.sampling.strategies import RenderSettings, render_sparse_frame
     from gmcpt.render.scene import load_scene, masked_integrator
 
@@ -42,7 +43,8 @@ def render_inputs(scene_path: Path, width: int, height: int, rate: float, spp: i
     full, _ = render_sparse_frame(scene, integrator, settings=RenderSettings(rate=1.0, spp=max(1, round(rate * spp)),
                                                                              seed=2))
     path = folder / f"{width}x{height}.npz"
-    np.savez(path, full=full.radiance, spp=sparse.spp, **{name: getattr(sparse, name) for name in PIXEL_BUFFERS})
+    with atomic_output(path) as temporary, open(temporary, "wb") as handle:
+        np.savez(handle, full=full.radiance, spp=sparse.spp, **{name: getattr(sparse, name) for name in PIXEL_BUFFERS})
     return path
 
 

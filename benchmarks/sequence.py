@@ -242,7 +242,7 @@ def reference(loaded_scene, name: str, label: str, frame: int, spp: int, res: in
     """The frame's reference (``second``: another, independent of the first), cached under the gmcpt cache by the
     scene, the motion's ``label`` (:class:`SceneMotion`), the frame, size and samples."""
     from gmcpt.seeds import SEQUENCE_REFERENCE_SEEDS as REFERENCE_SEEDS
-    from gmcpt.io.files import cache_folder
+    from gmcpt.io.files import atomic_output, cache_folder
     from gmcpt.render.kernels import render_native
 
     tail = "-b" if second else ""
@@ -257,9 +257,8 @@ def reference(loaded_scene, name: str, label: str, frame: int, spp: int, res: in
         total = total + render_native(scene, scene.sensors()[0], integrator, chunk, seed + frame * 97 + index)
     image = (total / passes).reshape(res, res, 3).astype(np.float32)
     path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(path.name + ".partial.npy")  # a stopped run leaves no half-written reference behind
-    np.save(partial, image)
-    partial.replace(path)
+    with atomic_output(path) as temporary, open(temporary, "wb") as handle:  # a stopped run leaves no half a file
+        np.save(handle, image)
     return image
 
 
