@@ -49,9 +49,9 @@ behind where the scene changed; :mod:`gmcpt.evaluation.sequences`).
         [--step pan=0.5 light=1] [--record docs/sequences.json]
 
 ``--record``: the rows, the verdicts and the settings as JSON, a plot beside it (``.png``); ``--merge PART.json ...
---record OUT.json`` joins runs on other scenes into one record; ``--references-only`` renders and caches the
-references alone (untimed: a busy machine may do it), so that the contest's run on a quiet machine measures only; ``gmcpt eval --from docs/results.json`` then puts
-them in ``docs/results.md``.
+--record OUT.json`` joins runs on other scenes into one record; ``gmcpt eval --from docs/results.json`` then puts
+them in ``docs/results.md``. ``--references-only`` renders and caches the references alone (untimed: a busy machine
+may do it), so that a later run on a quiet machine only measures.
 """
 from __future__ import annotations
 
