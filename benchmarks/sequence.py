@@ -353,15 +353,14 @@ def main() -> int:
             if args.references_only:
                 start = time.time()
                 references(args, eval_scene.name, scene, integrator, changes)
-                changes.at(0)
                 print(f"{eval_scene.name} {motion}: {args.frames} frames' references ({time.time() - start:.0f} s)",
                       flush=True)
-                continue
-            found = measure(args, eval_scene.name, scene, integrator, aov, changes)
+            else:
+                found = measure(args, eval_scene.name, scene, integrator, aov, changes)
+                rows += found
+                verdicts += judge(found, eval_scene.name, motion)
+                moving.setdefault(eval_scene.name, {})[motion] = changes.description
             changes.at(0)  # the scene as loaded, for the next motion
-            rows += found
-            verdicts += judge(found, eval_scene.name, motion)
-            moving.setdefault(eval_scene.name, {})[motion] = changes.description
     if args.record and not args.references_only:
         record(args, rows, verdicts, moving, time.time() - started, commit)
     return 0
