@@ -24,6 +24,9 @@ at a ladder of samples a pixel a frame:
 - ``path+oidn`` (``--path-spp``): every frame on its own, as a Mitsuba user denoises it: ``mi.render`` at the
   samples, then one pass of Mitsuba's ``aov`` integrator (albedo, shading normal) at as many samples whose images
   are OIDN's guides (the albedo clipped to [0, 1], OIDN's range), then OIDN; all three timed;
+- ``lightpath+oidn`` (``--light-spp``): the same, its paths taking the sequence mode's emitter samples at their
+  first hit (``LIGHT_SAMPLES``): what that estimator alone buys a frame on its own, so that the sequence's own share
+  of its speed-up shows;
 - ``accumulation+oidn`` (``--path-spp``): the same samples averaged with the previous frames' accumulated image,
   reprojected to the nearest pixel with the depth and normal tests of :mod:`gmcpt.temporal.history`, an exponential
   moving average (weight ``max(1 / n, 0.2)`` for the new samples, n the pixel's history length), then the same guides
@@ -314,6 +317,8 @@ def main() -> int:
                              + ", ".join(f"{k}={v:g}" for k, v in DEFAULT_STEPS.items()) + " unless given")
     parser.add_argument("--budgets", type=float, nargs="+", default=[1, 2, 4])
     parser.add_argument("--path-spp", type=int, nargs="+", default=[1, 2, 4, 8, 16, 32])
+    parser.add_argument("--light-spp", type=int, nargs="*", default=[1, 2, 4, 8, 16],
+                        help="the lightpath+oidn contender's settings (none: left out)")
     parser.add_argument("--reference-spp", type=int, default=1024)
     parser.add_argument("--record", type=Path, help="write the rows and verdicts here (JSON) and a plot beside it")
     parser.add_argument("--merge", type=Path, nargs="+", metavar="PART.json",
@@ -385,8 +390,8 @@ def references(args, name: str, scene, integrator, changes: SceneMotion) -> tupl
 
 def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> list[dict]:
     """The rows of every contender on one scene in one motion (printed as they come)."""
-    from gmcpt.evaluation.sequences import (Run, Truth, path_oidn_run, sequence_figures, sequence_run, stage_means,
-                                            take_turns)
+    from gmcpt.evaluation.sequences import (Run, Truth, light_path_oidn_run, path_oidn_run, sequence_figures,
+                                            sequence_run, stage_means, take_turns)
 
     truth = Truth.of(*references(args, name, scene, integrator, changes), args.warm)
 
@@ -404,6 +409,7 @@ def measure(args, name: str, scene, integrator, aov, changes: SceneMotion) -> li
     # the process's memory warmed: throwaway sequences, as the contest then runs them side by side, untimed
     take_turns(sequence_runs(), range(args.frames), changes.at, frame_seed)
     runs = [path_oidn_run(scene, integrator, aov, spp) for spp in args.path_spp] \
+        + [light_path_oidn_run(scene, integrator, aov, spp) for spp in args.light_spp] \
         + [accumulation_run(spp) for spp in args.path_spp] + sequence_runs()
     take_turns(runs, range(args.frames), changes.at, frame_seed)
     rows = []
@@ -425,7 +431,7 @@ def judge(rows: list[dict], name: str, motion: str) -> list[dict]:
     from gmcpt.evaluation.sequences import sequence_verdict
 
     verdicts = []
-    for baseline in ("path+oidn", "accumulation+oidn"):
+    for baseline in ("path+oidn", "lightpath+oidn", "accumulation+oidn"):
         found = sequence_verdict(rows, baseline)
         if not found:
             continue

@@ -111,3 +111,59 @@ def test_guides_from_the_render_are_topped_up_to_the_rays_the_budget_asks(mi, mo
     assert passes == [3, 3]
     assert first.info.guides == second.info.guides == "render"
     assert first.info.guide_spp == second.info.guide_spp == 4
+
+
+def _sun_and_sky(mi):
+    """A floor under a small bright sphere light and a dim constant sky: one emitter sample picks either."""
+    return mi.load_dict({
+        "type": "scene",
+        "sensor": {"type": "perspective", "fov": 50,
+                   "to_world": mi.ScalarTransform4f().look_at(origin=[0, -3, 3], target=[0, 0, 0], up=[0, 0, 1]),
+                   "film": {"type": "hdrfilm", "width": 24, "height": 24, "rfilter": {"type": "box"}}},
+        "floor": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale(4),
+                  "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": 0.6}}},
+        "sun": {"type": "sphere", "center": [2, 1, 4], "radius": 0.2,
+                "emitter": {"type": "area", "radiance": {"type": "rgb", "value": 200.0}}},
+        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": 0.2}},
+        "integrator": {"type": "path"},
+    })
+
+
+def test_more_light_samples_at_the_first_hit_keep_the_image_and_take_the_noise(mi):
+    """Several emitter samples at the first hit estimate the same image as ``path`` (its mean within the noise) with
+    less noise where one sample picks the sun or the sky; one light sample is ``path`` to the bit."""
+    from gmcpt.render import kernels
+    from gmcpt.render.guided_path import guided_twin
+
+    scene = _sun_and_sky(mi)
+    sensor, integrator = scene.sensors()[0], scene.integrator()
+    twin = guided_twin(integrator)
+    props = mi.Properties()
+    props["max_depth"], props["rr_depth"], props["light_samples"] = -1, twin.rr_depth, 4
+    lit = type(twin)(props)
+    np.testing.assert_array_equal(kernels.render_native(scene, sensor, twin, 2, 5),
+                                  kernels.render_native(scene, sensor, integrator, 2, 5))
+    frames = {name: np.stack([kernels.render_native(scene, sensor, tracer, 1, seed).mean(axis=1)
+                              for seed in range(64)])
+              for name, tracer in (("path", integrator), ("four", lit))}
+    means = {name: float(values.mean()) for name, values in frames.items()}
+    assert abs(means["four"] - means["path"]) < 0.03 * means["path"], means
+    noise = {name: float(values.var(axis=0).mean()) for name, values in frames.items()}
+    assert noise["four"] < 0.5 * noise["path"], noise
+    with pytest.raises(ValueError, match="light_samples"):
+        props["light_samples"] = 0
+        type(twin)(props)
+
+
+def test_each_integrator_replays_its_own_recording(mi):
+    """Two twins that differ in their light samples alone trace their own paths through the frozen kernel: Dr.Jit
+    would replay the first one's recording for the second."""
+    from gmcpt.render.guided_path import twin_of
+    from gmcpt.render.kernels import trace_counts
+
+    scene = _sun_and_sky(mi)
+    sensor, integrator = scene.sensors()[0], scene.integrator()
+    counts = np.ones(24 * 24, np.int64)
+    traced = [trace_counts(scene, sensor, twin_of(scene, integrator, samples), counts, 5)[0] for samples in (8, 4, 8)]
+    assert not np.array_equal(traced[0], traced[1])
+    np.testing.assert_array_equal(traced[0], traced[2])

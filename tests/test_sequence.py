@@ -156,8 +156,11 @@ def test_a_moving_shapes_old_shadow_is_gone_within_one_frame(mi):
     reference = sum(render_native(scene, sensor, integrator, 64, 900 + i) for i in range(4)) / 4
     luminance = image.reshape(-1, 3).mean(axis=1)
     assert info.dropped.lighting > 0.25 * old_shadow.mean()
-    # the old shadow's pixels are as bright as they are now, not darkened by the history of the shadow
-    assert luminance[old_shadow].mean() > 0.9 * reference.mean(axis=1)[old_shadow].mean()
+    # the old shadow's pixels are as bright as they are now, not darkened by the history of the shadow: against the
+    # reference as the whole frame is (OIDN at 2 samples a pixel leaves the frame 4-6% darker, and the old shadow's
+    # 70 pixels read 0.89-1.03 of the reference with no history at all, over seeds)
+    level = luminance.mean() / reference.mean()
+    assert luminance[old_shadow].mean() > 0.9 * level * reference.mean(axis=1)[old_shadow].mean()
 
 
 def test_a_moving_shape_takes_its_history_from_where_it_was(mi, monkeypatch):

@@ -172,8 +172,8 @@ def image_grid(images: dict, path: Path, title: str) -> None:
     _save(figure, path)
 
 
-SEQUENCE_STYLE = {"path+oidn": ("tab:blue", "s"), "accumulation+oidn": ("tab:purple", "D"),
-                  "sequence": ("tab:green", "*")}
+SEQUENCE_STYLE = {"path+oidn": ("tab:blue", "s"), "lightpath+oidn": ("tab:cyan", "v"),
+                  "accumulation+oidn": ("tab:purple", "D"), "sequence": ("tab:green", "*")}
 
 
 def sequence_plot(rows: list[dict], path: Path, settings: dict | None = None) -> None:

@@ -210,6 +210,17 @@ def path_oidn_run(scene, integrator, aov, spp: int) -> Run:
     return Run("path+oidn", spp, lambda frame, seed: path_oidn(scene, integrator, aov, spp, seed))
 
 
+def light_path_oidn_run(scene, integrator, aov, spp: int) -> Run:
+    """Per-frame path tracing + OIDN at ``spp`` as :func:`path_oidn_run`, its paths taking the sequence mode's emitter
+    samples at their first hit (:data:`gmcpt.temporal.sequence.LIGHT_SAMPLES`): what that estimator alone buys, so
+    that the sequence's own share of its speed-up shows."""
+    from ..render.guided_path import twin_of
+    from ..temporal.sequence import LIGHT_SAMPLES
+
+    tracer = twin_of(scene, integrator, LIGHT_SAMPLES) or integrator
+    return Run("lightpath+oidn", spp, lambda frame, seed: path_oidn(scene, tracer, aov, spp, seed))
+
+
 def sequence_run(scene, integrator, budget: float, seed: int) -> Run:
     """The sequence mode (:class:`gmcpt.temporal.sequence.SequenceRenderer`, its default history) at ``budget``, seeded
     once for the sequence (each frame draws its own from it)."""

@@ -16,6 +16,13 @@ last bit of a float through ``mi.render``'s film, which develops more channels (
      - longest path, in segments (-1: unbounded), as ``path``'s
    * - ``rr_depth``
      - depth from which Russian roulette may end a path, as ``path``'s
+   * - ``light_samples``
+     - emitter samples at the first hit (default 1: ``path``'s paths), stratified along the first coordinate (the one
+       that picks the light, and the sun or the sky of a sunsky), weighed against the BSDF sample as that many
+
+With more light samples the first hit's direct light, which holds nearly all of a sunlit pixel's noise (one sample
+picks the sun or the sky, a sun or another light, and is worth twice the sun or nothing), is a mean of several, at
+the cost of their shadow rays alone (docs/experiments.md, sixty-third session).
 
 AOVs, one value a sample: the first hit's :func:`first_hit_features` (albedo, normal, hit distance, hit, coverage),
 the feature pass's planes (:func:`gmcpt.render.kernels.feature_means`), so both make the same guides.
@@ -62,6 +69,9 @@ class GuidedPath(mi.SamplingIntegrator):
         depth = props.get("max_depth", -1)
         self.max_depth = 0xFFFFFFFF if depth < 0 else depth
         self.rr_depth = props.get("rr_depth", 5)
+        self.light_samples = props.get("light_samples", 1)
+        if not isinstance(self.light_samples, int) or self.light_samples < 1:
+            raise ValueError(f"light_samples must be a whole number of at least 1, got {self.light_samples}")
 
     def aov_names(self) -> list[str]:
         return list(FEATURE_PLANES)
@@ -69,10 +79,11 @@ class GuidedPath(mi.SamplingIntegrator):
     @dr.syntax
     def sample(self, scene, sampler, ray, medium=None, active=True):
         ray = mi.Ray3f(ray)
-        # what path carries from bounce to bounce: radiance, throughput, eta, depth, whether the path counts, and
-        # the previous interaction, its BSDF sample's pdf and whether that was a delta lobe
+        # what path carries from bounce to bounce: radiance, throughput, eta, depth, whether the path counts, the
+        # previous interaction, its BSDF sample's pdf, whether that was a delta lobe, its emitter samples
         path = (mi.Spectrum(0.0), mi.Spectrum(1.0), mi.Float(1.0), mi.UInt32(0),
-                mi.Bool(scene.environment() is not None), dr.zeros(mi.Interaction3f), mi.Float(1.0), mi.Bool(True))
+                mi.Bool(scene.environment() is not None), dr.zeros(mi.Interaction3f), mi.Float(1.0), mi.Bool(True),
+                mi.Float(1.0))
         active = mi.Bool(active)
         hit = scene.ray_intersect_preliminary(ray, True, False, 0, 0, active)
         # the first bounce before the loop, so that its full interaction gives the features too: read inside the
@@ -80,33 +91,38 @@ class GuidedPath(mi.SamplingIntegrator):
         si = hit.compute_surface_interaction(ray, mi.RayFlags.All, active)
         bsdf = si.bsdf(ray)
         features = first_hit_features(si, bsdf)
-        path, ray, hit, active = self._bounce(scene, sampler, path, si, bsdf)
+        path, ray, hit, active = self._bounce(scene, sampler, path, si, bsdf, self.light_samples)
         while dr.hint(active, max_iterations=-1, label="guided_path"):
             si = hit.compute_surface_interaction(ray, mi.RayFlags.All)
             path, ray, hit, active = self._bounce(scene, sampler, path, si, si.bsdf(ray))
         result, valid = path[0], path[4]
         return dr.select(valid, result, 0.0), valid, features
 
-    def _bounce(self, scene, sampler, path: tuple, si, bsdf) -> tuple:
-        """One bounce of ``path`` at ``si`` (``bsdf``: its BSDF): the emission reached, emitter sampling, the BSDF
-        sample, Russian roulette. Returns (``path`` after it, the next ray, its preliminary hit, whether the path
-        goes on)."""
-        result, throughput, eta, depth, valid, prev_si, prev_pdf, prev_delta = path
-        # emission reached by the previous bounce's BSDF sample, weighed against emitter sampling
+    def _bounce(self, scene, sampler, path: tuple, si, bsdf, light_samples: int = 1) -> tuple:
+        """One bounce of ``path`` at ``si`` (``bsdf``: its BSDF): the emission reached, emitter sampling
+        (``light_samples`` samples, stratified along the first coordinate), the BSDF sample, Russian roulette. Returns
+        (``path`` after it, the next ray, its preliminary hit, whether the path goes on)."""
+        result, throughput, eta, depth, valid, prev_si, prev_pdf, prev_delta, prev_lights = path
+        # emission reached by the previous bounce's BSDF sample, weighed against its emitter samples
         emitted = mi.DirectionSample3f(scene, si, prev_si)
         emitter_pdf = scene.pdf_emitter_direction(prev_si, emitted, ~prev_delta)
-        result = dr.fma(throughput, emitted.emitter.eval(si, prev_pdf > 0) * _mis_weight(prev_pdf, emitter_pdf), result)
+        mis = _mis_weight(prev_pdf, prev_lights * emitter_pdf)
+        result = dr.fma(throughput, emitted.emitter.eval(si, prev_pdf > 0) * mis, result)
         active_next = (depth + 1 < self.max_depth) & si.is_valid()
         # emitter sampling, then one BSDF evaluation and sample for both strategies
         active_emitter = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
-        sampled, emitter_weight = scene.sample_emitter_direction(si, sampler.next_2d(), True, active_emitter)
+        context, lights = mi.BSDFContext(), float(light_samples)
+        direct = mi.Spectrum(0.0) if light_samples == 1 else \
+            self._lights(scene, sampler, bsdf, si, light_samples, active_emitter)
+        sampled, emitter_weight = scene.sample_emitter_direction(
+            si, self._stratified(sampler, light_samples - 1, lights), True, active_emitter)
         active_emitter &= sampled.pdf != 0
         wo = si.to_local(sampled.d)
         sample_1, sample_2 = sampler.next_1d(), sampler.next_2d()
-        bsdf_value, bsdf_pdf, bsdf_sample, bsdf_weight = bsdf.eval_pdf_sample(mi.BSDFContext(), si, wo, sample_1,
-                                                                              sample_2)
-        emitter_mis = dr.select(sampled.delta, 1.0, _mis_weight(sampled.pdf, bsdf_pdf))
-        result = dr.select(active_emitter, dr.fma(throughput, bsdf_value * emitter_weight * emitter_mis, result), result)
+        bsdf_value, bsdf_pdf, bsdf_sample, bsdf_weight = bsdf.eval_pdf_sample(context, si, wo, sample_1, sample_2)
+        emitter_mis = dr.select(sampled.delta, 1.0, _mis_weight(lights * sampled.pdf, bsdf_pdf))
+        direct += dr.select(active_emitter, bsdf_value * emitter_weight * emitter_mis, 0.0)
+        result = dr.fma(throughput, direct / lights if light_samples > 1 else direct, result)
         ray = si.spawn_ray(si.to_world(bsdf_sample.wo))
         throughput = throughput * bsdf_weight
         eta = eta * bsdf_sample.eta
@@ -120,13 +136,39 @@ class GuidedPath(mi.SamplingIntegrator):
         throughput = dr.select(roulette, throughput * dr.rcp(survival), throughput)
         active = active_next & (~roulette | survives) & (largest != 0)
         path = (result, throughput, eta, depth, valid, mi.Interaction3f(si), bsdf_sample.pdf,
-                mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Delta))
+                mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Delta), mi.Float(lights))
         return path, ray, scene.ray_intersect_preliminary(ray, False, False, 0, 0, active), active
 
+    @staticmethod
+    def _stratified(sampler, stratum: int, strata: float) -> mi.Point2f:
+        """The next 2D sample, its first coordinate in the ``stratum``-th of ``strata`` equal parts (the sample
+        itself for one stratum: ``path``'s draw)."""
+        sample = sampler.next_2d()
+        return sample if strata == 1 else mi.Point2f((stratum + sample.x) / strata, sample.y)
 
-def guided_twin(integrator: mi.SamplingIntegrator) -> GuidedPath | None:
-    """A :class:`GuidedPath` tracing what ``integrator`` does, or None where it cannot: anything but Mitsuba's plain
-    ``path`` (read from its description), or one that hides emitters."""
+    @dr.syntax
+    def _lights(self, scene, sampler, bsdf, si, light_samples: int, active: mi.Bool) -> mi.Spectrum:
+        """The sum of the first ``light_samples`` - 1 strata's emitter samples at ``si``, each weighed against the BSDF
+        sample as one of ``light_samples`` (the last stratum shares the BSDF's evaluation): one symbolic loop, so that a
+        kernel traced anew (a moving shape's) traces the BSDFs' calls once whatever the count."""
+        context, lights = mi.BSDFContext(), dr.opaque(mi.Float, float(light_samples))
+        direct, stratum = mi.Spectrum(0.0), mi.UInt32(0)
+        while dr.hint(stratum < light_samples - 1, label="light_samples", include=[sampler]):
+            sample = sampler.next_2d()
+            sample = mi.Point2f((mi.Float(stratum) + sample.x) / lights, sample.y)
+            sampled, emitter_weight = scene.sample_emitter_direction(si, sample, True, active)
+            taken = active & (sampled.pdf != 0)
+            value, pdf = bsdf.eval_pdf(context, si, si.to_local(sampled.d), taken)
+            mis = dr.select(sampled.delta, 1.0, _mis_weight(lights * sampled.pdf, pdf))
+            direct += dr.select(taken, value * emitter_weight * mis, 0.0)
+            stratum += 1
+        return direct
+
+
+def guided_twin(integrator: mi.SamplingIntegrator, light_samples: int = 1) -> GuidedPath | None:
+    """A :class:`GuidedPath` tracing what ``integrator`` does (with ``light_samples`` emitter samples at the first
+    hit), or None where it cannot: anything but Mitsuba's plain ``path`` (read from its description), or one that
+    hides emitters."""
     description = str(integrator)
     if not description.startswith("PathIntegrator[") or getattr(integrator, "hide_emitters", True):
         return None
@@ -136,12 +178,15 @@ def guided_twin(integrator: mi.SamplingIntegrator) -> GuidedPath | None:
     props = mi.Properties()
     props["max_depth"] = int(settings["max_depth"]) if int(settings["max_depth"]) < 2 ** 31 else -1
     props["rr_depth"] = int(settings["rr_depth"])
+    props["light_samples"] = light_samples
     return GuidedPath(props)
 
 
-def twin_of(scene: mi.Scene, integrator: mi.SamplingIntegrator) -> GuidedPath | None:
-    """:func:`guided_twin` of ``integrator``, made once per scene and integrator (the frozen kernels record it once)."""
+def twin_of(scene: mi.Scene, integrator: mi.SamplingIntegrator, light_samples: int = 1) -> GuidedPath | None:
+    """:func:`guided_twin` of ``integrator``, made once per scene, integrator and ``light_samples`` (the frozen kernels
+    record it once)."""
     twins = scene_state(scene).setdefault("guided_twins", {})
-    if id(integrator) not in twins:
-        twins[id(integrator)] = (integrator, guided_twin(integrator))  # the integrator held: its id stays its own
-    return twins[id(integrator)][1]
+    key = (id(integrator), light_samples)
+    if key not in twins:
+        twins[key] = (integrator, guided_twin(integrator, light_samples))  # the integrator held: its id stays its own
+    return twins[key][1]

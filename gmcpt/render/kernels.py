@@ -78,25 +78,33 @@ class FrozenKernel:
     def __init__(self, function: Callable):
         self.function = function
 
-    def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple]):
+    def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple], integrator: object = None):
         state, shapes = scene_state(scene), geometry_key(scene)
         recordings, seen = state.setdefault("recordings", {}), state.setdefault("geometry", {})
         moves = state.setdefault("moves", {})
         moved, seen[self] = self in seen and seen[self] != shapes, shapes
         if moved:
             # shapes moved since this kernel last ran: a replay would trace the old geometry (or freed memory)
-            recordings.pop(self, None)
+            for key in [key for key in recordings if key[0] is self]:
+                del recordings[key]
             moves[self] = moves.get(self, 0) + 1
         if moved or moves.get(self, 0) >= ANIMATED_MOVES:
             return self._plain(scene, arguments)
-        if self not in recordings:
-            recordings[self] = dr.freeze(self.function, **FREEZE_OPTIONS)
-        if recordings[self] is not None:
+        key = self.key(integrator)
+        if key not in recordings:
+            recordings[key] = dr.freeze(self.function, **FREEZE_OPTIONS)
+        if recordings[key] is not None:
             try:
-                return recordings[self](scene, *arguments())
+                return recordings[key](scene, *arguments())
             except RuntimeError:
-                recordings[self] = None
+                recordings[key] = None
         return self._plain(scene, arguments)
+
+    def key(self, integrator: object = None) -> tuple:
+        """The key of this kernel's recording for ``integrator`` among a scene's recordings: one for each integrator,
+        since Dr.Jit replays a recording for any integrator of the same layout (two
+        :class:`~gmcpt.render.guided_path.GuidedPath` with other light samples traced the first one's paths)."""
+        return self, id(integrator)
 
     def _plain(self, scene: mi.Scene, arguments: Callable[[], tuple]):
         outputs = self.function(scene, *arguments())
@@ -396,7 +404,7 @@ def _traced_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
     outputs = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
                                      dr.arange(mi.UInt32, pixels.size * spp), _lane_seeds(seed), spp,
                                      camera_key(sensor), zeros(5 + aovs, film_pixels if by_film else pixels.size),
-                                     *([zeros(4, 4 * film_pixels)] if quarters else [])))
+                                     *([zeros(4, 4 * film_pixels)] if quarters else [])), integrator)
     columns = [*outputs[0], *outputs[1]] if quarters else outputs
     return [np.asarray(column) for column in columns]
 

@@ -21,6 +21,9 @@ that moved is looked for where it was (:mod:`gmcpt.temporal.motion`). :meth:`Seq
 uninterrupted run gives.
 
 With no history (the first frame, after a cut), a frame is the budget's samples spread evenly, then OIDN.
+
+A sequence's paths take :data:`LIGHT_SAMPLES` emitter samples at their first hit where the scene's integrator is
+Mitsuba's plain ``path`` (:class:`~gmcpt.render.guided_path.GuidedPath`; the same image in expectation).
 """
 from __future__ import annotations
 
@@ -35,6 +38,7 @@ from ..errors import GmcptError
 from ..frame import DEFAULT_FEATURE_SPP, FrameInfo, SparseFrame
 from ..image.denoise import denoise_oidn
 from ..limits import SEED_LIMIT, check_seconds, check_seed
+from ..render.guided_path import twin_of
 from ..render.kernels import SampleSums, box_filter, render_native, render_native_quarters, sensor_film_size
 from ..render.scene import path_integrator, scene_sensor
 from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
@@ -76,6 +80,11 @@ CARRY_LIGHT_POWER = 2.0
 #: none at half a pixel: a Catmull-Rom read there blurs, and carried frame after frame the blur stays. At 4 samples a
 #: pixel that took 0.1-0.35 dB off the pans; at 1 and 2, where noise outweighs blur, the full carry is steadier.
 CARRY_FADE_BUDGET = 4.0
+#: Emitter samples at each path's first hit (:class:`~gmcpt.render.guided_path.GuidedPath`): nearly all of a sunlit
+#: pixel's noise is its direct light's choice of the sun or the sky, which history cannot average where the sun moves
+#: or an object uncovers; 8 over 4 bought the sunsky's room a fifth more speed (docs/experiments.md, sixty-third
+#: session).
+LIGHT_SAMPLES = 8
 #: Frames of up to this many pixels keep their samples by quarter of the pixel (16 floats a pixel: 4 MB at 256x256,
 #: 8 past frames and their Dr.Jit copies 70 MB; at 1920x1080 that would be 2 GB), which a moving camera's history
 #: reads (:mod:`gmcpt.temporal.reprojection`); larger ones, and frames traced by Mitsuba's film, are read by pixel.
@@ -96,6 +105,8 @@ class SequenceSettings:
         time, ``budget`` is the first frame's, and each later frame's is read from the pace of the ones before
         (:class:`FramePace`), and its path tracing stops at the frame's deadline (:meth:`FramePace.deadline`); the guides
         keep ``budget``'s rays, so a still surface keeps its signature.
+    light_samples : emitter samples at each path's first hit (1: Mitsuba's ``path`` to the bit); an integrator other
+        than a plain ``path`` traces as it is.
     """
 
     budget: float = 2.0
@@ -103,6 +114,7 @@ class SequenceSettings:
     history: int = HISTORY_FRAMES
     decay: float = HISTORY_DECAY
     time: float = 0.0
+    light_samples: int = LIGHT_SAMPLES
 
     def __post_init__(self):
         check_budget(self.budget)
@@ -112,6 +124,8 @@ class SequenceSettings:
         if not isinstance(self.history, int) or not 0 <= self.history <= 64:
             raise GmcptError(f"history must be a whole number of frames in [0, 64], got {self.history}")
         history_weights([1], self.decay)
+        if not isinstance(self.light_samples, int) or not 1 <= self.light_samples <= 64:
+            raise GmcptError(f"light samples must be a whole number in [1, 64], got {self.light_samples}")
 
     def frame_seed(self, index: int) -> int:
         return (self.seed + index * FRAME_SEED_STEP) % SEED_LIMIT
@@ -183,7 +197,7 @@ class SequenceRecord:
         past frames saw their surface but whose history was left out.
     dropped : the shares of pixels that lost a past frame's samples, a reason (:class:`DroppedShares`).
     carried_pixels : the share of pixels blended with the frame shown before (:data:`SHOWN_CARRY`).
-    guide_rays : the guides' rays a pixel.
+    guide_rays : the guides' rays a pixel. light_samples : the emitter samples each path took at its first hit.
     time_short : a timed sequence's: whether its time bought the fewest samples a frame spends
         (:data:`TIMED_BUDGETS`) or fewer; None: not timed.
     """
@@ -201,6 +215,7 @@ class SequenceRecord:
     carried_pixels: float
     nonfinite_samples: int
     guide_rays: int
+    light_samples: int = 1
     time_short: bool | None = None
 
     def to_json(self) -> dict:
@@ -212,6 +227,7 @@ class SequenceRecord:
                 "history_samples": self.history_samples, "history_dropped": self.history_dropped,
                 "dropped": self.dropped.to_json(), "carried_pixels": self.carried_pixels,
                 "nonfinite_samples": self.nonfinite_samples, "guide_rays": self.guide_rays,
+                "light_samples": self.light_samples,
                 **({"time_short": self.time_short} if self.time_short is not None else {})}
 
 
@@ -269,6 +285,8 @@ class SequenceRenderer:
         budget = self.pace.budget(settings.time, settings.budget) if settings.time else settings.budget
         sensor = sensor if sensor is not None else scene_sensor(scene)
         integrator = integrator if integrator is not None else path_integrator(scene)
+        tracer = (twin_of(scene, integrator, settings.light_samples) if settings.light_samples > 1 else None) \
+            or integrator
         height, width = sensor_film_size(sensor)
         pixels, seed, timings = height * width, settings.frame_seed(index), {}
 
@@ -299,7 +317,7 @@ class SequenceRenderer:
         start = time.perf_counter()
         sums = SampleSums(pixels, quarters=self._keeps_quarters(sensor, found.projection))
         slots = sorted(probes)
-        probed = dict(zip(slots, _trace(sums, (scene, sensor, integrator), counts, seed, deadline,
+        probed = dict(zip(slots, _trace(sums, (scene, sensor, tracer), counts, seed, deadline,
                                         timed=bool(settings.time), ahead=[probes[slot] for slot in slots])))
         history = self._probed(history, probes, probed, replayed, index, found.projection.matrix, (height, width))
         total, count = sums.total, sums.finite  # NaN/Inf samples left out
@@ -344,6 +362,7 @@ class SequenceRenderer:
                               history_dropped=float((history.offered & ~((history.count > 0) & agrees)).mean()),
                               dropped=dropped, carried_pixels=carried,
                               nonfinite_samples=int(sums.samples - count.sum()), guide_rays=guide_rays,
+                              light_samples=getattr(tracer, "light_samples", 1),
                               time_short=budget <= TIMED_BUDGETS[0] if settings.time else None)
         if settings.time:  # only a timed sequence reads its pace (what follows falls in the next frame's period)
             self.pace.record(started, time.perf_counter(), timings["render_s"], budget, settings.time, traced)
