@@ -167,3 +167,20 @@ def test_each_integrator_replays_its_own_recording(mi):
     traced = [trace_counts(scene, sensor, twin_of(scene, integrator, samples), counts, 5)[0] for samples in (8, 4, 8)]
     assert not np.array_equal(traced[0], traced[1])
     np.testing.assert_array_equal(traced[0], traced[2])
+
+
+def test_the_twin_without_features_is_one_loop_of_the_same_paths(mi):
+    """Without its AOVs the twin's first bounce is the loop's: ``path``'s image to the bit with one light sample, and
+    with eight the first-hit twin's samples to float rounding (the same draws in the same order)."""
+    from gmcpt.render import kernels
+    from gmcpt.render.guided_path import guided_twin
+
+    scene = _sun_and_sky(mi)
+    sensor, integrator = scene.sensors()[0], scene.integrator()
+    lean = guided_twin(integrator, 1, features=False)
+    assert lean.aov_names() == []
+    np.testing.assert_array_equal(kernels.render_native(scene, sensor, lean, 2, 5),
+                                  kernels.render_native(scene, sensor, integrator, 2, 5))
+    np.testing.assert_allclose(kernels.render_native(scene, sensor, guided_twin(integrator, 8, features=False), 2, 5),
+                               kernels.render_native(scene, sensor, guided_twin(integrator, 8), 2, 5), rtol=1e-5,
+                               atol=1e-6)

@@ -217,7 +217,7 @@ def light_path_oidn_run(scene, integrator, aov, spp: int) -> Run:
     from ..render.guided_path import twin_of
     from ..temporal.sequence import LIGHT_SAMPLES
 
-    tracer = twin_of(scene, integrator, LIGHT_SAMPLES) or integrator
+    tracer = twin_of(scene, integrator, LIGHT_SAMPLES, features=False) or integrator
     return Run("lightpath+oidn", spp, lambda frame, seed: path_oidn(scene, tracer, aov, spp, seed))
 
 

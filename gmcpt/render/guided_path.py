@@ -19,6 +19,9 @@ last bit of a float through ``mi.render``'s film, which develops more channels (
    * - ``light_samples``
      - emitter samples at the first hit (default 1: ``path``'s paths), stratified along the first coordinate (the one
        that picks the light, and the sun or the sky of a sunsky), weighed against the BSDF sample as that many
+   * - ``features``
+     - whether it returns the AOVs below (default true); without them every bounce is one loop's body, which a
+       kernel traced anew (a moving shape's) traces once
 
 With more light samples the first hit's direct light, which holds nearly all of a sunlit pixel's noise (one sample
 picks the sun or the sky, a sun or another light, and is worth twice the sun or nothing), is a mean of several, at
@@ -72,20 +75,25 @@ class GuidedPath(mi.SamplingIntegrator):
         self.light_samples = props.get("light_samples", 1)
         if not isinstance(self.light_samples, int) or self.light_samples < 1:
             raise ValueError(f"light_samples must be a whole number of at least 1, got {self.light_samples}")
+        self.features = props.get("features", True)
 
     def aov_names(self) -> list[str]:
-        return list(FEATURE_PLANES)
+        return list(FEATURE_PLANES) if self.features else []
 
-    @dr.syntax
     def sample(self, scene, sampler, ray, medium=None, active=True):
-        ray = mi.Ray3f(ray)
         # what path carries from bounce to bounce: radiance, throughput, eta, depth, whether the path counts, the
         # previous interaction, its BSDF sample's pdf, whether that was a delta lobe, its emitter samples
         path = (mi.Spectrum(0.0), mi.Spectrum(1.0), mi.Float(1.0), mi.UInt32(0),
                 mi.Bool(scene.environment() is not None), dr.zeros(mi.Interaction3f), mi.Float(1.0), mi.Bool(True),
                 mi.Float(1.0))
-        active = mi.Bool(active)
+        ray, active = mi.Ray3f(ray), mi.Bool(active)
         hit = scene.ray_intersect_preliminary(ray, True, False, 0, 0, active)
+        trace = self._guided if self.features else self._lean
+        return trace(scene, sampler, ray, hit, path, active)
+
+    @dr.syntax
+    def _guided(self, scene, sampler, ray, hit, path: tuple, active: mi.Bool) -> tuple:
+        """The paths from their first preliminary ``hit``, and the first hit's features."""
         # the first bounce before the loop, so that its full interaction gives the features too: read inside the
         # loop they cost a masked BSDF call at every bounce, and a second interaction of their own 2-5% of the paths
         si = hit.compute_surface_interaction(ray, mi.RayFlags.All, active)
@@ -98,10 +106,22 @@ class GuidedPath(mi.SamplingIntegrator):
         result, valid = path[0], path[4]
         return dr.select(valid, result, 0.0), valid, features
 
-    def _bounce(self, scene, sampler, path: tuple, si, bsdf, light_samples: int = 1) -> tuple:
+    @dr.syntax
+    def _lean(self, scene, sampler, ray, hit, path: tuple, active: mi.Bool) -> tuple:
+        """The paths from their first preliminary ``hit``, every bounce the loop's body (no features)."""
+        while dr.hint(active, max_iterations=-1, label="guided_path"):
+            si = hit.compute_surface_interaction(ray, mi.RayFlags.All)
+            first = path[3] == 0  # a missed first ray leaves the loop at once
+            path, ray, hit, active = self._bounce(scene, sampler, path, si, si.bsdf(ray),
+                                                  dr.select(first, mi.UInt32(self.light_samples), 1))
+        result, valid = path[0], path[4]
+        return dr.select(valid, result, 0.0), valid, []
+
+    def _bounce(self, scene, sampler, path: tuple, si, bsdf, light_samples: int | mi.UInt32 = 1) -> tuple:
         """One bounce of ``path`` at ``si`` (``bsdf``: its BSDF): the emission reached, emitter sampling
-        (``light_samples`` samples, stratified along the first coordinate), the BSDF sample, Russian roulette. Returns
-        (``path`` after it, the next ray, its preliminary hit, whether the path goes on)."""
+        (``light_samples`` samples, stratified along the first coordinate; a lane's own count where it is an array),
+        the BSDF sample, Russian roulette. Returns (``path`` after it, the next ray, its preliminary hit, whether the
+        path goes on)."""
         result, throughput, eta, depth, valid, prev_si, prev_pdf, prev_delta, prev_lights = path
         # emission reached by the previous bounce's BSDF sample, weighed against its emitter samples
         emitted = mi.DirectionSample3f(scene, si, prev_si)
@@ -111,18 +131,18 @@ class GuidedPath(mi.SamplingIntegrator):
         active_next = (depth + 1 < self.max_depth) & si.is_valid()
         # emitter sampling, then one BSDF evaluation and sample for both strategies
         active_emitter = active_next & mi.has_flag(bsdf.flags(), mi.BSDFFlags.Smooth)
-        context, lights = mi.BSDFContext(), float(light_samples)
-        direct = mi.Spectrum(0.0) if light_samples == 1 else \
-            self._lights(scene, sampler, bsdf, si, light_samples, active_emitter)
+        single = isinstance(light_samples, int) and light_samples == 1
+        context, lights = mi.BSDFContext(), mi.Float(light_samples)
+        direct = mi.Spectrum(0.0) if single else self._lights(scene, sampler, bsdf, si, light_samples, active_emitter)
         sampled, emitter_weight = scene.sample_emitter_direction(
-            si, self._stratified(sampler, light_samples - 1, lights), True, active_emitter)
+            si, self._stratified(sampler, light_samples - 1, lights, single), True, active_emitter)
         active_emitter &= sampled.pdf != 0
         wo = si.to_local(sampled.d)
         sample_1, sample_2 = sampler.next_1d(), sampler.next_2d()
         bsdf_value, bsdf_pdf, bsdf_sample, bsdf_weight = bsdf.eval_pdf_sample(context, si, wo, sample_1, sample_2)
         emitter_mis = dr.select(sampled.delta, 1.0, _mis_weight(lights * sampled.pdf, bsdf_pdf))
         direct += dr.select(active_emitter, bsdf_value * emitter_weight * emitter_mis, 0.0)
-        result = dr.fma(throughput, direct / lights if light_samples > 1 else direct, result)
+        result = dr.fma(throughput, direct if single else direct / lights, result)
         ray = si.spawn_ray(si.to_world(bsdf_sample.wo))
         throughput = throughput * bsdf_weight
         eta = eta * bsdf_sample.eta
@@ -136,26 +156,26 @@ class GuidedPath(mi.SamplingIntegrator):
         throughput = dr.select(roulette, throughput * dr.rcp(survival), throughput)
         active = active_next & (~roulette | survives) & (largest != 0)
         path = (result, throughput, eta, depth, valid, mi.Interaction3f(si), bsdf_sample.pdf,
-                mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Delta), mi.Float(lights))
+                mi.has_flag(bsdf_sample.sampled_type, mi.BSDFFlags.Delta), lights)
         return path, ray, scene.ray_intersect_preliminary(ray, False, False, 0, 0, active), active
 
     @staticmethod
-    def _stratified(sampler, stratum: int, strata: float) -> mi.Point2f:
-        """The next 2D sample, its first coordinate in the ``stratum``-th of ``strata`` equal parts (the sample
-        itself for one stratum: ``path``'s draw)."""
+    def _stratified(sampler, stratum, strata: mi.Float, single: bool) -> mi.Point2f:
+        """The next 2D sample, its first coordinate in the ``stratum``-th of ``strata`` equal parts (``single``: one
+        stratum, the sample itself: ``path``'s draw)."""
         sample = sampler.next_2d()
-        return sample if strata == 1 else mi.Point2f((stratum + sample.x) / strata, sample.y)
+        return sample if single else mi.Point2f((mi.Float(stratum) + sample.x) / strata, sample.y)
 
     @dr.syntax
-    def _lights(self, scene, sampler, bsdf, si, light_samples: int, active: mi.Bool) -> mi.Spectrum:
-        """The sum of the first ``light_samples`` - 1 strata's emitter samples at ``si``, each weighed against the BSDF
-        sample as one of ``light_samples`` (the last stratum shares the BSDF's evaluation): one symbolic loop, so that a
-        kernel traced anew (a moving shape's) traces the BSDFs' calls once whatever the count."""
-        context, lights = mi.BSDFContext(), dr.opaque(mi.Float, float(light_samples))
+    def _lights(self, scene, sampler, bsdf, si, light_samples, active: mi.Bool) -> mi.Spectrum:
+        """The sum of the first ``light_samples`` - 1 strata's emitter samples at ``si`` (a lane's own count where it
+        is an array), each weighed against the BSDF sample as one of ``light_samples`` (the last stratum shares the
+        BSDF's evaluation): one symbolic loop, so that a kernel traced anew (a moving shape's) traces the BSDFs' calls
+        once whatever the count."""
+        context, lights = mi.BSDFContext(), mi.Float(light_samples)
         direct, stratum = mi.Spectrum(0.0), mi.UInt32(0)
-        while dr.hint(stratum < light_samples - 1, label="light_samples", include=[sampler]):
-            sample = sampler.next_2d()
-            sample = mi.Point2f((mi.Float(stratum) + sample.x) / lights, sample.y)
+        while dr.hint(stratum + 1 < light_samples, label="light_samples", include=[sampler]):
+            sample = self._stratified(sampler, stratum, lights, False)
             sampled, emitter_weight = scene.sample_emitter_direction(si, sample, True, active)
             taken = active & (sampled.pdf != 0)
             value, pdf = bsdf.eval_pdf(context, si, si.to_local(sampled.d), taken)
@@ -165,10 +185,10 @@ class GuidedPath(mi.SamplingIntegrator):
         return direct
 
 
-def guided_twin(integrator: mi.SamplingIntegrator, light_samples: int = 1) -> GuidedPath | None:
+def guided_twin(integrator: mi.SamplingIntegrator, light_samples: int = 1, features: bool = True) -> GuidedPath | None:
     """A :class:`GuidedPath` tracing what ``integrator`` does (with ``light_samples`` emitter samples at the first
-    hit), or None where it cannot: anything but Mitsuba's plain ``path`` (read from its description), or one that
-    hides emitters."""
+    hit; ``features``: its AOVs), or None where it cannot: anything but Mitsuba's plain ``path`` (read from its
+    description), or one that hides emitters."""
     description = str(integrator)
     if not description.startswith("PathIntegrator[") or getattr(integrator, "hide_emitters", True):
         return None
@@ -179,14 +199,16 @@ def guided_twin(integrator: mi.SamplingIntegrator, light_samples: int = 1) -> Gu
     props["max_depth"] = int(settings["max_depth"]) if int(settings["max_depth"]) < 2 ** 31 else -1
     props["rr_depth"] = int(settings["rr_depth"])
     props["light_samples"] = light_samples
+    props["features"] = features
     return GuidedPath(props)
 
 
-def twin_of(scene: mi.Scene, integrator: mi.SamplingIntegrator, light_samples: int = 1) -> GuidedPath | None:
-    """:func:`guided_twin` of ``integrator``, made once per scene, integrator and ``light_samples`` (the frozen kernels
-    record it once)."""
+def twin_of(scene: mi.Scene, integrator: mi.SamplingIntegrator, light_samples: int = 1,
+            features: bool = True) -> GuidedPath | None:
+    """:func:`guided_twin` of ``integrator``, made once per scene, integrator and settings (the frozen kernels record
+    it once)."""
     twins = scene_state(scene).setdefault("guided_twins", {})
-    key = (id(integrator), light_samples)
-    if key not in twins:
-        twins[key] = (integrator, guided_twin(integrator, light_samples))  # the integrator held: its id stays its own
+    key = (id(integrator), light_samples, features)
+    if key not in twins:  # the integrator held: its id stays its own
+        twins[key] = (integrator, guided_twin(integrator, light_samples, features))
     return twins[key][1]

@@ -285,8 +285,8 @@ class SequenceRenderer:
         budget = self.pace.budget(settings.time, settings.budget) if settings.time else settings.budget
         sensor = sensor if sensor is not None else scene_sensor(scene)
         integrator = integrator if integrator is not None else path_integrator(scene)
-        tracer = (twin_of(scene, integrator, settings.light_samples) if settings.light_samples > 1 else None) \
-            or integrator
+        tracer = (twin_of(scene, integrator, settings.light_samples, features=False)
+                  if settings.light_samples > 1 else None) or integrator
         height, width = sensor_film_size(sensor)
         pixels, seed, timings = height * width, settings.frame_seed(index), {}
 
