@@ -68,6 +68,9 @@ def test_the_line_at_a_glance_gives_the_speedups_on_camera_and_on_scene_motion_a
                                                                      baseline="accumulation+oidn")])
     line = glance_line(against)
     assert "over accumulation + OIDN 0.90x on pans and dollies" in line and "1.20-1.90x on pans" in line
+    assert "light samples" not in line  # nor against per-frame path tracing with the sequence's light samples
+    lit = dict(SEQUENCES, verdicts=SEQUENCES["verdicts"] + [dict(_verdict("pan", 1.1, 1.2), baseline="lightpath+oidn")])
+    assert "with the sequence's light samples (its estimator alone) 1.10x on pans and dollies" in glance_line(lit)
     old = dict(SEQUENCES, settings={"res": 256, "motion": "pan"},
                verdicts=[{k: v for k, v in _verdict("pan", 1.6, 0.5).items() if k != "motion"}])
     assert "1.60x on pans and dollies (above" in glance_line(old) and "objects" not in glance_line(old)

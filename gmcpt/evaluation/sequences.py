@@ -138,11 +138,13 @@ def glance_line(sequences: dict) -> str:
 
     flicker = [v["flicker_ratio"] for v in verdicts if v["baseline"] == "path+oidn"
                and v.get("flicker_ratio") is not None and motion_of(v, settings) != "still"]
-    accumulation = spans("accumulation+oidn")
+    accumulation, light_paths = spans("accumulation+oidn"), spans("lightpath+oidn")
     return (f"**Sequences** (`benchmarks/sequence.py`, {len({v['scene'] for v in verdicts})} scenes at "
             f"{settings['res']}x{settings['res']}): the sequence mode's speed-up at equal quality over per-frame path "
             f"tracing + OIDN is {'; '.join(spans('path+oidn')) or 'not measured'} (above 1x it is faster)"
             + (f", its flicker {_span(flicker, '.2f')} of that baseline's at equal time" if flicker else "")
+            + (f"; over per-frame path tracing + OIDN with the sequence's light samples (its estimator alone) "
+               f"{'; '.join(light_paths)}" if light_paths else "")
             + (f"; over accumulation + OIDN {'; '.join(accumulation)}" if accumulation else "")
             + " (*Sequences* below).")
 
