@@ -586,3 +586,20 @@ def test_light_that_reaches_the_view_only_indirectly_is_seen_by_the_probes(mi, m
     _, blind = last_frame(scene, integrator)
     assert blind.info.dropped.gradient == 0
     assert frame.layers.radiance.mean() > blind.layers.radiance.mean() + 0.3 * before
+
+
+def test_a_path_scenes_sequence_takes_its_light_samples_and_another_integrator_traces_as_it_is(mi):
+    """A plain ``path`` is traced with :data:`LIGHT_SAMPLES` emitter samples at the first hit (the record says so),
+    another frame than with one; an integrator without a twin (``direct``) traces itself, one light sample."""
+    from gmcpt.errors import GmcptError
+    from gmcpt.temporal.sequence import LIGHT_SAMPLES
+
+    scene = _scene()
+    image, info, _ = _renderer().render(scene, 0)
+    assert LIGHT_SAMPLES > 1 and info.light_samples == LIGHT_SAMPLES
+    one, info, _ = _renderer(light_samples=1).render(scene, 0)
+    assert info.light_samples == 1 and not np.array_equal(image, one)
+    image, info, _ = _renderer().render(scene, 0, mi.load_dict({"type": "direct"}))
+    assert info.light_samples == 1 and np.isfinite(image).all()
+    with pytest.raises(GmcptError, match="light samples"):
+        _renderer(light_samples=0)
