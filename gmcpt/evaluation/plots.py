@@ -196,7 +196,7 @@ def sequence_plot(rows: list[dict], path: Path, settings: dict | None = None) ->
         top = ceiling(chosen)
         if top:
             axis.plot(*zip(*top), color=SEQUENCE_STYLE["path+oidn"][0], linestyle="--",
-                      label=f"ceiling ({CEILING_SAMPLES:g}x samples)")
+                      label=f"ceiling: path+oidn at {CEILING_SAMPLES:g}x samples")
         axis.set_xscale("log")
         axis.xaxis.set_minor_formatter(NullFormatter())
         axis.set_title(f"{scene}, {motion}", fontsize=9)
