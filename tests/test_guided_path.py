@@ -137,10 +137,7 @@ def test_more_light_samples_at_the_first_hit_keep_the_image_and_take_the_noise(m
 
     scene = _sun_and_sky(mi)
     sensor, integrator = scene.sensors()[0], scene.integrator()
-    twin = guided_twin(integrator)
-    props = mi.Properties()
-    props["max_depth"], props["rr_depth"], props["light_samples"] = -1, twin.rr_depth, 4
-    lit = type(twin)(props)
+    twin, lit = guided_twin(integrator), guided_twin(integrator, 4)
     np.testing.assert_array_equal(kernels.render_native(scene, sensor, twin, 2, 5),
                                   kernels.render_native(scene, sensor, integrator, 2, 5))
     frames = {name: np.stack([kernels.render_native(scene, sensor, tracer, 1, seed).mean(axis=1)
@@ -151,8 +148,7 @@ def test_more_light_samples_at_the_first_hit_keep_the_image_and_take_the_noise(m
     noise = {name: float(values.var(axis=0).mean()) for name, values in frames.items()}
     assert noise["four"] < 0.5 * noise["path"], noise
     with pytest.raises(ValueError, match="light_samples"):
-        props["light_samples"] = 0
-        type(twin)(props)
+        guided_twin(integrator, 0)
 
 
 def test_each_integrator_replays_its_own_recording(mi):
