@@ -43,6 +43,21 @@ def test_the_frame_shown_before_weighs_less_where_much_of_the_light_changed():
     assert CARRY_LIGHT_POWER > 0
 
 
+def test_a_pixel_whose_own_light_held_keeps_its_carry_where_much_of_the_light_changed():
+    """Where the probes saw a pixel's light hold, the frame-wide share of changed light does not take its carry; where
+    they saw it change, the frame-wide share still sets it."""
+    from gmcpt.temporal.sequence import CARRY_HELD_POWER, CARRY_LIGHT_POWER, SHOWN_CARRY
+
+    renderer = _renderer()
+    renderer.shown = (0, np.ones((2, 2, 3), np.float32))
+    film = np.full((4, 2), 1.0, np.float32)
+    held = np.array([1.0, 0.0, 0.9, 0.5], np.float32)
+    shown = renderer._carried(np.zeros((2, 2, 3), np.float32), film, np.ones(4, bool), 2.0, 0.5, held)[0]
+    expected = SHOWN_CARRY * np.maximum(0.5 ** CARRY_LIGHT_POWER, held ** CARRY_HELD_POWER)
+    np.testing.assert_allclose(shown.reshape(4, 3)[:, 0], expected, rtol=1e-6)
+    assert expected[0] == SHOWN_CARRY and expected[1] == SHOWN_CARRY * 0.5 ** CARRY_LIGHT_POWER
+
+
 @pytest.mark.parametrize("lights", [1, 2, 4])
 def test_each_light_gets_signature_samples_apart_in_both_coordinates(mi, lights):
     """Mitsuba picks the light by the sample's first coordinate and hands the light that coordinate stretched: a

@@ -14,9 +14,10 @@ kept, and showed the last frame's light (docs/experiments.md).
 :func:`changed_share` reads the probes' differences over a neighbourhood of blocks against the larger of each pair of
 samples: the share of the light that changed there, 0 where no path changed (the samples agree to the bit), 1 where a
 light went out. The history's weight is scaled by what stayed (1 - the share). The differences are taken unsigned: a
-light that moved brightens one bounce and darkens another nearby, and signed differences cancelled there; and the
-carry of the frame shown before is left as it is: scaled too, it added 3-35% to the flicker of a turning sky or sun
-(docs/experiments.md).
+light that moved brightens one bounce and darkens another nearby, and signed differences cancelled there. The carry
+of the frame shown before is not scaled by it (that added 3-35% to the flicker of a turning sky or sun), but a pixel
+whose light the probes saw hold keeps its carry where the frame-wide share of changed light would take it
+(:data:`gmcpt.temporal.sequence.CARRY_HELD_POWER`; docs/experiments.md).
 """
 from __future__ import annotations
 

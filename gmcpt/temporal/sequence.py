@@ -76,6 +76,11 @@ CARRY_FULL_BUDGET = 4.0
 #: ... times (1 - the share of pixels whose light changed) to this power: where a light moves, the light it brings
 #: to the rest changes too, unseen, and the image shown before is stale there (docs/experiments.md).
 CARRY_LIGHT_POWER = 2.0
+#: ... or, where the probes replayed (:mod:`gmcpt.temporal.gradient`), the share of a pixel's own light that held, to
+#: this power, where that is more: the frame-wide share holds the carry back over the whole film, and a pixel whose
+#: light the probes saw stay keeps its carry (the three light sequences' flicker 3-5% lower, their speed-ups within
+#: 0.04x; docs/experiments.md, sixty-fourth session).
+CARRY_HELD_POWER = 4.0
 #: From this budget the carry also falls with how far off a past pixel's centre the image shown before is read, to
 #: none at half a pixel: a Catmull-Rom read there blurs, and carried frame after frame the blur stays. At 4 samples a
 #: pixel that took 0.1-0.35 dB off the pans; at 1 and 2, where noise outweighs blur, the full carry is steadier.
@@ -168,15 +173,16 @@ class History:
     latest_film: np.ndarray  # (N, 2) where on that frame's film
     frames: int  # past frames used
     dropped: DroppedShares  # the shares of pixels that lost a past frame's samples, a reason (disagreement: 0 here)
+    light_held: np.ndarray | None = None  # (N,) the share of each pixel's light that held, as the probes saw it
 
     def scaled(self, keep: np.ndarray) -> History:
-        """This history with each pixel's samples weighted by ``keep`` (N,), what it left out recorded
-        (:attr:`DroppedShares.gradient`)."""
+        """This history with each pixel's samples weighted by ``keep`` (N,), the share of its light that held
+        (:attr:`light_held`), what it left out recorded (:attr:`DroppedShares.gradient`)."""
         keep = np.asarray(keep, self.count.dtype)
         count = self.count * keep
         before = float(self.count.sum(dtype=np.float64))
         left_out = 1.0 - float(count.sum(dtype=np.float64)) / before if before > 0 else 0.0
-        return replace(self, total=self.total * keep[:, None], count=count,
+        return replace(self, total=self.total * keep[:, None], count=count, light_held=keep,
                        dropped=replace(self.dropped, gradient=left_out))
 
 
@@ -342,7 +348,7 @@ class SequenceRenderer:
 
         start = time.perf_counter()
         shown, carried = self._carried(denoised, history.latest_film, history.latest_seen & agrees, budget,
-                                       history.dropped.lighting)
+                                       history.dropped.lighting, history.light_held)
         timings["carry_s"] = time.perf_counter() - start
 
         if settings.history:
@@ -453,18 +459,21 @@ class SequenceRenderer:
         return self._jit[id(past)][1]
 
     def _carried(self, denoised: np.ndarray, film: np.ndarray, where: np.ndarray, budget: float,
-                 light_changed: float) -> tuple[np.ndarray, float]:
+                 light_changed: float, light_held: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """(the image to show: ``denoised`` (H, W, 3) with some of the frame shown before (:data:`SHOWN_CARRY`, less
-        where ``light_changed`` of the pixels' light changed, and from :data:`CARRY_FADE_BUDGET` less where it is read
-        between its pixels), read along the motion at ``film`` (N, 2, its film coordinates) where ``where`` (N,) says
-        its surface was seen and its history held; the share of pixels blended)."""
+        where ``light_changed`` of the pixels' light changed, unless ``light_held`` (N,) says a pixel's own light held
+        (:data:`CARRY_HELD_POWER`), and from :data:`CARRY_FADE_BUDGET` less where it is read between its pixels), read
+        along the motion at ``film`` (N, 2, its film coordinates) where ``where`` (N,) says its surface was seen and its
+        history held; the share of pixels blended)."""
         height, width = denoised.shape[:2]
         # a point beyond the edge of the film shown before (held by its edge pixel) was not in that image
         where = where & (film[:, 0] >= 0) & (film[:, 0] <= width) & (film[:, 1] >= 0) & (film[:, 1] <= height)
         if self.shown is None or not where.any():
             return denoised, 0.0
-        carry = np.full(int(where.sum()), SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / budget)
-                        * (1.0 - light_changed) ** CARRY_LIGHT_POWER, np.float32)
+        held = np.full(int(where.sum()), (1.0 - light_changed) ** CARRY_LIGHT_POWER, np.float32)
+        if light_held is not None:
+            held = np.maximum(held, light_held[where].astype(np.float32) ** np.float32(CARRY_HELD_POWER))
+        carry = np.float32(SHOWN_CARRY * min(1.0, CARRY_FULL_BUDGET / budget)) * held
         if budget >= CARRY_FADE_BUDGET:
             off = film[where] - 0.5  # pixel centres at whole numbers
             off = np.abs(off - np.round(off)).max(axis=1)
