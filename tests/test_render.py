@@ -427,6 +427,37 @@ def test_an_animated_scene_runs_its_kernels_plainly_and_a_still_one_replays_them
         np.testing.assert_array_equal(np.asarray(column), np.asarray(expected))
 
 
+def test_a_moved_sphere_keeps_its_recording_and_replays_the_plain_functions_sums(mi):
+    """A shape other than a mesh (here a sphere, through its ``to_world``) that moved does not drop the recording:
+    the replay traces it where it is now, to the bit of the plain function, move after move."""
+    import drjit as dr
+
+    from gmcpt.render import held, kernels
+    from gmcpt.render.scene import load_scene
+
+    kernel = kernels.FrozenKernel(kernels._pixel_sums)
+    pixels = np.arange(0, 24 * 20, 2)
+    scene = load_scene(CORNELL, resolution=(24, 20))
+    path, parameters = scene.integrator().integrator, mi.traverse(scene)
+    key = "metal_sphere.to_world"
+    base = mi.ScalarTransform4f(np.array(parameters[key].matrix).reshape(4, 4))
+    arguments = _pixel_sums_arguments(mi, scene, path, pixels, 3)
+    recordings = held.scene_state(scene).setdefault("recordings", {})
+    first = None
+    for step in range(kernels.ANIMATED_MOVES + 2):
+        moved = mi.AffineTransform4f(mi.ScalarTransform4f().translate([0.06 * step, 0.0, -0.04 * step]) @ base)
+        dr.make_opaque(moved)
+        parameters[key] = moved
+        parameters.update()
+        sums = [np.asarray(column) for column in kernel(scene, arguments)]
+        assert kernel.key() in recordings
+        plain = kernels._pixel_sums(scene, *arguments())
+        for column, expected in zip(sums, plain):
+            np.testing.assert_array_equal(column, np.asarray(expected))
+        first = sums[0] if first is None else first
+    assert not np.array_equal(first, sums[0])  # the sphere moved in the image
+
+
 def test_the_frame_info_writes_the_sidecars_entries_in_their_order():
     """:meth:`gmcpt.frame.FrameInfo.to_json`: a budget's readings even where not read (null), a time budget's spent
     samples, ``two_pass``'s first pass, nothing a strategy did not record; an unknown field is refused."""
