@@ -235,6 +235,40 @@ def test_a_resumed_sequence_follows_a_moving_shape_as_an_uninterrupted_one(mi, t
     np.testing.assert_array_equal(frames(resumed, [3])[0], straight[3])
 
 
+def test_where_only_a_shape_moved_the_pixels_whose_light_changed_get_fresh_samples_first(mi):
+    """A still camera over a moving block: the probes' light held, kept for the next frame's placement, is under 1
+    where the block and its shadow moved and 1 elsewhere; those pixels read as thin history and get the boost. A light
+    switched brighter changes the light everywhere: nothing is kept (the probes' share is mostly noise there)."""
+    from gmcpt.temporal.sequence import FRESH_BOOST, _placed_history, _placement
+
+    scene = _scene()
+    parameters, key = mi.traverse(scene), "short_block.vertex_positions"
+    base = np.array(parameters[key]).reshape(-1, 3)
+    renderer = _renderer()
+    for index in range(3):
+        _move(mi, parameters, key, base, [-0.1 * index, 0.0, 0.0])
+        renderer.render(scene, index)
+    held = renderer.held
+    assert held is not None and held.min() < 0.5 < 0.9 < np.median(held) and held.max() == 1.0
+    history = np.full(held.size, 2.0)
+    counts = _placement(_placed_history(history, held), 2 * held.size, 2.0, SIZE[::-1], 0, np.ones(held.size, bool))
+    changed = held ** 2 * 2.0 < 0.5
+    assert changed.any() and counts[changed].min() >= 1 + round(FRESH_BOOST * 2)
+    assert counts[changed].mean() >= counts[~changed].mean() + 1 and counts.sum() == 2 * held.size
+    np.testing.assert_array_equal(_placed_history(history, None), history)
+
+    light = _scene()
+    lights = _renderer()
+    lights.render(light, 0)
+    lights.render(light, 1)
+    parameters = mi.traverse(light)
+    radiance = next(k for k in parameters.keys() if k.endswith("radiance.value") and "light" in k)
+    parameters[radiance] = parameters[radiance] * 8
+    parameters.update()
+    lights.render(light, 2)
+    assert lights.held is None
+
+
 def test_surface_pixels_without_history_get_more_fresh_samples_within_the_budget():
     from gmcpt.temporal.sequence import FRESH_BOOST, _placement
 

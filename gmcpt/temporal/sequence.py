@@ -66,6 +66,14 @@ FRESH_CAP = 1
 #: object, its shadow, a disocclusion) is where a sequence's frame is behind a frame on its own (docs/experiments.md).
 FRESH_THIN = 0.5
 FRESH_BOOST = 1.0
+#: Where less than this share of the pixels' light changed frame-wide (nothing but objects moved), the last frame's
+#: probes saw the moved objects' own pixels and shadows, and the light keeps changing there: the history there counts
+#: as (the share of its light that held)^:data:`HELD_PLACEMENT_POWER` when this frame's samples are placed, so those
+#: pixels get fresh samples first. Where a light moves, the probes' share is mostly the noise of paths that changed at
+#: random, and a boost spent the budget on it (the dining and living lights lost 7-11%; docs/experiments.md,
+#: sixty-fourth session).
+STEADY_LIGHT = 0.02
+HELD_PLACEMENT_POWER = 2.0
 #: The weight of the frame shown before in each shown frame (an exponential moving average along the motion), up
 #: to a budget of :data:`CARRY_FULL_BUDGET`, then falling as 1 / budget: at 1-2 samples a pixel 0.5 took a quarter
 #: to a third off the flicker at -0.07 to +0.3 dB. At 4, 0.5 against 0.25 takes 3-12% more off the flicker and
@@ -275,6 +283,7 @@ class SequenceRenderer:
         self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
         self.light_changed = 0.0  # the share of the last frame's pixels whose light changed (DroppedShares.lighting)
         self.probe: Probe | None = None  # the last frame's probe (:mod:`gmcpt.temporal.gradient`)
+        self.held: np.ndarray | None = None  # (N,) the light held at each pixel in the last frame (STEADY_LIGHT)
         self.poses = ShapePoses()  # the meshes that moved (:mod:`gmcpt.temporal.motion`)
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
@@ -312,7 +321,7 @@ class SequenceRenderer:
         if deadline is not None:  # what the frame's first part left of its time: the samples it places are those
             budget = min(budget, self.pace.budget_until(deadline, start))
         samples = int(round(budget * pixels))
-        counts = _placement(history.count, samples, budget, (height, width), seed,
+        counts = _placement(_placed_history(history.count, self.held), samples, budget, (height, width), seed,
                             np.isfinite(found.positions[:, 0]))
         probes, replayed = self._probes(index, found.projection.matrix, (height, width), seed, history) \
             if settings.history and not settings.time else ({}, None)
@@ -326,6 +335,7 @@ class SequenceRenderer:
         probed = dict(zip(slots, _trace(sums, (scene, sensor, tracer), counts, seed, deadline,
                                         timed=bool(settings.time), ahead=[probes[slot] for slot in slots])))
         history = self._probed(history, probes, probed, replayed, index, found.projection.matrix, (height, width))
+        self.held = history.light_held if history.dropped.lighting < STEADY_LIGHT else None
         total, count = sums.total, sums.finite  # NaN/Inf samples left out
         traced = time.perf_counter()
         timings["render_s"] = traced - start
@@ -500,6 +510,8 @@ class SequenceRenderer:
         if self.shown is not None:
             state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
         state["light_changed"] = np.array(self.light_changed)
+        if self.held is not None:
+            state["held"] = self.held
         state.update(self.poses.state())
         if self.probe is not None:
             probe = self.probe
@@ -528,6 +540,7 @@ class SequenceRenderer:
         self.poses.restore(state, (self.past[-1].poses or {}) if self.past else {})
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
         self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
+        self.held = state["held"] if "held" in state else None
         self.probe = Probe(int(state["probe_index"]), int(state["probe_seed"]), state["probe_pixels"],
                            state["probe_values"], state["probe_matrix"],
                            tuple(int(value) for value in state["probe_shape"]),
@@ -644,6 +657,14 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
                            stream(seed, SEQUENCE_PASS_SEED_OFFSET + passes)).ravel()
         sums.trace_counts(scene, sensor, integrator, chosen, stream(seed, SEQUENCE_PASS_SEED_OFFSET + passes))
     return probed
+
+
+def _placed_history(history_count: np.ndarray, held: np.ndarray | None) -> np.ndarray:
+    """The history's counts (N,) as the placement reads them: times the share of each pixel's light that held in
+    the frame before, to :data:`HELD_PLACEMENT_POWER`, where that frame saw only objects move (``held``, else None)."""
+    if held is None or held.size != history_count.size:
+        return history_count
+    return history_count * held.astype(history_count.dtype) ** HELD_PLACEMENT_POWER
 
 
 def _placement(history_count: np.ndarray, samples: int, budget: float, shape: tuple[int, int], seed: int,
