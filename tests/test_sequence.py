@@ -150,6 +150,18 @@ def _move(mi, parameters, key, base, offset):
     parameters.update()
 
 
+def _moving_block(mi, renderer, scene, indices, step: float = -0.1) -> list:
+    """Frames ``indices`` of ``scene`` (the Cornell box) rendered by ``renderer``, its short block moved ``step`` along
+    x a frame from where the scene has it; their images."""
+    parameters, key = mi.traverse(scene), "short_block.vertex_positions"
+    base = np.array(parameters[key]).reshape(-1, 3)
+    images = []
+    for index in indices:
+        _move(mi, parameters, key, base, [step * index, 0.0, 0.0])
+        images.append(renderer.render(scene, index)[0])
+    return images
+
+
 def test_a_moving_shapes_old_shadow_is_gone_within_one_frame(mi):
     from gmcpt.render.kernels import render_native
     from gmcpt.render.scene import path_integrator
@@ -196,12 +208,8 @@ def test_a_moving_shape_takes_its_history_from_where_it_was(mi, monkeypatch):
     def kept() -> float:
         """The share of the block's pixels with history on the last frame."""
         scene = load_scene(CORNELL, resolution=(96, 80))
-        parameters, key = mi.traverse(scene), "short_block.vertex_positions"
-        base = np.array(parameters[key]).reshape(-1, 3)
         renderer = _renderer()
-        for index in range(4):
-            _move(mi, parameters, key, base, [-0.15 * index, 0.0, 0.0])
-            renderer.render(scene, index)
+        _moving_block(mi, renderer, scene, range(4), -0.15)
         registry = sequence.survey(scene, scene.sensors()[0]).shapes
         block = [place for place, shape in enumerate(scene.shapes()) if shape.id() == "short_block"][0]
         on_block = sequence._moved_lanes(scene, registry, {block: np.eye(4)})[block]
@@ -215,14 +223,7 @@ def test_a_moving_shape_takes_its_history_from_where_it_was(mi, monkeypatch):
 
 def test_a_resumed_sequence_follows_a_moving_shape_as_an_uninterrupted_one(mi, tmp_path):
     def frames(renderer, indices):
-        scene = _scene()
-        parameters, key = mi.traverse(scene), "short_block.vertex_positions"
-        base = np.array(parameters[key]).reshape(-1, 3)
-        images = []
-        for index in indices:
-            _move(mi, parameters, key, base, [-0.1 * index, 0.0, 0.0])
-            images.append(renderer.render(scene, index)[0])
-        return images
+        return _moving_block(mi, renderer, _scene(), indices)
 
     straight = frames(_renderer(), range(4))
     first = _renderer()
@@ -241,13 +242,8 @@ def test_where_only_a_shape_moved_the_pixels_whose_light_changed_get_fresh_sampl
     switched brighter changes the light everywhere: nothing is kept (the probes' share is mostly noise there)."""
     from gmcpt.temporal.sequence import FRESH_BOOST, _placed_history, _placement
 
-    scene = _scene()
-    parameters, key = mi.traverse(scene), "short_block.vertex_positions"
-    base = np.array(parameters[key]).reshape(-1, 3)
     renderer = _renderer()
-    for index in range(3):
-        _move(mi, parameters, key, base, [-0.1 * index, 0.0, 0.0])
-        renderer.render(scene, index)
+    _moving_block(mi, renderer, _scene(), range(3))
     held = renderer.held
     assert held is not None and held.min() < 0.5 < 0.9 < np.median(held) and held.max() == 1.0
     history = np.full(held.size, 2.0)
