@@ -458,6 +458,41 @@ def test_a_moved_sphere_keeps_its_recording_and_replays_the_plain_functions_sums
     assert not np.array_equal(first, sums[0])  # the sphere moved in the image
 
 
+def test_a_mesh_moved_inside_a_shape_group_drops_the_recording(mi):
+    """An instance's shapes are not among ``scene.shapes()``: a mesh of a shape group moved through ``mi.traverse``
+    still drops the kernel's recording, and the kernel traces it where it is now."""
+    from gmcpt.render import held, kernels
+
+    transform = mi.ScalarTransform4f
+    scene = mi.load_dict({
+        "type": "scene",
+        "sensor": {"type": "perspective", "to_world": transform().look_at(origin=[0, 1, 4], target=[0, 0, 0],
+                                                                          up=[0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": 24, "height": 20, "rfilter": {"type": "box"}}},
+        "sky": {"type": "constant"},
+        "group": {"type": "shapegroup", "box": {"type": "cube", "to_world": transform().scale(0.5)}},
+        "placed": {"type": "instance", "shapegroup": {"type": "ref", "id": "group"}},
+        "floor": {"type": "rectangle", "to_world": transform().translate([0, -0.5, 0]).rotate([1, 0, 0], -90).scale(3)},
+    })
+    kernel = kernels.FrozenKernel(kernels._pixel_sums)
+    path = mi.load_dict({"type": "path", "max_depth": 4})
+    arguments = _pixel_sums_arguments(mi, scene, path, np.arange(24 * 20), 3)
+    recordings = held.scene_state(scene).setdefault("recordings", {})
+    for _ in range(2):
+        before = [np.asarray(column) for column in kernel(scene, arguments)]
+    assert kernel.key() in recordings
+    parameters = mi.traverse(scene)
+    parameters["group.box.vertex_positions"] = mi.Float(np.array(parameters["group.box.vertex_positions"])
+                                                        + np.float32(0.4))
+    parameters.update()
+    after = [np.asarray(column) for column in kernel(scene, arguments)]
+    assert kernel.key() not in recordings  # dropped, as a mesh's move drops it (a mesh's replay can be stale)
+    plain = kernels._pixel_sums(scene, *arguments())
+    for column, expected in zip(after, plain):
+        np.testing.assert_array_equal(column, np.asarray(expected))
+    assert not np.array_equal(after[0], before[0])
+
+
 def test_the_frame_info_writes_the_sidecars_entries_in_their_order():
     """:meth:`gmcpt.frame.FrameInfo.to_json`: a budget's readings even where not read (null), a time budget's spent
     samples, ``two_pass``'s first pass, nothing a strategy did not record; an unknown field is refused."""

@@ -119,7 +119,18 @@ def geometry_key(scene: mi.Scene) -> tuple:
     input, still wrong sums at some frames and right ones at others). A sphere, cylinder, disk or instance that moved
     (its ``to_world``, opaque or not) replays to the bit what the plain function traces (docs/experiments.md,
     sixty-fourth session), so it keeps its recordings: a light on a sphere that turns, as the breakfast room's sun."""
-    return tuple(shape.vertex_positions_buffer().index for shape in scene.shapes() if shape.is_mesh())
+    return tuple(mesh.vertex_positions_buffer().index for mesh in _meshes(scene))
+
+
+def _meshes(scene: mi.Scene) -> list:
+    """The meshes of ``scene``, those inside its shape groups too (an instance's shapes are not among
+    ``scene.shapes()``, and a mesh moved inside a group replayed stale geometry), found once a scene."""
+    state = scene_state(scene)
+    if "meshes" not in state:
+        nested = [owner for key, (_, _, owner, _) in mi.traverse(scene).properties.items()
+                  if key.endswith("vertex_positions") and isinstance(owner, mi.Mesh)]
+        state["meshes"] = [shape for shape in scene.shapes() if shape.is_mesh()] + nested
+    return state["meshes"]
 
 
 def pass_seed(seed: int, index: int, passes: int) -> int:
