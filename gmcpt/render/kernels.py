@@ -123,13 +123,15 @@ def geometry_key(scene: mi.Scene) -> tuple:
 
 
 def _meshes(scene: mi.Scene) -> list:
-    """The meshes of ``scene``, those inside its shape groups too (an instance's shapes are not among
+    """The meshes of ``scene``, each once, those inside its shape groups too (an instance's shapes are not among
     ``scene.shapes()``, and a mesh moved inside a group replayed stale geometry), found once a scene."""
     state = scene_state(scene)
     if "meshes" not in state:
-        nested = [owner for key, (_, _, owner, _) in mi.traverse(scene).properties.items()
-                  if key.endswith("vertex_positions") and isinstance(owner, mi.Mesh)]
-        state["meshes"] = [shape for shape in scene.shapes() if shape.is_mesh()] + nested
+        meshes = [shape for shape in scene.shapes() if shape.is_mesh()]
+        # mi.traverse also lists the top-level meshes whose vertices it exposes: the same objects
+        meshes += [owner for key, (_, _, owner, _) in mi.traverse(scene).properties.items()
+                   if key.endswith("vertex_positions") and not any(owner is mesh for mesh in meshes)]
+        state["meshes"] = meshes
     return state["meshes"]
 
 
