@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from gmcpt.temporal.gradient import GRADIENT_RADIUS, STRATUM, Probe, changed_share, probe_pixels
+from gmcpt.temporal.gradient import GRADIENT_RADIUS, STRATUM, Probe, changed_share, coherent_share, probe_pixels
 
 SHAPE = (31, 40)  # a row and a column past the last whole block
 
@@ -37,6 +37,24 @@ def test_no_change_reads_zero_and_a_light_halved_in_one_corner_reads_a_half_ther
     np.testing.assert_allclose(changed_share(before, after, SHAPE).reshape(SHAPE)[0, 0], 0.5, atol=1e-6)
     switched = changed_share(before, np.zeros_like(before), SHAPE)
     np.testing.assert_allclose(switched, 1.0)  # a light switched off: all of it changed
+
+
+def test_the_coherent_share_reads_a_light_dimmed_one_way_and_not_shadow_rays_that_flipped_at_random():
+    """Paths whose shadow ray flipped either way (a light that moved, the same random numbers) read as much change
+    unsigned as a light dimmed by half; signed, less their noise, they read next to none, and the dimming still reads."""
+    rows, columns = SHAPE[0] // STRATUM, SHAPE[1] // STRATUM
+    rng = np.random.default_rng(1)
+    before = rng.exponential(1.0, (rows * columns, 3)).astype(np.float32)
+    flipped = np.where(rng.random((rows * columns, 1)) < 0.5, 0.5, 1.5).astype(np.float32)
+    assert changed_share(before, before * flipped, SHAPE).mean() > 0.3
+    assert coherent_share(before, before * flipped, SHAPE).mean() < 0.05
+    assert not coherent_share(before, before.copy(), SHAPE).any()
+    after = before.copy().reshape(rows, columns, 3)
+    after[:4, :4] *= 0.5
+    share = coherent_share(before, after.reshape(-1, 3), SHAPE).reshape(SHAPE)
+    assert 0.3 < share[0, 0] < 0.5  # half of it changed, less the noise a sum of few probes could hold
+    far = (4 + GRADIENT_RADIUS) * STRATUM
+    assert not share[far:, :].any() and not share[:, far:].any()
 
 
 def test_a_probe_replays_in_the_next_frame_of_a_camera_that_stayed_only():

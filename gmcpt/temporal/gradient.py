@@ -18,6 +18,12 @@ light that moved brightens one bounce and darkens another nearby, and signed dif
 of the frame shown before is not scaled by it (that added 3-35% to the flicker of a turning sky or sun), but a pixel
 whose light the probes saw hold keeps its carry where the frame-wide share of changed light would take it
 (:data:`gmcpt.temporal.sequence.CARRY_HELD_POWER`; docs/experiments.md).
+
+:func:`coherent_share` reads the same differences signed, less their noise: under a light that moved, the same random
+numbers are another sample wherever a shadow ray's answer flips, and the unsigned share reads path noise as change (a
+third of the living room's pixels under its moving lamp). Noise flips both ways and its sum grows as the root of the
+probes' count; a shadow's edge or a sun patch that moved changes its neighbourhood one way. The placement reads it to
+give the pixels whose light keeps changing fresh samples first (:data:`gmcpt.temporal.sequence.LIGHT_PLACEMENT_POWER`).
 """
 from __future__ import annotations
 
@@ -33,6 +39,9 @@ STRATUM = 3
 #: Blocks either side of a block whose probes' differences are pooled: 5x5 blocks, 15x15 pixels (the agreement
 #: test's neighbourhood; docs/experiments.md).
 GRADIENT_RADIUS = 2
+#: :func:`coherent_share` counts what the probes' signed sum holds beyond this many times its noise (1.5 left the
+#: breakfast room's sun patch a ghost of -0.5 dB; docs/experiments.md, sixty-fifth session).
+NOISE_MARGIN = 1.0
 
 
 @dataclass(frozen=True)
@@ -86,6 +95,22 @@ def changed_share(before: np.ndarray, after: np.ndarray, shape: tuple[int, int])
     probe's samples ``before`` and their replay ``after`` (K, 3) each: over the :data:`GRADIENT_RADIUS` blocks around
     a pixel's block, the sum of the luminance differences' sizes over the sum of the larger luminance of each pair.
     Pixels past the last whole block read the nearest one's; a pair with a non-finite sample counts as no probe."""
+    return _share(before, after, shape, lambda differences: box_sum(np.abs(differences), GRADIENT_RADIUS))
+
+
+def coherent_share(before: np.ndarray, after: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """As :func:`changed_share`, but the changed light over the blocks around a pixel's block is the size of the
+    differences' signed sum less :data:`NOISE_MARGIN` x the root of their squares' sum (at least 0): what changed one
+    way there, beyond the paths that changed at random."""
+    def changed(differences: np.ndarray) -> np.ndarray:
+        noise = np.sqrt(np.maximum(box_sum(differences * differences, GRADIENT_RADIUS), 0.0))  # the table's rounding
+        return np.maximum(np.abs(box_sum(differences, GRADIENT_RADIUS)) - NOISE_MARGIN * noise, 0.0)
+    return _share(before, after, shape, changed)
+
+
+def _share(before: np.ndarray, after: np.ndarray, shape: tuple[int, int], changed) -> np.ndarray:
+    """``changed`` (of the blocks' luminance differences, (rows, columns)) over the pooled larger luminances, by
+    pixel (:func:`changed_share`)."""
     height, width = shape
     rows, columns = height // STRATUM, width // STRATUM
     if not rows or not columns:
@@ -93,10 +118,9 @@ def changed_share(before: np.ndarray, after: np.ndarray, shape: tuple[int, int])
     valid = np.isfinite(before).all(axis=1) & np.isfinite(after).all(axis=1)
     old = np.where(valid, np.maximum(np.nan_to_num(before).mean(axis=1), 0.0), 0.0)
     new = np.where(valid, np.maximum(np.nan_to_num(after).mean(axis=1), 0.0), 0.0)
-    changed = box_sum(np.abs(new - old).reshape(rows, columns).astype(np.float64), GRADIENT_RADIUS)
+    difference = changed((new - old).reshape(rows, columns).astype(np.float64))
     larger = box_sum(np.maximum(new, old).reshape(rows, columns).astype(np.float64), GRADIENT_RADIUS)
-    share = np.where(larger > 0, changed / np.where(larger > 0, larger, 1.0), 0.0)
+    share = np.where(larger > 0, difference / np.where(larger > 0, larger, 1.0), 0.0)
     row = np.minimum(np.arange(height) // STRATUM, rows - 1)
     column = np.minimum(np.arange(width) // STRATUM, columns - 1)
     return np.clip(share[row[:, None], column[None, :]], 0.0, 1.0).astype(np.float32).ravel()
-

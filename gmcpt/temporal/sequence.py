@@ -45,7 +45,7 @@ from ..sampling.budget import MAX_BUDGET, check_budget, even_fill, guide_spp
 from ..sampling.masks import DEFAULT_RATE
 from ..seeds import (FRAME_SEED_STEP, SEQUENCE_PASS_SEED_OFFSET, SEQUENCE_PROBE_SEED_OFFSET,
                      SEQUENCE_TOP_UP_SEED_OFFSET, stream)
-from .gradient import Probe, changed_share, probe_pixels, same_camera
+from .gradient import Probe, changed_share, coherent_share, probe_pixels, same_camera
 from .history import (LIGHTING_FLOOR, SHIFT_SEEN, PastFrame, Projection, Signature, agreement, history_weights,
                       signature)
 from .motion import ShapePoses, points_then, shape_keys
@@ -69,11 +69,15 @@ FRESH_BOOST = 1.0
 #: Where less than this share of the pixels' light changed frame-wide (nothing but objects moved), the last frame's
 #: probes saw the moved objects' own pixels and shadows, and the light keeps changing there: the history there counts
 #: as (the share of its light that held)^:data:`HELD_PLACEMENT_POWER` when this frame's samples are placed, so those
-#: pixels get fresh samples first. Where a light moves, the probes' share is mostly the noise of paths that changed at
-#: random, and a boost spent the budget on it (the dining and living lights lost 7-11%; docs/experiments.md,
-#: sixty-fourth session).
+#: pixels get fresh samples first.
 STEADY_LIGHT = 0.02
 HELD_PLACEMENT_POWER = 2.0
+#: Where a light moved, the probes' unsigned share is mostly the noise of paths that changed at random (a boost from
+#: it cost the dining and living lights 7-11%), so the placement reads what changed one way instead
+#: (:func:`~gmcpt.temporal.gradient.coherent_share`): the history counts as (1 - that share)^this. It took the breakfast
+#: room's turning sun from a ghost of -0.6 dB to -0.1 on three seeds, at 1.75 -> 1.9x, the other lights within 1-5%
+#: (docs/experiments.md, sixty-fifth session).
+LIGHT_PLACEMENT_POWER = 16.0
 #: The weight of the frame shown before in each shown frame (an exponential moving average along the motion), up
 #: to a budget of :data:`CARRY_FULL_BUDGET`, then falling as 1 / budget: at 1-2 samples a pixel 0.5 took a quarter
 #: to a third off the flicker at -0.07 to +0.3 dB. At 4, 0.5 against 0.25 takes 3-12% more off the flicker and
@@ -283,7 +287,7 @@ class SequenceRenderer:
         self.pace = FramePace()  # what the frames so far cost: a timed sequence's budgets
         self.light_changed = 0.0  # the share of the last frame's pixels whose light changed (DroppedShares.lighting)
         self.probe: Probe | None = None  # the last frame's probe (:mod:`gmcpt.temporal.gradient`)
-        self.held: np.ndarray | None = None  # (N,) the light held at each pixel in the last frame (STEADY_LIGHT)
+        self.placing: np.ndarray | None = None  # (N,) what the next placement weighs the history's counts by
         self.poses = ShapePoses()  # the meshes that moved (:mod:`gmcpt.temporal.motion`)
 
     def render(self, scene: mi.Scene, index: int, integrator: mi.SamplingIntegrator | None = None,
@@ -321,7 +325,7 @@ class SequenceRenderer:
         if deadline is not None:  # what the frame's first part left of its time: the samples it places are those
             budget = min(budget, self.pace.budget_until(deadline, start))
         samples = int(round(budget * pixels))
-        counts = _placement(_placed_history(history.count, self.held), samples, budget, (height, width), seed,
+        counts = _placement(_placed_history(history.count, self.placing), samples, budget, (height, width), seed,
                             np.isfinite(found.positions[:, 0]))
         probes, replayed = self._probes(index, found.projection.matrix, (height, width), seed, history) \
             if settings.history and not settings.time else ({}, None)
@@ -335,7 +339,6 @@ class SequenceRenderer:
         probed = dict(zip(slots, _trace(sums, (scene, sensor, tracer), counts, seed, deadline,
                                         timed=bool(settings.time), ahead=[probes[slot] for slot in slots])))
         history = self._probed(history, probes, probed, replayed, index, found.projection.matrix, (height, width))
-        self.held = history.light_held if history.dropped.lighting < STEADY_LIGHT else None
         total, count = sums.total, sums.finite  # NaN/Inf samples left out
         traced = time.perf_counter()
         timings["render_s"] = traced - start
@@ -444,14 +447,18 @@ class SequenceRenderer:
     def _probed(self, history: History, probes: dict, probed: dict, replayed: Probe | None, index: int,
                 matrix: np.ndarray, shape: tuple[int, int]) -> History:
         """``history`` weighed by the share of the light that did not change, where the last frame's probe
-        ``replayed`` was traced again (``probed``: each slot's samples); this frame's probe kept for the next."""
+        ``replayed`` was traced again (``probed``: each slot's samples); this frame's probe kept for the next, and
+        what the next placement weighs the history by (:func:`_placing`)."""
         own = [slot for slot in probes if replayed is None or slot != replayed.slot]
         if own:
             pixels, probe_seed = probes[own[0]]
             self.probe = Probe(index, probe_seed, pixels, probed[own[0]], matrix, shape, own[0])
         if replayed is None:
+            self.placing = None
             return history
-        return history.scaled(1.0 - changed_share(replayed.values, probed[replayed.slot], shape))
+        history = history.scaled(1.0 - changed_share(replayed.values, probed[replayed.slot], shape))
+        self.placing = _placing(history, replayed.values, probed[replayed.slot], shape)
+        return history
 
     @property
     def decay(self) -> float:
@@ -510,8 +517,8 @@ class SequenceRenderer:
         if self.shown is not None:
             state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
         state["light_changed"] = np.array(self.light_changed)
-        if self.held is not None:
-            state["held"] = self.held
+        if self.placing is not None:
+            state["placing"] = self.placing
         state.update(self.poses.state())
         if self.probe is not None:
             probe = self.probe
@@ -540,7 +547,7 @@ class SequenceRenderer:
         self.poses.restore(state, (self.past[-1].poses or {}) if self.past else {})
         self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
         self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
-        self.held = state["held"] if "held" in state else None
+        self.placing = state["placing"] if "placing" in state else None
         self.probe = Probe(int(state["probe_index"]), int(state["probe_seed"]), state["probe_pixels"],
                            state["probe_values"], state["probe_matrix"],
                            tuple(int(value) for value in state["probe_shape"]),
@@ -659,12 +666,22 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
     return probed
 
 
-def _placed_history(history_count: np.ndarray, held: np.ndarray | None) -> np.ndarray:
-    """The history's counts (N,) as the placement reads them: times the share of each pixel's light that held in
-    the frame before, to :data:`HELD_PLACEMENT_POWER`, where that frame saw only objects move (``held``, else None)."""
-    if held is None or held.size != history_count.size:
+def _placing(history: History, before: np.ndarray, after: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """What the next frame's placement weighs ``history``'s counts by (N,), from its probe's samples ``before`` and
+    their replay ``after``: where only objects moved (:data:`STEADY_LIGHT`) the share of each pixel's light that held
+    (``history.light_held``), where a light changed 1 - the share that changed one way (:func:`coherent_share`), to
+    their powers; so the pixels whose light keeps changing read as thin history and get fresh samples first."""
+    if history.dropped.lighting < STEADY_LIGHT:
+        return history.light_held ** np.float32(HELD_PLACEMENT_POWER)
+    return (1.0 - coherent_share(before, after, shape)) ** np.float32(LIGHT_PLACEMENT_POWER)
+
+
+def _placed_history(history_count: np.ndarray, placing: np.ndarray | None) -> np.ndarray:
+    """The history's counts (N,) as the placement reads them: times ``placing`` (:func:`_placing`; None: as they
+    are)."""
+    if placing is None or placing.size != history_count.size:
         return history_count
-    return history_count * held.astype(history_count.dtype) ** HELD_PLACEMENT_POWER
+    return history_count * placing.astype(history_count.dtype)
 
 
 def _placement(history_count: np.ndarray, samples: int, budget: float, shape: tuple[int, int], seed: int,
