@@ -308,6 +308,14 @@ def test_a_light_switched_off_or_on_drops_its_history(mi):
     assert info.history_decay < 0.5 * renderer.settings.decay
 
 
+def test_history_whose_light_changed_decays_faster_the_more_samples_a_frame_traces():
+    """The more samples a frame traces, the less their noise hides the staleness of older frames' light."""
+    few, many = _renderer(budget=1), _renderer(budget=4)
+    assert few.decay == many.decay == few.settings.decay  # no light changed: the settings' decay
+    few.light_changed = many.light_changed = 0.3
+    assert many.decay < few.decay < few.settings.decay
+
+
 def test_the_jit_gather_keeps_what_the_numpy_tests_keep_and_edges_a_neighbour_s(mi):
     from gmcpt.temporal.reprojection import gather_history, jit_frame
     from gmcpt.temporal.history import DEPTH_TOLERANCE, matches, surfaces, unchanged

@@ -78,6 +78,11 @@ HELD_PLACEMENT_POWER = 2.0
 #: room's turning sun from a ghost of -0.6 dB to -0.1 on three seeds, at 1.75 -> 1.9x, the other lights within 1-5%
 #: (docs/experiments.md, sixty-fifth session).
 LIGHT_PLACEMENT_POWER = 16.0
+#: The history's decay falls with the share of the last frame's pixels whose light changed, to the power budget / this
+#: (:attr:`SequenceRenderer.decay`): at budget 4 a shorter history took the breakfast room's turning sun's changed
+#: pixels up 0.6 dB (its ghost -0.35 -> -0.15 dB), the dining light 2.68x -> 2.80x, the living light 2.92x -> 2.86x
+#: (docs/experiments.md, sixty-fifth session).
+LIGHT_DECAY_BUDGET = 2.0
 #: The weight of the frame shown before in each shown frame (an exponential moving average along the motion), up
 #: to a budget of :data:`CARRY_FULL_BUDGET`, then falling as 1 / budget: at 1-2 samples a pixel 0.5 took a quarter
 #: to a third off the flicker at -0.07 to +0.3 dB. At 4, 0.5 against 0.25 takes 3-12% more off the flicker and
@@ -463,10 +468,11 @@ class SequenceRenderer:
     @property
     def decay(self) -> float:
         """The weight of a past frame's samples per frame of age in the next frame: the settings' decay times the
-        share of the last frame's pixels whose light held. Where the light changes over much of the frame (a sun
-        that moves), the light it brings to the rest, which no signature sees, changes too, and older history is
-        stale there (docs/experiments.md)."""
-        return self.settings.decay * (1.0 - self.light_changed)
+        share of the last frame's pixels whose light held, to the power budget / :data:`LIGHT_DECAY_BUDGET`. Where the
+        light changes over much of the frame (a sun that moves), the light it brings to the rest, which no signature
+        sees, changes too, and older history is stale there; the more samples a frame traces, the less their noise
+        hides that (docs/experiments.md)."""
+        return self.settings.decay * (1.0 - self.light_changed) ** (self.settings.budget / LIGHT_DECAY_BUDGET)
 
     def _jit_frame(self, past: PastFrame) -> JitFrame:
         """``past`` in Dr.Jit, made once (kept while the frame is in the history)."""
