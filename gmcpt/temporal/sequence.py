@@ -69,9 +69,10 @@ FRESH_BOOST = 1.0
 #: Where less than this share of the pixels' light changed frame-wide (nothing but objects moved), the last frame's
 #: probes saw the moved objects' own pixels and shadows, and the light keeps changing there: the history there counts
 #: as (the share of its light that held)^:data:`HELD_PLACEMENT_POWER` when this frame's samples are placed, so those
-#: pixels get fresh samples first.
+#: pixels get fresh samples first (8 over 2: the living object 1.89x -> 1.96x, the breakfast object 3.14x -> 3.38x;
+#: docs/experiments.md, sixty-fifth session).
 STEADY_LIGHT = 0.02
-HELD_PLACEMENT_POWER = 2.0
+HELD_PLACEMENT_POWER = 8.0
 #: Where a light moved, the probes' unsigned share is mostly the noise of paths that changed at random (a boost from
 #: it cost the dining and living lights 7-11%), so the placement reads what changed one way instead
 #: (:func:`~gmcpt.temporal.gradient.coherent_share`): the history counts as (1 - that share)^this. It took the breakfast
