@@ -76,7 +76,7 @@ HELD_PLACEMENT_POWER = 8.0
 #: Where a light moved, the probes' unsigned share is mostly the noise of paths that changed at random (a boost from
 #: it cost the dining and living lights 7-11%), so the placement reads what changed one way instead
 #: (:func:`~gmcpt.temporal.gradient.coherent_share`): the history counts as (1 - that share)^this. It took the breakfast
-#: room's turning sun from a ghost of -0.6 dB to -0.1 on three seeds, at 1.75 -> 1.9x, the other lights within 1-5%
+#: room's turning sun from a ghost of -0.64 dB to -0.15 (three seeds' mean), 1.75x -> 1.9x, the other lights within 1-5%
 #: (docs/experiments.md, sixty-fifth session).
 LIGHT_PLACEMENT_POWER = 16.0
 #: The history's decay falls with the share of the last frame's pixels whose light changed, to the power budget / this
