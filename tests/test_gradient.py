@@ -41,7 +41,8 @@ def test_no_change_reads_zero_and_a_light_halved_in_one_corner_reads_a_half_ther
 
 def test_the_coherent_share_reads_a_light_dimmed_one_way_and_not_shadow_rays_that_flipped_at_random():
     """Paths whose shadow ray flipped either way (a light that moved, the same random numbers) read as much change
-    unsigned as a light dimmed by half; signed, less their noise, they read next to none, and the dimming still reads."""
+    unsigned as a light dimmed by half; signed, less their noise, they read next to none, and the dimming still
+    reads."""
     rows, columns = SHAPE[0] // STRATUM, SHAPE[1] // STRATUM
     rng = np.random.default_rng(1)
     before = rng.exponential(1.0, (rows * columns, 3)).astype(np.float32)
