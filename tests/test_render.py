@@ -397,7 +397,7 @@ def test_an_animated_scene_runs_its_kernels_plainly_and_a_still_one_replays_them
     """A kernel records while its scene keeps still and replays that recording; a shape moved through ``mi.traverse``
     drops it, and after :data:`~gmcpt.render.kernels.ANIMATED_MOVES` moves the scene is an animation: the kernel runs
     the plain function for it, still calls too (a recording would serve one frame), and its sums stay the plain
-    function's."""
+    function's. Once the shapes stop moving for :data:`~gmcpt.render.kernels.STILL_CALLS` calls, it records again."""
     from gmcpt.render import held, kernels
     from gmcpt.render.scene import load_scene
 
@@ -424,6 +424,13 @@ def test_an_animated_scene_runs_its_kernels_plainly_and_a_still_one_replays_them
         assert (kernel.key() in recordings) == (step < kernels.ANIMATED_MOVES)
     plain = kernels._pixel_sums(scene, *arguments())
     for column, expected in zip(sums, plain):
+        np.testing.assert_array_equal(np.asarray(column), np.asarray(expected))
+    for _ in range(kernels.STILL_CALLS - 2):  # one still call since the last move, above
+        kernel(scene, arguments)
+    assert kernel.key() not in recordings
+    kernel(scene, arguments)  # the last still call: the animation stopped
+    assert kernel.key() in recordings
+    for column, expected in zip(kernel(scene, arguments), plain):
         np.testing.assert_array_equal(np.asarray(column), np.asarray(expected))
 
 

@@ -60,6 +60,11 @@ FREEZE_OPTIONS = {"limit": 64, "warn_after": 1 << 30}
 #: benchmark's contenders) the later ones of a frame replayed what the first recorded: their frames were cheaper than
 #: the same renderer's alone in an animation (docs/experiments.md).
 ANIMATED_MOVES = 2
+#: ... until it has been called this many times without a move: the animation stopped moving shapes (a light or the
+#: camera may go on), and recordings pay again. A scene loaded once and used for an object's animation, then a
+#: light's, ran its light frames plain (about 50 ms of a 256x256 frame; docs/experiments.md, sixty-fifth session);
+#: the sequence benchmark's three renderers of one scene make 2 still calls between a frame's moves.
+STILL_CALLS = 8
 
 
 class FrozenKernel:
@@ -72,7 +77,8 @@ class FrozenKernel:
     live scene share the call's registry (seen with the breakfast room loaded beside another scene): the recording
     raises, and that scene runs the plain function, with the same result. After a shape moved (through
     ``mi.traverse``) the kernel runs plain once, then records again; after :data:`ANIMATED_MOVES` moves it runs
-    plain for that scene. Call with a function that builds the arguments, so a failed recording leaves none dirty.
+    plain for that scene until :data:`STILL_CALLS` calls in a row saw no move. Call with a function that builds the
+    arguments, so a failed recording leaves none dirty.
     """
 
     def __init__(self, function: Callable):
@@ -81,13 +87,17 @@ class FrozenKernel:
     def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple], integrator: object = None):
         state, shapes = scene_state(scene), geometry_key(scene)
         recordings, seen = state.setdefault("recordings", {}), state.setdefault("geometry", {})
-        moves = state.setdefault("moves", {})
+        moves, still = state.setdefault("moves", {}), state.setdefault("still", {})
         moved, seen[self] = self in seen and seen[self] != shapes, shapes
         if moved:
             # shapes moved since this kernel last ran: a replay would trace the old geometry (or freed memory)
             for key in [key for key in recordings if key[0] is self]:
                 del recordings[key]
-            moves[self] = moves.get(self, 0) + 1
+            moves[self], still[self] = moves.get(self, 0) + 1, 0
+        else:
+            still[self] = still.get(self, 0) + 1
+            if still[self] >= STILL_CALLS:
+                moves[self] = 0
         if moved or moves.get(self, 0) >= ANIMATED_MOVES:
             return self._plain(scene, arguments)
         key = self.key(integrator)
