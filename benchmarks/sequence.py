@@ -348,9 +348,9 @@ def main() -> int:
     for eval_scene in [s for s in evaluation_scenes(None, 2) if s.name in args.scenes]:
         aov = mi.load_dict(AOV_GUIDES)  # loading it is no part of a frame
         for motion in args.motion:
-            # a scene of its own for each motion, as a user's animation has: a scene whose meshes moved in an earlier
-            # motion ran every frozen kernel plain from then on (gmcpt.render.kernels.ANIMATED_MOVES), and its light
-            # sequence paid for the object's (docs/experiments.md, sixty-fifth session)
+            # a scene of its own for each motion, as a user's animation has: after an earlier motion moved its meshes
+            # a scene's frozen kernels ran plain (gmcpt.render.kernels.ANIMATED_MOVES), and its light sequence paid
+            # for the object's (docs/experiments.md, sixty-fifth session)
             scene = eval_scene.load(args.res)
             integrator = path_integrator(scene)
             try:
