@@ -309,6 +309,24 @@ def test_a_light_switched_off_or_on_drops_its_history(mi):
     assert info.history_decay < 0.5 * renderer.settings.decay
 
 
+def test_history_scaled_by_the_light_held_to_a_power_keeps_its_mean_and_the_light_held():
+    """Where only objects moved the history weighs the light held to a power: the weight falls, each pixel's mean and
+    the light held (which the carry and the placement read) stay, and what was left out is recorded."""
+    from gmcpt.temporal.sequence import DroppedShares, History
+
+    count = np.full(4, 2.0, np.float32)
+    total = np.arange(12, dtype=np.float32).reshape(4, 3) * count[:, None]
+    history = History(total, count, np.ones(4, bool), np.ones(4, bool), np.zeros((4, 2), np.float32), 2,
+                      DroppedShares(0.0, 0.0, 0.0))
+    held = np.array([1.0, 0.5, 0.25, 0.0], np.float32)
+    scaled = history.scaled(held, 4.0)
+    np.testing.assert_allclose(scaled.count, 2.0 * held ** 4)
+    np.testing.assert_allclose(scaled.total[:3] / scaled.count[:3, None], total[:3] / count[:3, None], rtol=1e-6)
+    np.testing.assert_array_equal(scaled.light_held, held)
+    assert abs(scaled.dropped.gradient - (1 - (1 + 0.5 ** 4 + 0.25 ** 4) / 4)) < 1e-6
+    np.testing.assert_allclose(history.scaled(held).count, 2.0 * held)
+
+
 def test_history_whose_light_changed_decays_faster_the_more_samples_a_frame_traces():
     """The more samples a frame traces, the less their noise hides the staleness of older frames' light."""
     few, many = _renderer(budget=1), _renderer(budget=4)
@@ -637,7 +655,9 @@ def test_light_that_reaches_the_view_only_indirectly_is_seen_by_the_probes(mi, m
     infos, frame = last_frame(scene, integrator)
     assert all(info.dropped.gradient == 0 for info in infos)  # nothing changed: the replays agree to the bit
     assert frame.info.dropped.lighting == 0  # four times the light, unseen by the signature
-    assert 0.6 < frame.info.dropped.gradient < 0.9  # three quarters of the light is new: the history weighs a quarter
+    # three quarters of the light is new: the history weighs a quarter, to HELD_HISTORY_POWER where the signature saw
+    # no light change (as where only objects moved): under a tenth of it stays
+    assert sequence.HELD_HISTORY_POWER > 1 and 0.9 < frame.info.dropped.gradient < 1.0
     # the same frames with the probes reading no change: the history's old light kept whole
     monkeypatch.setattr(sequence, "changed_share", lambda before, after, shape: np.zeros(shape[0] * shape[1]))
     _, blind = last_frame(scene, integrator)

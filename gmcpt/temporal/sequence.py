@@ -73,6 +73,10 @@ FRESH_BOOST = 1.0
 #: docs/experiments.md, sixty-fifth session).
 STEADY_LIGHT = 0.02
 HELD_PLACEMENT_POWER = 8.0
+#: ... and the history's samples there weigh (that share)^this, not the share itself: a moved table's drifting floor
+#: reflection kept three quarters of its stale history at power 1 (the living object 1.93x -> 2.15x, seed 4 1.87x ->
+#: 2.06x; the breakfast and dining objects within 1%; docs/experiments.md, sixty-fifth session).
+HELD_HISTORY_POWER = 4.0
 #: Where a light moved, the probes' unsigned share is mostly the noise of paths that changed at random (a boost from
 #: it cost the dining and living lights 7-11%), so the placement reads what changed one way instead
 #: (:func:`~gmcpt.temporal.gradient.coherent_share`): the history counts as (1 - that share)^this. It took the breakfast
@@ -193,14 +197,15 @@ class History:
     dropped: DroppedShares  # the shares of pixels that lost a past frame's samples, a reason (disagreement: 0 here)
     light_held: np.ndarray | None = None  # (N,) the share of each pixel's light that held, as the probes saw it
 
-    def scaled(self, keep: np.ndarray) -> History:
-        """This history with each pixel's samples weighted by ``keep`` (N,), the share of its light that held
-        (:attr:`light_held`), what it left out recorded (:attr:`DroppedShares.gradient`)."""
-        keep = np.asarray(keep, self.count.dtype)
+    def scaled(self, held: np.ndarray, power: float = 1.0) -> History:
+        """This history with each pixel's samples weighted by ``held`` (N,), the share of its light that held
+        (:attr:`light_held`), to ``power``, what it left out recorded (:attr:`DroppedShares.gradient`)."""
+        held = np.asarray(held, self.count.dtype)
+        keep = held ** self.count.dtype.type(power) if power != 1.0 else held
         count = self.count * keep
         before = float(self.count.sum(dtype=np.float64))
         left_out = 1.0 - float(count.sum(dtype=np.float64)) / before if before > 0 else 0.0
-        return replace(self, total=self.total * keep[:, None], count=count, light_held=keep,
+        return replace(self, total=self.total * keep[:, None], count=count, light_held=held,
                        dropped=replace(self.dropped, gradient=left_out))
 
 
@@ -462,7 +467,8 @@ class SequenceRenderer:
         if replayed is None:
             self.placing = None
             return history
-        history = history.scaled(1.0 - changed_share(replayed.values, probed[replayed.slot], shape))
+        power = HELD_HISTORY_POWER if history.dropped.lighting < STEADY_LIGHT else 1.0
+        history = history.scaled(1.0 - changed_share(replayed.values, probed[replayed.slot], shape), power)
         self.placing = _placing(history, replayed.values, probed[replayed.slot], shape)
         return history
 
