@@ -459,7 +459,11 @@ class SequenceRenderer:
                 matrix: np.ndarray, shape: tuple[int, int]) -> History:
         """``history`` weighed by the share of the light that did not change, where the last frame's probe
         ``replayed`` was traced again (``probed``: each slot's samples); this frame's probe kept for the next, and
-        what the next placement weighs the history by (:func:`_placing`)."""
+        :attr:`placing`, what the next placement weighs the history's counts by, so that the pixels whose light keeps
+        changing read as thin history and get fresh samples first. Where only objects moved (:data:`STEADY_LIGHT`),
+        the probes saw them and their shadows: the history weighs the light held to :data:`HELD_HISTORY_POWER` and the
+        placement reads it to :data:`HELD_PLACEMENT_POWER`. Where a light changed, the placement reads 1 - the share
+        that changed one way (:func:`coherent_share`) to :data:`LIGHT_PLACEMENT_POWER`."""
         own = [slot for slot in probes if replayed is None or slot != replayed.slot]
         if own:
             pixels, probe_seed = probes[own[0]]
@@ -467,9 +471,14 @@ class SequenceRenderer:
         if replayed is None:
             self.placing = None
             return history
-        power = HELD_HISTORY_POWER if history.dropped.lighting < STEADY_LIGHT else 1.0
-        history = history.scaled(1.0 - changed_share(replayed.values, probed[replayed.slot], shape), power)
-        self.placing = _placing(history, replayed.values, probed[replayed.slot], shape)
+        before, after = replayed.values, probed[replayed.slot]
+        held = 1.0 - changed_share(before, after, shape)
+        if history.dropped.lighting < STEADY_LIGHT:
+            history = history.scaled(held, HELD_HISTORY_POWER)
+            self.placing = history.light_held ** np.float32(HELD_PLACEMENT_POWER)
+        else:
+            history = history.scaled(held)
+            self.placing = (1.0 - coherent_share(before, after, shape)) ** np.float32(LIGHT_PLACEMENT_POWER)
         return history
 
     @property
@@ -679,19 +688,9 @@ def _trace(sums: SampleSums, where: tuple, counts: np.ndarray, seed: int, deadli
     return probed
 
 
-def _placing(history: History, before: np.ndarray, after: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """What the next frame's placement weighs ``history``'s counts by (N,), from its probe's samples ``before`` and
-    their replay ``after``: where only objects moved (:data:`STEADY_LIGHT`) the share of each pixel's light that held
-    (``history.light_held``), where a light changed 1 - the share that changed one way (:func:`coherent_share`), to
-    their powers; so the pixels whose light keeps changing read as thin history and get fresh samples first."""
-    if history.dropped.lighting < STEADY_LIGHT:
-        return history.light_held ** np.float32(HELD_PLACEMENT_POWER)
-    return (1.0 - coherent_share(before, after, shape)) ** np.float32(LIGHT_PLACEMENT_POWER)
-
-
 def _placed_history(history_count: np.ndarray, placing: np.ndarray | None) -> np.ndarray:
-    """The history's counts (N,) as the placement reads them: times ``placing`` (:func:`_placing`; None: as they
-    are)."""
+    """The history's counts (N,) as the placement reads them: times ``placing`` (what
+    :meth:`SequenceRenderer._probed` left for this frame; None: as they are)."""
     if placing is None or placing.size != history_count.size:
         return history_count
     return history_count * placing.astype(history_count.dtype)
