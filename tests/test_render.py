@@ -96,6 +96,28 @@ def test_a_new_spp_reuses_the_compiled_kernels(mi, cornell, path_tracer):
     assert all(kernel["cache_hit"] and not kernel["cache_disk"] for kernel in kernels)
 
 
+def test_pixel_lists_at_any_alignment_replay_one_recording(mi, cornell, path_tracer, monkeypatch):
+    """Dr.Jit maps a NumPy array's memory and records a frozen kernel again when an input's alignment changes: pixel
+    lists and lane seeds that NumPy placed at other offsets (16-byte steps) replay the one recording, with the plain
+    function's sums."""
+    from gmcpt.render import kernels
+
+    kernel = kernels.FrozenKernel(kernels._pixel_sums)
+    monkeypatch.setattr(kernels, "_frozen_pixel_sums", kernel)
+    sensor, storage = cornell.sensors()[0], np.zeros(2048, np.uint32)
+    first = (-storage.ctypes.data % 64) // 4
+    for words in (0, 4, 8, 12, 1):  # every 16-byte offset within 64 bytes, and an odd word
+        pixels = storage[first + words:first + words + 600]
+        pixels[:] = np.arange(0, 1800, 3)
+        seeds = np.full(600, 7, np.uint32)
+        total, squares, _ = kernels.trace_pixels(cornell, sensor, path_tracer, pixels, 1, seeds)
+        plain_total, plain_squares = _plain_pixel_sums(mi, cornell, path_tracer, pixels, 1, 7)
+        np.testing.assert_array_equal(total, plain_total)
+        np.testing.assert_array_equal(squares, plain_squares)
+    recordings = kernels.scene_state(cornell)["recordings"]
+    assert recordings[kernel.key(path_tracer)].n_recordings == 1
+
+
 def test_a_scene_whose_kernel_cannot_be_recorded_is_traced_plainly(mi, cornell, path_tracer, monkeypatch):
     """A recording that Dr.Jit refuses (a virtual call it cannot follow) falls back to the plain
     function for that scene: same sums, and no second try at recording it."""

@@ -420,7 +420,7 @@ def _traced_sums(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingInte
               else _frozen_film_sums if by_film else _frozen_pixel_sums)
     zeros = lambda count, size: [dr.opaque(mi.Float, 0.0, size) for _ in range(count)]  # noqa: E731
     film_pixels = math.prod(sensor_film_size(sensor))
-    outputs = kernel(scene, lambda: (sensor, integrator, mi.UInt32(pixels.astype(np.uint32)),
+    outputs = kernel(scene, lambda: (sensor, integrator, aligned_uint32(pixels),
                                      dr.arange(mi.UInt32, pixels.size * spp), _lane_seeds(seed), spp,
                                      camera_key(sensor), zeros(5 + aovs, film_pixels if by_film else pixels.size),
                                      *([zeros(4, 4 * film_pixels)] if quarters else [])), integrator)
@@ -432,8 +432,25 @@ def _lane_seeds(seed: int | np.ndarray) -> mi.UInt32:
     """The sampler seed of every lane: one, opaque (a literal that changes would record another kernel), or each
     lane's own."""
     if isinstance(seed, np.ndarray):
-        return mi.UInt32(seed.astype(np.uint32))
+        return aligned_uint32(seed)
     return dr.opaque(mi.UInt32, seed)
+
+
+#: The alignment (bytes) of the NumPy memory that a frozen kernel's inputs map.
+MAPPED_ALIGNMENT = 64
+
+
+def aligned_uint32(values: np.ndarray) -> mi.UInt32:
+    """``values`` as a Dr.Jit UInt32 over a copy in memory aligned to :data:`MAPPED_ALIGNMENT` bytes. Dr.Jit maps a
+    NumPy array's memory, and a frozen kernel records again whenever an input's alignment changes; NumPy's allocations
+    fall at any 16 bytes, so a warm sequence frame recorded its path kernel again about once in 15 frames, 25-40 ms
+    each (docs/experiments.md, sixty-sixth session)."""
+    words = MAPPED_ALIGNMENT // 4
+    buffer = np.empty(values.size + words, np.uint32)
+    start = (-buffer.ctypes.data % MAPPED_ALIGNMENT) // 4
+    aligned = buffer[start:start + values.size]
+    aligned[:] = values.ravel()
+    return mi.UInt32(aligned)
 
 
 def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, counts: np.ndarray,
