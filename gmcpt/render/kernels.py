@@ -436,21 +436,27 @@ def _lane_seeds(seed: int | np.ndarray) -> mi.UInt32:
     return dr.opaque(mi.UInt32, seed)
 
 
-#: The alignment (bytes) of the NumPy memory that a frozen kernel's inputs map.
-MAPPED_ALIGNMENT = 64
+#: Bytes the NumPy arrays handed to Dr.Jit are aligned to (:func:`aligned_array`)
+ALIGNMENT = 64
+
+
+def aligned_array(values: np.ndarray, dtype) -> np.ndarray:
+    """``values`` flat as ``dtype``, copied to memory aligned to :data:`ALIGNMENT` bytes. Dr.Jit reads a NumPy array
+    in place and takes its alignment into the kernel: an input whose alignment changes compiles another kernel, or
+    records a frozen one again. NumPy's allocations fall at any 16 bytes: a warm sequence frame recorded its path
+    kernel again about once in 15 frames, 25-40 ms each (docs/experiments.md, sixty-sixth session)."""
+    values = np.asarray(values, dtype).ravel()
+    words = ALIGNMENT // values.itemsize
+    buffer = np.empty(values.size + words, dtype)
+    start = (-buffer.ctypes.data % ALIGNMENT) // values.itemsize
+    aligned = buffer[start:start + values.size]
+    aligned[...] = values
+    return aligned
 
 
 def aligned_uint32(values: np.ndarray) -> mi.UInt32:
-    """``values`` as a Dr.Jit UInt32 over a copy in memory aligned to :data:`MAPPED_ALIGNMENT` bytes. Dr.Jit maps a
-    NumPy array's memory, and a frozen kernel records again whenever an input's alignment changes; NumPy's allocations
-    fall at any 16 bytes, so a warm sequence frame recorded its path kernel again about once in 15 frames, 25-40 ms
-    each (docs/experiments.md, sixty-sixth session)."""
-    words = MAPPED_ALIGNMENT // 4
-    buffer = np.empty(values.size + words, np.uint32)
-    start = (-buffer.ctypes.data % MAPPED_ALIGNMENT) // 4
-    aligned = buffer[start:start + values.size]
-    aligned[:] = values.ravel()
-    return mi.UInt32(aligned)
+    """``values`` as a Dr.Jit UInt32 on aligned memory (:func:`aligned_array`)."""
+    return mi.UInt32(aligned_array(values, np.uint32))
 
 
 def trace_counts(scene: mi.Scene, sensor: mi.Sensor, integrator: mi.SamplingIntegrator, counts: np.ndarray,

@@ -17,12 +17,9 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
+from ..render.kernels import aligned_array
 from .history import (ALBEDO_MARGIN, DEPTH_TOLERANCE, LIGHTING_RATIO, NORMAL_COSINE, SHIFT_SEEN, PastFrame,
                       Signature)
-
-
-#: Bytes the arrays handed to Dr.Jit are aligned to (:func:`_float`)
-ALIGNMENT = 64
 
 
 @dataclass(frozen=True)
@@ -53,14 +50,9 @@ class Gathered:
 
 
 def _float(values: np.ndarray) -> mi.Float:
-    """``values`` as a Dr.Jit array on 64-byte aligned memory: Dr.Jit reads a numpy array in place and compiles its
-    alignment into the kernel, so arrays that land on other alignments each compile another kernel (70-90 ms)."""
-    values = np.asarray(values, np.float32).ravel()
-    buffer = np.empty(values.size + ALIGNMENT // 4, np.float32)
-    start = (-buffer.ctypes.data % ALIGNMENT) // 4
-    aligned = buffer[start:start + values.size]
-    aligned[...] = values
-    return mi.Float(aligned)
+    """``values`` as a Dr.Jit array on aligned memory (:func:`~gmcpt.render.kernels.aligned_array`: arrays that
+    landed on other alignments each compiled another kernel, 70-90 ms)."""
+    return mi.Float(aligned_array(values, np.float32))
 
 
 def _vector(values: np.ndarray, kind):
