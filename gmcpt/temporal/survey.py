@@ -12,8 +12,8 @@ import numpy as np
 
 from ..limits import SEED_LIMIT
 from ..render.guided_path import first_hit_features
-from ..render.kernels import (FeatureMeans, FrozenKernel, camera_key, pixel_means, primary_rays, scalar_parameter,
-                              seeded_sampler, sensor_film_size)
+from ..render.kernels import (FEATURE_RAY_FLAGS, FeatureMeans, FrozenKernel, camera_key, pixel_means, primary_rays,
+                              scalar_parameter, seeded_sampler, sensor_film_size)
 from ..seeds import FEATURE_SEED_OFFSET
 from .history import Projection, fit_projection
 
@@ -58,7 +58,9 @@ def _survey_planes(scene: mi.Scene, sensor: mi.Sensor, seed: mi.UInt32, guide_ra
     first = ray_index == 0
     centre = _centre_ray(sensor, pixel, (width, height))
     ray.o, ray.d = dr.select(first, centre.o, ray.o), dr.select(first, centre.d, ray.d)
-    si = scene.ray_intersect(ray)
+    # camera rays are coherent; the guides need no UV partials (each pixel's rays already spread over it), which
+    # the plain call computes: 5 of the breakfast room's 25 ms (docs/experiments.md, sixty-sixth session)
+    si = scene.ray_intersect(ray, FEATURE_RAY_FLAGS, True)
     hit = si.is_valid()
     bsdf = si.bsdf(ray)
     values = first_hit_features(si, bsdf)
