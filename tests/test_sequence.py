@@ -408,18 +408,50 @@ def test_a_neighbour_serves_an_edge_only_where_the_camera_moved(mi):
     moved_away = positions.copy()
     moved_away[edge] *= 0.5  # the past pixel saw a nearer surface there
 
-    def gathered(shift: float) -> np.ndarray:
+    def gathered(shift: float, camera_moved: bool) -> np.ndarray:
         matrix = np.array([[focal, 0, size / 2 + shift, 0], [0, focal, size / 2, 0], [0, 0, 1, 0]], np.float64)
         past = PastFrame(0, np.ones((size * size, 3), np.float32), np.ones(size * size, np.float32),
                          moved_away.astype(np.float32), normals, Projection(matrix, size, size),
                          marks)
-        return gather_history([(jit_frame(past), 1.0, True, False, None)], positions.astype(np.float32),
+        return gather_history([(jit_frame(past), 1.0, True, camera_moved, None)], positions.astype(np.float32),
                               normals, marks, 0.0).latest_seen
 
-    still, panned = gathered(1e-3), gathered(0.25)  # a still camera's points land on the centres to rounding
+    still, panned = gathered(1e-3, False), gathered(0.25, True)  # a still camera's points land on the centres
     assert not still[edge] and still.sum() == size * size - 1
     # a quarter pixel off: the point lands in the past pixel beside (edge + 1) or at the edge; its neighbours serve
     assert panned[edge] and panned[edge - 1]
+
+
+def test_a_still_camera_s_nearest_pixel_alone_keeps_what_the_four_keep(mi):
+    """Where the camera stayed and no mesh moved, the gather reads only the past pixel each point lands in: which
+    samples it keeps, from where, and why it drops the others are those of the four-pixel match, at a moved surface
+    and a changed light too."""
+    import drjit as dr
+    from gmcpt.temporal.history import PastFrame, Projection, signature
+    from gmcpt.temporal.reprojection import _marks, _match, _vector, jit_frame
+
+    size, depth, focal = _WALL
+    film, positions, normals = _wall()
+    lighting = np.ones(size * size, np.float32)
+    lighting[film[:, 0] > 5] = 2.0  # a patch of light that moved on
+    current = signature(lighting, np.full(size * size, 0.5, np.float32), size, size)
+    moved_away = positions.copy()
+    moved_away[3 * size + 3] *= 0.5  # a surface that moved
+    # the points land a rounding's width left of their centres: the four around them start a column to the left
+    matrix = np.array([[focal, 0, size / 2 - 1e-3, 0], [0, focal, size / 2 - 1e-3, 0], [0, 0, 1, 0]], np.float64)
+    past = jit_frame(PastFrame(0, np.ones((size * size, 3), np.float32), np.ones(size * size, np.float32),
+                               moved_away.astype(np.float32), normals, Projection(matrix, size, size),
+                               signature(np.ones(size * size, np.float32), np.full(size * size, 0.5, np.float32),
+                                         size, size)))
+    point, normal = _vector(positions.astype(np.float32), mi.Point3f), _vector(normals, mi.Vector3f)
+    floor = dr.opaque(mi.Float, 0.0)
+    four, nearest = (_match(past, point, normal, _marks(current), floor, False, nearest_only=only)
+                     for only in (False, True))
+    held = np.asarray(four.held)
+    assert 0 < held.sum() < size * size - 1  # some kept, the moved surface and the changed light not
+    for field in ("held", "lit", "same_material", "u", "v"):
+        np.testing.assert_array_equal(np.asarray(getattr(nearest, field)), np.asarray(getattr(four, field)))
+    np.testing.assert_array_equal(np.asarray(nearest.source)[held], np.asarray(four.source)[held])
 
 
 def test_a_moving_camera_reads_the_past_samples_that_fell_within_the_pixel(mi):

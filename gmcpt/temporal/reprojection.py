@@ -83,7 +83,9 @@ def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarr
     ``positions`` (N, 3; NaN on a miss) with ``normals`` and whose signature is ``marks``: where a past pixel saw the
     same surface (:func:`gmcpt.temporal.history.matches`) under the same light and material
     (:func:`gmcpt.temporal.history.unchanged`), its samples count ``weight``; where the camera moved, a frame that
-    kept its samples by quarter gives those that fell within the pixel (:func:`_by_quarters`)."""
+    kept its samples by quarter gives those that fell within the pixel (:func:`_by_quarters`). A frame whose camera
+    did not move and whose meshes did not (``then`` None) lands each point on its own past pixel, which alone is read
+    (:func:`_match`'s ``nearest_only``)."""
     pixels = positions.shape[0]
     point, normal, current = _vector(positions, mi.Point3f), _vector(normals, mi.Vector3f), _marks(marks)
     floor = dr.opaque(mi.Float, float(lighting_floor))
@@ -93,7 +95,9 @@ def gather_history(frames: list[tuple], positions: np.ndarray, normals: np.ndarr
     for frame, weight, latest, camera_moved, then in frames:
         point_then, normal_then = (point, normal) if then is None else (
             _vector(then[0], mi.Point3f), normal if then[1] is None else _vector(then[1], mi.Vector3f))
-        match = _match(frame, point_then, normal_then, current, floor, camera_moved)
+        # a still camera's points land on their own past pixels, unless a mesh moved (then): the nearest alone serves
+        match = _match(frame, point_then, normal_then, current, floor, camera_moved,
+                       nearest_only=not camera_moved and then is None)
         if camera_moved and frame.quarters is not None:
             taken = _by_quarters(frame, match)
         else:
@@ -137,7 +141,7 @@ class _Match:
 
 
 def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tuple, floor: mi.Float,
-           camera_moved: bool) -> _Match:
+           camera_moved: bool, nearest_only: bool = False) -> _Match:
     """Where ``frame``'s samples serve each current pixel.
 
     The past pixel the point lands in decides where it saw the same surface (:func:`~gmcpt.temporal.history.matches`,
@@ -150,7 +154,11 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
 
     By quarter (:func:`_by_quarters`), a past pixel serves where its light and albedo held whatever surface its centre
     saw: a pixel across a silhouette sees both surfaces, and its signature is the mean over them. Where the nearest
-    saw this surface and failed the tests, none does, nor where none of the four saw it (a disocclusion, a cut)."""
+    saw this surface and failed the tests, none does, nor where none of the four saw it (a disocclusion, a cut).
+
+    ``nearest_only`` (a camera that stayed, no mesh moved): the nearest alone is read, which keeps, drops and reads
+    from what the four do (the others serve only where the point is off its centre), in 3 of a frame's 8 ms (the
+    breakfast light); ``offered`` is then the nearest's own (the others' can differ only at a surface that moved)."""
     m = frame.matrix
     x = m[0] * point.x + m[1] * point.y + m[2] * point.z + m[3]
     y = m[4] * point.x + m[5] * point.y + m[6] * point.z + m[7]
@@ -167,6 +175,12 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
     offset = dr.maximum(dr.abs(u - landed_column - 0.5), dr.abs(v - landed_row - 0.5))
     shifted = dr.minimum(2 * offset, 1.0)
     moved = (offset > SHIFT_SEEN) | (dr.opaque(mi.Float, 1.0 if camera_moved else 0.0) > 0)
+    if nearest_only:
+        source, _, same, lit, material = _tap(frame, landed_column, landed_row, front, point, normal, current, floor,
+                                              shifted, moved)
+        held = same & lit & material
+        return _Match(held, source, same, dr.select(same, lit, True), dr.select(same, material, True), u, v, left,
+                      top, (), held)
     lanes = dr.width(point.x)
     near_same, near_lit, near_material = (dr.zeros(mi.Bool, lanes) for _ in range(3))
     any_same, near_source = dr.zeros(mi.Bool, lanes), dr.zeros(mi.UInt32, lanes)
@@ -174,29 +188,16 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
     around = []
     for dx, dy in _AROUND:
         column, row = left + dx, top + dy
-        inside = front & (column >= 0) & (column < frame.width) & (row >= 0) & (row < frame.height)
-        source = dr.select(inside, mi.UInt32(dr.maximum(row, 0)) * frame.width + mi.UInt32(dr.maximum(column, 0)), 0)
-        past_point = dr.gather(mi.Point3f, frame.positions, source, inside)
-        past_normal = dr.gather(mi.Vector3f, frame.normals, source, inside)
-        step, away = past_point - point, point - frame.centre
-        same = inside & (dr.squared_norm(step) <= DEPTH_TOLERANCE ** 2 * dr.squared_norm(away)) & \
-            (dr.dot(past_normal, normal) >= NORMAL_COSINE)
-        held = []  # the lighting, then the albedo held, whatever surface the past pixel saw
-        for mine, theirs, my_spread, their_spread, ratio, margin in (
-                (current[0], frame.marks[0], current[2], frame.marks[2], LIGHTING_RATIO, floor),
-                (current[1], frame.marks[1], current[3], frame.marks[3], 0.0, ALBEDO_MARGIN)):
-            theirs = dr.gather(mi.Float, theirs, source, inside)
-            spread = dr.maximum(shifted * dr.maximum(my_spread, dr.gather(mi.Float, their_spread, source, inside)),
-                                dr.select(moved, my_spread, 0.0))
-            held.append(dr.abs(mine - theirs) <= spread + ratio * dr.maximum(mine, theirs) + margin)
-        around.append((source, inside & held[0] & held[1]))
+        source, inside, same, lit, material = _tap(frame, column, row, front, point, normal, current, floor, shifted,
+                                                   moved)
+        around.append((source, inside & lit & material))
         weight = (fx if dx else 1 - fx) * (fy if dy else 1 - fy)
         nearest = (column == landed_column) & (row == landed_row)
         near_same |= nearest & same
-        near_lit |= nearest & same & held[0]
-        near_material |= nearest & same & held[1]
+        near_lit |= nearest & same & lit
+        near_material |= nearest & same & material
         near_source = dr.select(nearest, source, near_source)
-        closer = ~nearest & same & held[0] & held[1] & (weight > other_weight)
+        closer = ~nearest & same & lit & material & (weight > other_weight)
         other_weight, other_source = dr.select(closer, weight, other_weight), dr.select(closer, source, other_source)
         any_same |= same
     # a still camera's nearest past pixel is the pixel itself: another surface there is an object that moved, whose
@@ -205,6 +206,29 @@ def _match(frame: JitFrame, point: mi.Point3f, normal: mi.Vector3f, current: tup
     return _Match(held, dr.select(near_same, near_source, other_source), any_same,
                   dr.select(near_same, near_lit, True), dr.select(near_same, near_material, True), u, v, left, top,
                   tuple(around), held | (moved & ~near_same & any_same))
+
+
+def _tap(frame: JitFrame, column, row, front: mi.Bool, point: mi.Point3f, normal: mi.Vector3f, current: tuple,
+         floor: mi.Float, shifted: mi.Float, moved: mi.Bool) -> tuple:
+    """``frame``'s pixel at ``column``, ``row`` (mi.Float each) for each lane: (its flat index, whether it is on the
+    film, whether it saw the point's surface (:func:`~gmcpt.temporal.history.matches`), whether its lighting held and
+    whether its albedo held (:func:`~gmcpt.temporal.history.unchanged`), whatever surface it saw)."""
+    inside = front & (column >= 0) & (column < frame.width) & (row >= 0) & (row < frame.height)
+    source = dr.select(inside, mi.UInt32(dr.maximum(row, 0)) * frame.width + mi.UInt32(dr.maximum(column, 0)), 0)
+    past_point = dr.gather(mi.Point3f, frame.positions, source, inside)
+    past_normal = dr.gather(mi.Vector3f, frame.normals, source, inside)
+    step, away = past_point - point, point - frame.centre
+    same = inside & (dr.squared_norm(step) <= DEPTH_TOLERANCE ** 2 * dr.squared_norm(away)) & \
+        (dr.dot(past_normal, normal) >= NORMAL_COSINE)
+    held = []
+    for mine, theirs, my_spread, their_spread, ratio, margin in (
+            (current[0], frame.marks[0], current[2], frame.marks[2], LIGHTING_RATIO, floor),
+            (current[1], frame.marks[1], current[3], frame.marks[3], 0.0, ALBEDO_MARGIN)):
+        theirs = dr.gather(mi.Float, theirs, source, inside)
+        spread = dr.maximum(shifted * dr.maximum(my_spread, dr.gather(mi.Float, their_spread, source, inside)),
+                            dr.select(moved, my_spread, 0.0))
+        held.append(dr.abs(mine - theirs) <= spread + ratio * dr.maximum(mine, theirs) + margin)
+    return source, inside, same, held[0], held[1]
 
 
 def _by_quarters(frame: JitFrame, match: _Match) -> list:
