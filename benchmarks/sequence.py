@@ -89,8 +89,9 @@ class MovingObject:
     step: float  # scene units a frame
 
     def label(self) -> str:
-        """What the references' cache is keyed by: the object, its direction and pace."""
-        return f"object{zlib.crc32(repr(self).encode()):08x}"
+        """What the references' cache is keyed by: the object, its direction and pace (and that its meshes keep
+        their normals as they move: the references before that had Mitsuba's smooth ones)."""
+        return f"object{zlib.crc32((repr(self) + ' file normals').encode()):08x}"
 
 
 #: Per scene, the object that slides: in plain view, mid-sized, casting a shadow where the light falls. The living
@@ -214,6 +215,11 @@ class SceneMotion:
             original = np.array(self.parameters[key], dtype=np.float64).reshape(-1, 3)
             # a buffer made from an array is no literal: nothing to make opaque
             self.frames[key] = lambda frame, original=original: mi.Float((original + frame * offset).ravel())
+            if shape.has_vertex_normals():
+                # set with the positions, a mesh keeps these normals; without them Mitsuba sums new ones with float
+                # atomics, in another order each run, and the sequence's bits changed (docs/experiments.md)
+                normals = np.array(self.parameters[self._key(shape, "vertex_normals")], dtype=np.float32)
+                self.frames[self._key(shape, "vertex_normals")] = lambda frame, normals=normals: mi.Float(normals)
 
     def _light(self, scene, degrees: float) -> str:
         """Turn the scene's main light (its one emitter other than a constant background); what it is, in words."""

@@ -307,6 +307,11 @@ class XmlFrames:
             self.changes[frame] = {mine: loaded[theirs] for mine, theirs in pairs
                                    if not np.array_equal(_plain(loaded[theirs]), first[mine])}
         self.keys = sorted({key for changed in self.changes.values() for key in changed})
+        # a mesh given new vertices without new normals gets normals Mitsuba sums anew (float atomics, in another
+        # order each run: other bits), smooth where the file's were not; with its normals set too, it keeps them
+        self.keys = sorted({*self.keys, *(key.replace("vertex_positions", "vertex_normals") for key in self.keys
+                                          if key.endswith("vertex_positions")
+                                          and key.replace("vertex_positions", "vertex_normals") in first)})
         self.parameters = mi.traverse(self.scene)  # a new one: reading every value above marked each as updated
         self.parameters.keep(self.keys)  # an update then schedules these alone
         # copies: setting a parameter writes into the object the scene held
@@ -322,6 +327,8 @@ class XmlFrames:
             value = type(value)(value)
             dr.make_opaque(value)
             self.parameters[key] = value
+            if key.endswith("vertex_normals"):
+                self.parameters.set_dirty(key)  # the same normals as before are no change to mi.traverse
         if self.keys:
             self.parameters.update()
 
