@@ -7,6 +7,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import mitsuba as mi
+import numpy as np
 
 from ..errors import GmcptError
 from ..runtime.plugins import mitsuba_message, plugin_errors
@@ -213,7 +214,39 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
     except Exception as error:  # Mitsuba reports all load errors as RuntimeError
         raise GmcptError(f"cannot load scene {path}: {mitsuba_message(error)}") from None
     scene_sensor(scene, path=path)
+    settle_normals(scene)
     return scene
+
+
+#: How far (any component) a mesh's loaded normals may be from the smooth ones summed again and still be taken for
+#: Mitsuba's own: rounding moves them by about 1e-7; a file's normals that differ do so by far more
+SMOOTH_NORMALS_TOLERANCE = 1e-4
+
+
+def settle_normals(scene: mi.Scene) -> None:
+    """Give every mesh whose vertex normals Mitsuba computed at load (its file had none) the same normals on every
+    load. Mitsuba sums them over faces with float atomics on all its threads, in another order each time: other
+    bits, and with them other images (docs/experiments.md, sixty-seventh session). Summed again on one thread they
+    are a function of the mesh alone. A mesh whose file gave its normals keeps them."""
+    import drjit as dr
+
+    meshes = [shape for shape in scene.shapes() if isinstance(shape, mi.Mesh) and shape.has_vertex_normals()]
+    if not meshes:
+        return
+    threads = dr.thread_count()
+    dr.set_thread_count(1)
+    try:
+        for mesh in meshes:
+            parameters = mi.traverse(mesh)
+            if "vertex_normals" not in parameters.properties:
+                continue  # a shape Mitsuba makes a mesh of (a rectangle): normals of its own, not summed
+            loaded = np.array(parameters["vertex_normals"])
+            mesh.recompute_vertex_normals()
+            if np.abs(np.array(mi.traverse(mesh)["vertex_normals"]) - loaded).max(initial=0.0) > SMOOTH_NORMALS_TOLERANCE:
+                parameters["vertex_normals"] = mi.Float(loaded)  # the file's
+                parameters.update()
+    finally:
+        dr.set_thread_count(threads)
 
 
 def masked_integrator(scene: mi.Scene, **overrides) -> mi.Integrator:
