@@ -75,7 +75,8 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
      * - history
        - |int|
        - Past frames a frame reuses (0: none). Above 0, successive ``mi.render`` calls on the same scene are the
-         frames of one sequence (move the camera and shapes through ``mi.traverse`` between them): each frame
+         frames of one sequence (move the camera and shapes through ``mi.traverse`` between them; set a moved
+         mesh's ``vertex_normals`` with its vertices, or Mitsuba sums new ones, other bits each run): each frame
          spends ``budget`` (or ``time``) on every pixel, reuses the samples of up to ``history`` frames before
          it where they still hold, then OIDN (see ``gmcpt.temporal.sequence``); ``mi.render``'s ``seed``, when given,
          is the frame's number. Another scene, another film size or ``reset()`` starts over. ``rate``,
