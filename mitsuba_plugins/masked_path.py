@@ -15,7 +15,7 @@ from gmcpt.pipeline import Rendered, render_and_complete
 from gmcpt.runtime.plugins import constructor
 from gmcpt.render.kernels import DEFAULT_FEATURE_SPP
 from gmcpt.sampling.strategies import RenderSettings, check_one_sample_count
-from gmcpt.render.scene import scene_sensor
+from gmcpt.render.scene import scene_sensor, settle_normals
 from gmcpt.temporal.sequence import RenderLoop
 
 
@@ -197,6 +197,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
             raise GmcptError("masked_path only renders developed images (develop=True)")
         if isinstance(sensor, int):
             sensor = scene_sensor(scene, sensor)
+        settle_normals(scene)  # a scene loaded by mi.load_file: its computed normals, the same bits every load
         if self.loop is not None:
             if spp:
                 raise GmcptError("masked_path with history spends its budget: give it a budget, not an spp")

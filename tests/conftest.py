@@ -62,3 +62,18 @@ def synthetic_frame(height=48, width=64, rate=0.3, seed=0):
                         depth=np.full((height, width), 0.5, np.float32),
                         visibility=np.ones((height, width), np.float32), spp=16)
     return frame, clean
+
+
+def write_blob(path: Path, side: int = 200) -> None:
+    """An OBJ of a bumpy sphere without normals, ``side`` x ``side`` vertices: enough faces that Mitsuba sums its
+    normals on all its threads (float atomics: other bits from load to load)."""
+    import numpy as np
+
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, side), np.linspace(0.1, np.pi - 0.1, side))
+    radius = 1 + 0.1 * np.sin(5 * u) * np.sin(3 * v)
+    points = np.stack([radius * np.cos(u) * np.sin(v), radius * np.sin(u) * np.sin(v), radius * np.cos(v)], -1)
+    corner = (np.arange(side - 1)[:, None] * side + np.arange(side - 1)[None, :]).ravel() + 1
+    faces = np.concatenate([np.stack([corner, corner + 1, corner + side + 1], 1),
+                            np.stack([corner, corner + side + 1, corner + side], 1)])
+    path.write_text("".join(f"v {x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in points.reshape(-1, 3))
+                    + "".join(f"f {a} {b} {c}\n" for a, b, c in faces))

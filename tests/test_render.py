@@ -354,17 +354,10 @@ def test_a_scene_loads_its_emitters_in_the_same_order_every_time(mi, tmp_path):
 def test_a_meshs_computed_normals_are_the_same_bits_on_every_load(mi, tmp_path):
     """Mitsuba sums the normals of a mesh whose file has none with float atomics over its threads: 6 loads of this
     one gave 2-4 different normals. load_scene sums them again on one thread; normals a file gives stay its own."""
+    from conftest import write_blob
     from gmcpt.render.scene import load_scene
 
-    side = 200  # enough faces for the sum to run on both threads
-    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, side), np.linspace(0.1, np.pi - 0.1, side))
-    radius = 1 + 0.1 * np.sin(5 * u) * np.sin(3 * v)
-    points = np.stack([radius * np.cos(u) * np.sin(v), radius * np.sin(u) * np.sin(v), radius * np.cos(v)], -1)
-    corner = (np.arange(side - 1)[:, None] * side + np.arange(side - 1)[None, :]).ravel() + 1
-    faces = np.concatenate([np.stack([corner, corner + 1, corner + side + 1], 1),
-                            np.stack([corner, corner + side + 1, corner + side], 1)])
-    (tmp_path / "blob.obj").write_text("".join(f"v {x:.6f} {y:.6f} {z:.6f}\n" for x, y, z in points.reshape(-1, 3))
-                                       + "".join(f"f {a} {b} {c}\n" for a, b, c in faces))
+    write_blob(tmp_path / "blob.obj")
     tilted = "vn 0.4 0 0.9165\nvn -0.3 0.2 0.9327\nvn 0.1 -0.5 0.86\n"  # far from the face's own
     (tmp_path / "tri.obj").write_text("v -1 -1 0\nv 1 -1 0\nv 1 1 0\n" + tilted + "f 1//1 2//2 3//3\n")
     (tmp_path / "scene.xml").write_text(

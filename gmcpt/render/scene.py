@@ -225,11 +225,18 @@ SMOOTH_NORMALS_TOLERANCE = 1e-4
 
 def settle_normals(scene: mi.Scene) -> None:
     """Give every mesh whose vertex normals Mitsuba computed at load (its file had none) the same normals on every
-    load. Mitsuba sums them over faces with float atomics on all its threads, in another order each time: other
+    load, once a scene (``load_scene`` does it, and ``masked_path`` at a scene's first render: a scene the user
+    loaded). Mitsuba sums them over faces with float atomics on all its threads, in another order each time: other
     bits, and with them other images (docs/experiments.md, sixty-seventh session). Summed again on one thread they
     are a function of the mesh alone. A mesh whose file gave its normals keeps them."""
     import drjit as dr
 
+    from .held import scene_state
+
+    state = scene_state(scene)
+    if state.get("normals settled"):
+        return
+    state["normals settled"] = True
     meshes = [shape for shape in scene.shapes() if isinstance(shape, mi.Mesh) and shape.has_vertex_normals()]
     if not meshes:
         return
