@@ -426,6 +426,23 @@ def test_an_animations_frames_are_its_xml_at_each_frame(mi, tmp_path):
         assert np.allclose(mine, theirs, atol=1e-6)
 
 
+def test_an_animations_frames_replay_one_recording(mi, tmp_path):
+    """XmlFrames' camera, set from another loaded frame's value, had the frozen kernels record again at every frame;
+    rebuilt from its numbers, every frame replays the first one's recording."""
+    from gmcpt.evaluation.sequences import XmlFrames
+    from gmcpt.render.held import scene_state
+    from gmcpt.temporal.survey import survey
+
+    (tmp_path / "anim.xml").write_text(ANIMATED_BOX)
+    frames = XmlFrames(tmp_path / "anim.xml", (16, 16), range(0, 4))
+    for frame in (0, 1, 2, 3, 1):
+        frames.at(frame)
+        survey(frames.scene, frames.scene.sensors()[0], 2, 0)
+    recordings = [recording for key, recording in scene_state(frames.scene)["recordings"].items()
+                  if key[0].function.__name__ == "_survey_planes"]
+    assert len(recordings) == 1 and recordings[0].n_recordings == 1
+
+
 def test_an_animated_mesh_keeps_its_files_normals(mi, tmp_path):
     """A mesh that moves between frames keeps the normals its file gives, to the bit: given new vertices alone,
     Mitsuba sums smooth normals anew with float atomics (other bits each run, and not the file's shading)."""

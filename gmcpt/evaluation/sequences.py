@@ -271,6 +271,22 @@ def _anonymous(key: str) -> str:
     return re.sub(r"\bobject_\d+", "object", key)
 
 
+def _rebuilt(value):
+    """A ``mi.traverse`` value made again from its numbers (a transform through its scalar type), to be made opaque:
+    a copy of another loaded scene's value, opaque too, had the frozen kernels record again at every frame (a camera
+    that turned: 80-150 ms a 256x256 frame; docs/experiments.md, sixty-seventh session). A buffer (a mesh's
+    vertices) is copied: a moved mesh has the kernels run plain anyway."""
+    import drjit as dr
+    import mitsuba as mi
+
+    matrix = getattr(value, "matrix", None)
+    if matrix is not None:
+        return type(value)(getattr(mi, "Scalar" + type(value).__name__)(np.array(matrix, np.float64).reshape(4, 4)))
+    if dr.width(value) == 1:
+        return type(value)(*np.array(value).ravel().tolist())
+    return type(value)(value)
+
+
 class XmlFrames:
     """A scene file's ``$frame`` animation as one scene whose parameters change from frame to frame (:meth:`at`),
     as the benchmark's ``SceneMotion`` moves the evaluation's scenes.
@@ -323,8 +339,7 @@ class XmlFrames:
         import drjit as dr
 
         for key in self.keys:
-            value = self.changes[frame].get(key, self.first[key])
-            value = type(value)(value)
+            value = _rebuilt(self.changes[frame].get(key, self.first[key]))
             dr.make_opaque(value)
             self.parameters[key] = value
             if key.endswith("vertex_normals"):
