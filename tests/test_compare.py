@@ -428,16 +428,20 @@ def test_an_animations_frames_are_its_xml_at_each_frame(mi, tmp_path):
 
 def test_an_animations_frames_replay_one_recording(mi, tmp_path):
     """XmlFrames' camera, set from another loaded frame's value, had the frozen kernels record again at every frame;
-    rebuilt from its numbers, every frame replays the first one's recording."""
+    rebuilt from its numbers (a colour too), every frame replays the first one's recording."""
     from gmcpt.evaluation.sequences import XmlFrames
     from gmcpt.render.held import scene_state
     from gmcpt.temporal.survey import survey
 
-    (tmp_path / "anim.xml").write_text(ANIMATED_BOX)
-    frames = XmlFrames(tmp_path / "anim.xml", (16, 16), range(0, 4))
-    for frame in (0, 1, 2, 3, 1):
+    # the camera turns and the light's red goes up: a transform and a colour, set from the frames' loads
+    (tmp_path / "anim.xml").write_text(ANIMATED_BOX.replace('value="6, 6, 6"', 'value="$frame, 6, 6"'))
+    frames = XmlFrames(tmp_path / "anim.xml", (16, 16), range(1, 5))
+    assert len(frames.keys) == 2
+    for frame in (1, 2, 3, 4, 2):
         frames.at(frame)
         survey(frames.scene, frames.scene.sensors()[0], 2, 0)
+        radiance = [key for key in frames.keys if key.endswith("radiance.value")]
+        assert np.allclose(np.array(mi.traverse(frames.scene)[radiance[0]]).ravel(), [frame, 6, 6])
     recordings = [recording for key, recording in scene_state(frames.scene)["recordings"].items()
                   if key[0].function.__name__ == "_survey_planes"]
     assert len(recordings) == 1 and recordings[0].n_recordings == 1

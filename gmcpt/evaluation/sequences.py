@@ -262,8 +262,13 @@ def stage_means(stages: list[dict], seconds: list, warm: int) -> dict:
 
 def _plain(value) -> np.ndarray:
     """A ``mi.traverse`` value as an array to compare: a transform's matrix, else its values."""
-    matrix = getattr(value, "matrix", None)
-    return np.array(matrix if matrix is not None else value)
+    return np.array(value.matrix if _is_transform(value) else value)
+
+
+def _is_transform(value) -> bool:
+    """Whether a ``mi.traverse`` value is a transform (other Dr.Jit arrays, a colour too, have a ``matrix`` of their
+    own)."""
+    return "Transform" in type(value).__name__
 
 
 def _anonymous(key: str) -> str:
@@ -279,9 +284,9 @@ def _rebuilt(value):
     import drjit as dr
     import mitsuba as mi
 
-    matrix = getattr(value, "matrix", None)
-    if matrix is not None:
-        return type(value)(getattr(mi, "Scalar" + type(value).__name__)(np.array(matrix, np.float64).reshape(4, 4)))
+    if _is_transform(value):
+        matrix = np.array(value.matrix, np.float64)
+        return type(value)(getattr(mi, "Scalar" + type(value).__name__)(matrix.reshape(matrix.shape[:2])))
     if dr.width(value) == 1:
         return type(value)(*np.array(value).ravel().tolist())
     return type(value)(value)
