@@ -20,8 +20,15 @@ def test_a_stopped_sequence_resumes_with_the_images_of_an_uninterrupted_run(tmp_
     summary = json.loads(gmcpt("batch", CORNELL, "--frames", "0:4", *SEQUENCE, "--out", stopped).stdout)
     assert (summary["rendered"], summary["skipped"]) == (2, 2)
     assert same_outputs(straight, stopped, names)
-    (stopped / ".sequence-state.npz").write_bytes(b"not a state")
-    broken = gmcpt("batch", CORNELL, "--frames", "0:5", *SEQUENCE, "--out", stopped, check=False)
+    state = stopped / ".sequence-state"  # a file a past frame, written once, and the rest
+    assert sorted(path.name for path in state.iterdir()) == [f"frame-00000{frame}.npz" for frame in range(4)] + ["rest.npz"]
+    written = (state / "frame-000002.npz").stat().st_mtime_ns
+    gmcpt("batch", CORNELL, "--frames", "0:6", *SEQUENCE, "--out", stopped)
+    assert sorted(path.name for path in state.iterdir()) == [f"frame-00000{frame}.npz" for frame in range(2, 6)] + [
+        "rest.npz"]  # frames 0 and 1 left the history of 4
+    assert (state / "frame-000002.npz").stat().st_mtime_ns == written
+    (stopped / ".sequence-state" / "rest.npz").write_bytes(b"not a state")
+    broken = gmcpt("batch", CORNELL, "--frames", "0:7", *SEQUENCE, "--out", stopped, check=False)
     assert broken.returncode == 2 and broken.stderr.strip().count("\n") == 0
     assert "sequence-state" in broken.stderr and "delete it" in broken.stderr
 

@@ -12,7 +12,7 @@ its warm-up's last frames, rising towards the next chunk: the change is spread o
 writes them when both halves are in.
 
 Resuming is per frame, through the frames' records (:func:`gmcpt.cli.batch_records.finished_record`, made with the same
-history): the state file ``.sequence-state.npz`` belongs to the one-process path. A task renders from its warm-up
+history): the state folder ``.sequence-state`` belongs to the one-process path. A task renders from its warm-up
 before the first frame it still owes (a stopped batch, or a task Ray runs again after its worker died) to the last.
 """
 from __future__ import annotations
