@@ -71,11 +71,12 @@ def _state_path(args) -> Path:
 
 def load_frame(args, job: dict) -> tuple:
     """(scene, its ``$`` parameters, the frame's index) of ``job``: what every sequence path loads a frame from."""
+    from ..render.kernels import plain_kernels
     from ..render.scene import load_scene
 
     parameters = dict(define.split("=", 1) for define in job["options"]["defines"])
     scene = load_scene(job["scene"], tuple(args.res) if args.res else None, parameters)
-    return scene, parameters, int(parameters["frame"])
+    return plain_kernels(scene), parameters, int(parameters["frame"])
 
 
 def render_frame(args, renderer, job: dict, scene, parameters: dict) -> tuple[np.ndarray, dict]:
