@@ -127,7 +127,10 @@ def _save_state(args, renderer) -> None:
     keys ``SLOT_NAME``) to a file of its own, written once; the rest, with the past frames' indices in order, to
     :data:`STATE_REST`, written after them; then the files of frames that left the history go."""
     folder = _state_path(args)
-    folder.mkdir(exist_ok=True)
+    try:
+        folder.mkdir(exist_ok=True)
+    except OSError as error:
+        raise GmcptError(f"cannot write the sequence's state in {folder}: {error.strerror or error}") from None
     state, slots = renderer.state(), {}
     for key in [key for key in state if key.split("_", 1)[0].isdigit()]:
         slot, name = key.split("_", 1)
@@ -139,7 +142,7 @@ def _save_state(args, renderer) -> None:
             _save_arrays(folder / _frame_file(index), slots[slot])
     _save_arrays(folder / STATE_REST, {**state, "frames": np.array(indices, np.int64)})
     for stale in set(folder.glob("frame-*.npz")) - {folder / _frame_file(index) for index in indices}:
-        stale.unlink()
+        stale.unlink(missing_ok=True)
 
 
 def _load_state(args) -> dict:
