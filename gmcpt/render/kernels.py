@@ -98,9 +98,10 @@ class FrozenKernel:
         self.function = function
 
     def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple], integrator: object = None):
-        if scene_state(scene).get(PLAIN_KERNELS):
+        state = scene_state(scene)
+        if state.get(PLAIN_KERNELS):
             return self._plain(scene, arguments)
-        state, shapes = scene_state(scene), geometry_key(scene)
+        shapes = geometry_key(scene)
         recordings, seen = state.setdefault("recordings", {}), state.setdefault("geometry", {})
         moves, still = state.setdefault("moves", {}), state.setdefault("still", {})
         moved, seen[self] = self in seen and seen[self] != shapes, shapes

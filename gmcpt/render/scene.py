@@ -247,9 +247,9 @@ def settle_normals(scene: mi.Scene) -> None:
             parameters = mi.traverse(mesh)
             if "vertex_normals" not in parameters.properties:
                 continue  # a shape Mitsuba makes a mesh of (a rectangle): normals of its own, not summed
-            loaded = np.array(parameters["vertex_normals"])
+            loaded = np.array(mesh.vertex_normals_buffer())
             mesh.recompute_vertex_normals()
-            if np.abs(np.array(mi.traverse(mesh)["vertex_normals"]) - loaded).max(initial=0.0) > SMOOTH_NORMALS_TOLERANCE:
+            if np.abs(np.array(mesh.vertex_normals_buffer()) - loaded).max(initial=0.0) > SMOOTH_NORMALS_TOLERANCE:
                 parameters["vertex_normals"] = mi.Float(loaded)  # the file's
                 parameters.update()
     finally:
