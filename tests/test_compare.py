@@ -410,15 +410,15 @@ def test_an_animation_is_a_scene_that_reads_frame(tmp_path):
 
 
 def test_an_animations_frames_are_its_xml_at_each_frame(mi, tmp_path):
-    """XmlFrames sets each frame's changes on one scene: the same image as the scene file loaded at that frame,
-    back and forth."""
+    """XmlFrames sets each frame's changes on one scene (the camera's, loaded alone): the same image as the scene file
+    loaded at that frame, back and forth."""
     from gmcpt.evaluation.sequences import XmlFrames
     from gmcpt.render.kernels import render_native
     from gmcpt.render.scene import load_scene, path_integrator
 
     (tmp_path / "anim.xml").write_text(ANIMATED_BOX)
     frames = XmlFrames(tmp_path / "anim.xml", (8, 8), range(2, 5))
-    assert len(frames.keys) == 1 and frames.keys[0].endswith("to_world")  # the camera's, alone
+    assert frames.frames.loads == 1
     for frame in (4, 2, 3):
         frames.at(frame)
         loaded = load_scene(tmp_path / "anim.xml", (8, 8), {"frame": str(frame)})
@@ -436,12 +436,13 @@ def test_an_animations_frames_replay_one_recording(mi, tmp_path):
     # the camera turns and the light's red goes up: a transform and a colour, set from the frames' loads
     (tmp_path / "anim.xml").write_text(ANIMATED_BOX.replace('value="6, 6, 6"', 'value="$frame, 6, 6"'))
     frames = XmlFrames(tmp_path / "anim.xml", (16, 16), range(1, 5))
-    assert len(frames.keys) == 2
+    assert frames.frames.loads == 1
     for frame in (1, 2, 3, 4, 2):
         frames.at(frame)
         survey(frames.scene, frames.scene.sensors()[0], 2, 0)
-        radiance = [key for key in frames.keys if key.endswith("radiance.value")]
-        assert np.allclose(np.array(mi.traverse(frames.scene)[radiance[0]]).ravel(), [frame, 6, 6])
+        parameters = mi.traverse(frames.scene)
+        radiance = [key for key in parameters.keys() if key.endswith("emitter.radiance.value")]
+        assert len(radiance) == 1 and np.allclose(np.array(parameters[radiance[0]]).ravel(), [frame, 6, 6])
     recordings = [recording for key, recording in scene_state(frames.scene)["recordings"].items()
                   if key[0].function.__name__ == "_survey_planes"]
     assert len(recordings) == 1 and recordings[0].n_recordings == 1
@@ -463,7 +464,7 @@ def test_an_animated_mesh_keeps_its_files_normals(mi, tmp_path):
     (tmp_path / "anim.xml").write_text(ANIMATED_BOX.replace("</scene>", quad + "</scene>")
                                        .replace('<rotate y="1" angle="$frame"/>', ""))
     frames = XmlFrames(tmp_path / "anim.xml", (16, 16), range(0, 2))
-    assert frames.keys == ["quad.vertex_normals", "quad.vertex_positions"]
+    assert frames.frames.loads == 1
     for frame in (1, 0, 1):
         frames.at(frame)
         loaded = load_scene(tmp_path / "anim.xml", (16, 16), {"frame": str(frame)})
@@ -471,3 +472,15 @@ def test_an_animated_mesh_keeps_its_files_normals(mi, tmp_path):
                               np.array(mi.traverse(loaded)["quad.vertex_normals"]))
         mine, theirs = (render_native(s, s.sensors()[0], path_integrator(s), 2, 5) for s in (frames.scene, loaded))
         assert np.allclose(mine, theirs, atol=1e-6)
+
+
+def test_an_animation_that_one_scene_cannot_take_is_one_line(mi, tmp_path):
+    """A frame that changes what mi.traverse does not show (the path's depth) would be another scene: XmlFrames says
+    so before any timing, where it once set the camera alone and rendered every frame at the first frame's depth."""
+    from gmcpt.errors import GmcptError
+    from gmcpt.evaluation.sequences import XmlFrames
+
+    (tmp_path / "anim.xml").write_text(ANIMATED_BOX.replace('<integer name="max_depth" value="4"/>',
+                                                            '<integer name="max_depth" value="$frame"/>'))
+    with pytest.raises(GmcptError, match="frame 3 of .*anim.xml changes what the scene is made of"):
+        XmlFrames(tmp_path / "anim.xml", (8, 8), range(2, 5))

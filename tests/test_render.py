@@ -154,27 +154,6 @@ def _pixel_sums_arguments(mi, scene, path, pixels, seed):
                     [kernels.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)])
 
 
-def test_a_scene_rendered_once_runs_its_kernels_plain_with_the_same_sums(mi):
-    """plain_kernels (a batch sequence's scene, loaded for one frame): no recording is made, and the sums are those a
-    recording replays."""
-    from gmcpt.render import held, kernels
-    from gmcpt.render.scene import load_scene
-
-    pixels = np.arange(0, 24 * 20, 3)
-    once = kernels.plain_kernels(load_scene(CORNELL, resolution=(24, 20)))
-    kernel = kernels.FrozenKernel(kernels._pixel_sums)
-    plain = [np.asarray(column) for column in
-             kernel(once, _pixel_sums_arguments(mi, once, once.integrator().integrator, pixels, 3))]
-    assert not held.scene_state(once).get("recordings")
-    kept = load_scene(CORNELL, resolution=(24, 20))
-    for _ in range(2):  # recorded, then replayed
-        replayed = [np.asarray(column) for column in
-                    kernel(kept, _pixel_sums_arguments(mi, kept, kept.integrator().integrator, pixels, 3))]
-    assert held.scene_state(kept)["recordings"]
-    for mine, theirs in zip(plain, replayed):
-        np.testing.assert_array_equal(mine, theirs)
-
-
 def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
     """A scene loaded again (a batch does it for every frame) gets its own recording: replaying another
     scene's read that scene's freed objects. A scene nobody else holds is let go at the next call, with

@@ -69,19 +69,33 @@ def _state_path(args) -> Path:
     return Path(args.out) / STATE
 
 
-def load_frame(args, job: dict) -> tuple:
-    """(scene, its ``$`` parameters, the frame's index) of ``job``: what every sequence path loads a frame from."""
-    from ..render.kernels import plain_kernels
-    from ..render.scene import load_scene
-
-    parameters = dict(define.split("=", 1) for define in job["options"]["defines"])
-    scene = load_scene(job["scene"], tuple(args.res) if args.res else None, parameters)
-    return plain_kernels(scene), parameters, int(parameters["frame"])
+def frame_parameters(job: dict) -> dict[str, str]:
+    """``job``'s ``$`` parameters (``frame`` among them)."""
+    return dict(define.split("=", 1) for define in job["options"]["defines"])
 
 
-def render_frame(args, renderer, job: dict, scene, parameters: dict) -> tuple[np.ndarray, dict]:
-    """``job``'s frame as ``renderer``'s next: (image, its JSON record). One record for the one-process and the Ray
-    paths, so a frame's files do not say where it was rendered; a failure names the frame on its one line."""
+def scene_frames(args, job: dict):
+    """The frames of ``job``'s scene file at ``--res`` as one held scene
+    (:class:`~gmcpt.render.frames.SceneFrames`): what every sequence path takes its frames from. A frame sets what
+    changed since the frame before, so that the kernels recorded for the first frame serve the next ones."""
+    from ..render.frames import SceneFrames
+
+    return SceneFrames(job["scene"], tuple(args.res) if args.res else None)
+
+
+def frame_scene(frames, job: dict) -> tuple:
+    """(scene, its ``$`` parameters, the seconds it took to set or load) of ``job`` from ``frames``
+    (:func:`scene_frames`)."""
+    parameters = frame_parameters(job)
+    start = time.perf_counter()
+    scene = frames.at(parameters)
+    return scene, parameters, time.perf_counter() - start
+
+
+def render_frame(args, renderer, job: dict, scene, parameters: dict, scene_seconds: float) -> tuple[np.ndarray, dict]:
+    """``job``'s frame as ``renderer``'s next: (image, its JSON record; its timings begin with ``scene_s``, the
+    seconds its scene took to set or load). One record for the one-process and the Ray paths, so a frame's files do
+    not say where it was rendered; a failure names the frame on its one line."""
     from ..io.outputs import library_versions
     from .render import check_nonfinite
 
@@ -97,7 +111,7 @@ def render_frame(args, renderer, job: dict, scene, parameters: dict) -> tuple[np
                              "history": settings.history, "decay": settings.decay, "time": settings.time or None,
                              "resolution": [image.shape[1], image.shape[0]], "scene_parameters": parameters},
               "versions": library_versions(), **info.to_json(),
-              "timings": timings, "batch": {"key": job["key"], "name": job["name"]}}
+              "timings": {"scene_s": scene_seconds, **timings}, "batch": {"key": job["key"], "name": job["name"]}}
     return image, record
 
 
@@ -173,12 +187,12 @@ def run(args, jobs: list[dict], say, bar) -> dict:
     """Render ``jobs`` (one scene's frames, in order) as a sequence; returns the summary rows by name."""
     from ..temporal.sequence import SequenceRenderer
 
-    rows, renderer, newest = {}, None, -1
+    rows, renderer, newest, frames = {}, None, -1, scene_frames(args, jobs[0])
     for job in jobs:
-        start = time.perf_counter()
-        scene, parameters, frame = load_frame(args, job)
-        if renderer is None:
-            renderer = SequenceRenderer(sequence_settings(args, scene))
+        start, loaded = time.perf_counter(), None
+        if renderer is None:  # the first frame's scene gives the settings (a resumed run's too: it sets the next)
+            loaded = frame_scene(frames, job)
+            renderer = SequenceRenderer(sequence_settings(args, loaded[0]))
             if (_state_path(args) / STATE_REST).exists():
                 try:
                     renderer.restore(_load_state(args))
@@ -187,12 +201,14 @@ def run(args, jobs: list[dict], say, bar) -> dict:
                 except GmcptError as error:  # another budget, seed or history: its frames would not match
                     raise GmcptError(f"{_state_path(args)}: {error}: delete it, or give another --out") from None
                 newest = max((past.index for past in renderer.past), default=-1)
-        if frame <= newest:
+        if int(frame_parameters(job)["frame"]) <= newest:
             rows[job["name"]] = frame_row(job, "skipped")
             continue
-        say(f"frame {frame}: " + (f"{renderer.settings.time:g} s" if renderer.settings.time else
-                                  f"{renderer.settings.budget:g} samples a pixel") + f", {len(renderer.past)} past frames")
-        image, record = render_frame(args, renderer, job, scene, parameters)
+        scene, parameters, scene_seconds = loaded or frame_scene(frames, job)
+        say(f"frame {parameters['frame']}: " + (f"{renderer.settings.time:g} s" if renderer.settings.time else
+                                                f"{renderer.settings.budget:g} samples a pixel")
+            + f", {len(renderer.past)} past frames")
+        image, record = render_frame(args, renderer, job, scene, parameters, scene_seconds)
         write_frame(job, image, record)
         _save_state(args, renderer)
         seconds = time.perf_counter() - start

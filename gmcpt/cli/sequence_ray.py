@@ -128,7 +128,7 @@ def render_chunk(task: dict) -> dict:
     from .batch_records import crash_once
     from .command import start_mitsuba
     from ..temporal.sequence import SequenceRenderer
-    from .sequence_batch import frame_row, load_frame, render_frame, sequence_settings, write_frame
+    from .sequence_batch import frame_row, frame_scene, render_frame, scene_frames, sequence_settings, write_frame
 
     start_mitsuba()
     args, chunk, handed = task["args"], task["chunk"], set(task["handed"])
@@ -138,12 +138,12 @@ def render_chunk(task: dict) -> dict:
     result = {"rows": [frame_row(job, "found") for job in owned if job["name"] in written], "handed": {}}
     ordered = chunk.warm + chunk.frames
     owes = [job["name"] in handed or (job in owned and job["name"] not in written) for job in ordered]
-    renderer = None
+    renderer, frames = None, scene_frames(args, ordered[0])
     for position in span(owes, warm_up_frames(args.history)):
         started, job = time.perf_counter(), ordered[position]
-        scene, parameters, _ = load_frame(args, job)
+        scene, parameters, scene_seconds = frame_scene(frames, job)
         renderer = renderer or SequenceRenderer(sequence_settings(args, scene))
-        image, record = render_frame(args, renderer, job, scene, parameters)
+        image, record = render_frame(args, renderer, job, scene, parameters, scene_seconds)
         if job["name"] in handed:
             role = "tail" if job in chunk.tail else "lead"
             result["handed"][job["name"]] = (role, (image, record, time.perf_counter() - started))

@@ -12,7 +12,6 @@ A row is one contender at one setting on one (scene, motion): ``contender`` (``p
 """
 from __future__ import annotations
 
-import re
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -260,97 +259,32 @@ def stage_means(stages: list[dict], seconds: list, warm: int) -> dict:
     return {**means, "other_s": max(0.0, float(np.mean([total for _, total in kept])) - sum(means.values()))}
 
 
-def _plain(value) -> np.ndarray:
-    """A ``mi.traverse`` value as an array to compare: a transform's matrix, else its values."""
-    return np.array(value.matrix if _is_transform(value) else value)
-
-
-def _is_transform(value) -> bool:
-    """Whether a ``mi.traverse`` value is a transform (other Dr.Jit arrays, a colour too, have a ``matrix`` of their
-    own)."""
-    return "Transform" in type(value).__name__
-
-
-def _anonymous(key: str) -> str:
-    """``key`` of ``mi.traverse`` with the address that names an object without an id left out."""
-    return re.sub(r"\bobject_\d+", "object", key)
-
-
-def _rebuilt(value):
-    """A ``mi.traverse`` value made again from its numbers (a transform through its scalar type), to be made opaque:
-    a copy of another loaded scene's value, opaque too, had the frozen kernels record again at every frame (a camera
-    that turned: 80-150 ms a 256x256 frame; docs/experiments.md, sixty-seventh session). A buffer (a mesh's
-    vertices) is copied: a moved mesh has the kernels run plain anyway."""
-    import drjit as dr
-    import mitsuba as mi
-
-    if _is_transform(value):
-        matrix = np.array(value.matrix, np.float64)
-        return type(value)(getattr(mi, "Scalar" + type(value).__name__)(matrix.reshape(matrix.shape[:2])))
-    if dr.width(value) == 1:
-        return type(value)(*np.array(value).ravel().tolist())
-    return type(value)(value)
-
-
 class XmlFrames:
     """A scene file's ``$frame`` animation as one scene whose parameters change from frame to frame (:meth:`at`),
-    as the benchmark's ``SceneMotion`` moves the evaluation's scenes.
-
-    Each frame's XML is loaded once, up front (uncharged), and what differs from the first frame (a camera's or
-    a shape's ``to_world``, a mesh's vertices, a colour) is kept; :meth:`at` sets those parameters through
-    ``mi.traverse``, made opaque. Rendering a newly loaded scene each frame would compile every kernel again each
-    frame (its camera, a literal, is compiled into them: a second and more a frame on two cores), in each
-    contender alike; one scene with opaque parameters compiles once. A frame that changes what the scene is made
-    of (a parameter that comes or goes, a mesh of another size) cannot be set so: one line.
+    as the benchmark's ``SceneMotion`` moves the evaluation's scenes: a :class:`~gmcpt.render.frames.SceneFrames`
+    held for ``frames``, each of them set once up front (uncharged) to check that it can be. Rendering a newly
+    loaded scene each frame would compile every kernel again each frame (its camera, a literal, is compiled into
+    them: a second and more a frame on two cores), in each contender alike; one scene with opaque parameters
+    compiles once. A frame whose change ``mi.traverse`` cannot set (a parameter that comes or goes, a mesh of
+    another size, an integer) would be another scene: one line.
     """
 
     def __init__(self, path, resolution: tuple[int, int] | None, frames: range):
-        import mitsuba as mi
+        from ..render.frames import SceneFrames
 
-        from ..errors import GmcptError
-        from ..render.scene import load_scene
-
-        self.scene = load_scene(path, resolution, {"frame": str(frames[0])})
-        loaded = mi.traverse(self.scene)
-        first = {key: _plain(loaded[key]) for key in loaded.keys()}
-        self.changes: dict[int, dict] = {frames[0]: {}}
-        for frame in frames[1:]:
-            loaded = mi.traverse(load_scene(path, resolution, {"frame": str(frame)}))
-            # the same parameters in the same order; an object without an id is named by its address, another
-            # in each load, so the keys are matched by their place
-            pairs = list(zip(first, loaded.keys()))
-            odd = [_anonymous(mine) for mine, theirs in pairs if _anonymous(mine) != _anonymous(theirs)
-                   or first[mine].shape != _plain(loaded[theirs]).shape]
-            if odd or len(first) != len(loaded.keys()):
-                raise GmcptError(f"frame {frame} of {path} changes what the scene is made of "
-                                 f"({', '.join(odd[:3]) or 'its number of parameters'}), not only values that "
-                                 f"mi.traverse can set")
-            self.changes[frame] = {mine: loaded[theirs] for mine, theirs in pairs
-                                   if not np.array_equal(_plain(loaded[theirs]), first[mine])}
-        self.keys = sorted({key for changed in self.changes.values() for key in changed})
-        # a mesh given new vertices without new normals gets normals Mitsuba sums anew (float atomics, in another
-        # order each run: other bits), smooth where the file's were not; with its normals set too, it keeps them
-        self.keys = sorted({*self.keys, *(key.replace("vertex_positions", "vertex_normals") for key in self.keys
-                                          if key.endswith("vertex_positions")
-                                          and key.replace("vertex_positions", "vertex_normals") in first)})
-        self.parameters = mi.traverse(self.scene)  # a new one: reading every value above marked each as updated
-        self.parameters.keep(self.keys)  # an update then schedules these alone
-        # copies: setting a parameter writes into the object the scene held
-        self.first = {key: type(self.parameters[key])(self.parameters[key]) for key in self.keys}
-        self.at(frames[0])  # opaque from the first frame on: the kernels compiled for it serve every frame
+        self.frames = SceneFrames(path, resolution)
+        self.scene = self.frames.at({"frame": str(frames[0])})
+        for frame in (*frames[1:], frames[0]):
+            self.at(frame)
 
     def at(self, frame: int) -> None:
-        """Set the scene as it is at ``frame`` (one of the frames it was made with)."""
-        import drjit as dr
+        """Set the scene as it is at ``frame``."""
+        from ..errors import GmcptError
 
-        for key in self.keys:
-            value = _rebuilt(self.changes[frame].get(key, self.first[key]))
-            dr.make_opaque(value)
-            self.parameters[key] = value
-            if key.endswith("vertex_normals"):
-                self.parameters.set_dirty(key)  # the same normals as before are no change to mi.traverse
-        if self.keys:
-            self.parameters.update()
+        if self.frames.at({"frame": str(frame)}) is not self.scene:
+            raise GmcptError(f"frame {frame} of {self.frames.path} changes what the scene is made of, or a value "
+                             f"mi.traverse cannot set (an integer, a film, a mesh of another size), not only values "
+                             f"one scene can take")
 
 
 @dataclass(frozen=True)

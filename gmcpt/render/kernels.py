@@ -67,18 +67,6 @@ ANIMATED_MOVES = 2
 STILL_CALLS = 8
 
 
-#: The key of a scene's state (:func:`~gmcpt.render.held.scene_state`) that has :class:`FrozenKernel` run plain
-PLAIN_KERNELS = "plain kernels"
-
-
-def plain_kernels(scene: mi.Scene) -> mi.Scene:
-    """``scene``, its :class:`FrozenKernel` s run plain from now on: for a scene that renders one frame and goes (a
-    batch sequence loads every frame's scene anew), whose recordings would never be replayed (0.05-0.09 s of a
-    256x256 frame of a 180-mesh interior; docs/experiments.md, sixty-seventh session)."""
-    scene_state(scene)[PLAIN_KERNELS] = True
-    return scene
-
-
 class FrozenKernel:
     """``function(scene, ...)`` recorded by ``dr.freeze`` once per scene and settings, then replayed.
 
@@ -89,9 +77,8 @@ class FrozenKernel:
     live scene share the call's registry (seen with the breakfast room loaded beside another scene): the recording
     raises, and that scene runs the plain function, with the same result. After a shape moved (through
     ``mi.traverse``) the kernel runs plain once, then records again; after :data:`ANIMATED_MOVES` moves it runs
-    plain for that scene until :data:`STILL_CALLS` calls in a row saw no move. A scene rendered once and let go
-    (:func:`plain_kernels`) runs them plain: a recording it would never replay costs more. Call with a function that
-    builds the arguments, so a failed recording leaves none dirty.
+    plain for that scene until :data:`STILL_CALLS` calls in a row saw no move. Call with a function that builds the
+    arguments, so a failed recording leaves none dirty.
     """
 
     def __init__(self, function: Callable):
@@ -99,8 +86,6 @@ class FrozenKernel:
 
     def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple], integrator: object = None):
         state = scene_state(scene)
-        if state.get(PLAIN_KERNELS):
-            return self._plain(scene, arguments)
         shapes = geometry_key(scene)
         recordings, seen = state.setdefault("recordings", {}), state.setdefault("geometry", {})
         moves, still = state.setdefault("moves", {}), state.setdefault("still", {})

@@ -187,6 +187,13 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         (e.g. the dataset's camera jitter, :mod:`gmcpt.dataset.real`).
     """
     path = check_scene_file(path)
+    return load_tree(scene_tree(path, resolution, without, edit), path, parameters)
+
+
+def scene_tree(path: Path, resolution: tuple[int, int] | None = None, without: tuple[str, ...] = (),
+               edit: Callable[[ET.Element], None] | None = None) -> ET.Element:
+    """The ``<scene>`` element :func:`load_scene` loads from ``path`` (an existing file): includes inlined where it
+    changes the scene (``resolution``, ``without``, ``edit``), one line for malformed XML or no sensor."""
     try:
         root = ET.parse(path).getroot()
     except ET.ParseError as error:
@@ -203,6 +210,12 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         _remove_elements(root, tuple(without), path)
     if edit is not None:
         edit(root)
+    return root
+
+
+def load_tree(root: ET.Element, path: Path, parameters: dict[str, str] | None = None, whole: bool = True) -> mi.Scene:
+    """The scene of ``root`` (a ``<scene>`` element of the file ``path``: relative names resolve from its folder),
+    its normals settled; ``whole``: it must have a sensor (a part of a scene, loaded to read its objects, need not)."""
     text = ET.tostring(root, encoding="unicode")
     try:
         with _resolving_from(path.resolve().parent), plugin_errors(f"cannot load scene {path}: "), _loading_threads():
@@ -213,7 +226,8 @@ def load_scene(path: str | Path, resolution: tuple[int, int] | None = None,
         raise
     except Exception as error:  # Mitsuba reports all load errors as RuntimeError
         raise GmcptError(f"cannot load scene {path}: {mitsuba_message(error)}") from None
-    scene_sensor(scene, path=path)
+    if whole:
+        scene_sensor(scene, path=path)
     settle_normals(scene)
     return scene
 

@@ -1,0 +1,232 @@
+"""A scene file's frames as one held scene: a frame sets, through ``mi.traverse``, what its ``$`` parameters change.
+
+A frame of an animation (``gmcpt batch SCENE --frames A:B``) differs from the frame before only in the elements of
+the file that read a parameter whose value changed (``$frame``). :class:`SceneFrames` loads those top-level elements
+alone (a camera, a few meshes, a light: milliseconds, where loading a room of 180 meshes takes 0.4-0.7 s) and sets
+their parameters on the scene it holds, made opaque, so that the kernels compiled and recorded for the first frame
+serve the next ones. Where a change is not one ``mi.traverse`` can set, the frame's scene is loaded whole, as it was
+before: a parameter read by an ``<integer>``, a ``<boolean>`` or a ``<string>`` other than a mesh's file, by an
+element other than a sensor, shape, emitter, BSDF or texture (an integrator, a film, a shape group), a change of
+structure, a mesh whose file has another number of vertices, or a changed property whose parameter ``mi.traverse``
+does not list. The frames are the images loading each one whole gives (``tests/test_sequence_batch.py``).
+"""
+from __future__ import annotations
+
+import copy
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import mitsuba as mi
+import numpy as np
+
+from .scene import check_scene_file, load_tree, scene_tree
+
+#: The top-level elements whose changes a frame may set instead of loading the scene again.
+SETTABLE_ELEMENTS = ("sensor", "shape", "emitter", "bsdf", "texture")
+#: Properties whose ``value`` a frame may change (each must show as a changed ``mi.traverse`` parameter).
+VALUE_TAGS = ("float", "rgb", "spectrum", "point", "vector")
+#: Shapes whose ``filename`` a frame may change: their vertices, normals and faces are parameters.
+MESH_TYPES = ("obj", "ply", "serialized")
+#: An XML property's name where ``mi.traverse`` names its parameter otherwise.
+TRAVERSE_NAMES = {"fov": "x_fov"}
+#: The ids given to top-level elements that have none, so that their parameters keep their names from load to load
+#: (Mitsuba names an object without an id by its address).
+ID_PREFIX = "gmcpt-element-"
+
+
+class SceneFrames:
+    """The frames of the scene file ``path`` at ``resolution`` ((width, height), None: the file's): :meth:`at` gives
+    the scene with a frame's ``$`` parameters, the same :class:`mitsuba.Scene` from frame to frame wherever the change
+    can be set. ``loads`` counts the frames loaded whole."""
+
+    def __init__(self, path: str | Path, resolution: tuple[int, int] | None = None):
+        self.path = check_scene_file(path)
+        self.root = scene_tree(self.path, resolution, edit=name_elements)
+        self.defaults = {element.get("name"): element.get("value") for element in self.root.findall("default")}
+        self.texts = [(element, _attribute_text(element)) for element in self.root if element.tag != "default"]
+        self.scene: mi.Scene | None = None
+        self.values: dict[str, str] = {}
+        self.loads = 0
+
+    def at(self, parameters: dict[str, str]) -> mi.Scene:
+        """The scene with ``parameters`` (``$name`` values; the file's ``<default>`` s for the others)."""
+        values = {**self.defaults, **parameters}
+        if self.scene is not None:
+            changed = {name for name in values.keys() | self.values.keys() if values.get(name) != self.values.get(name)}
+            if not changed or self._set(changed, values, parameters):
+                self.values = values
+                return self.scene
+        self.scene, self.values = load_tree(self.root, self.path, parameters), values
+        self.loads += 1
+        self._settle([element for element, text in self.texts if "$" in text])
+        return self.scene
+
+    def _settle(self, elements: list[ET.Element]) -> None:
+        """Set the transforms and single Dr.Jit values (a field of view, a colour) of ``elements`` (those that read
+        parameters) to themselves, opaque.
+        Loaded, a camera derives its inner transforms from the file's double-precision ``to_world``; set, from the
+        scene's single-precision one: a few ulps apart, which a sequence's history carried into other images from
+        the third frame on (docs/experiments.md, sixty-eighth session). Settled, a loaded frame is a set frame to
+        the bit, and its values are opaque from the first frame on, so the kernels recorded for it replay."""
+        import drjit as dr
+
+        prefixes = tuple(f"{name}." for element in elements for name in _ids(element))
+        parameters = mi.traverse(self.scene)
+        keys = [key for key in parameters.keys() if key.startswith(prefixes)
+                and (is_transform(parameters[key]) or dr.is_jit_v(parameters[key]) and dr.width(parameters[key]) == 1)]
+        parameters = mi.traverse(self.scene)
+        parameters.keep([re.escape(key) + "$" for key in keys])
+        for key in keys:
+            parameters[key] = opaque_value(parameters[key])
+            parameters.set_dirty(key)
+        if keys:
+            parameters.update()
+
+    def _set(self, changed: set[str], values: dict[str, str], parameters: dict[str, str]) -> bool:
+        """Set on the held scene the elements that read a ``changed`` parameter; False (nothing set) where one of
+        their changes is not one ``mi.traverse`` can set."""
+        elements = [element for element, text in self.texts if any(f"${name}" in text for name in changed)]
+        kinds = [_changes(element, self.values, values) for element in elements]
+        if any(kind is None for kind in kinds):
+            return False
+        part = _part(self.root, elements)
+        text = _attribute_text(part)
+        loaded = mi.traverse(load_tree(part, self.path, {name: value for name, value in parameters.items()
+                                                          if f"${name}" in text}, whole=False))
+        held = mi.traverse(self.scene)  # read here; set through another (reading marks a value for the update)
+        new_values = {}
+        for element, element_kinds in zip(elements, kinds):
+            prefixes = tuple(f"{name}." for name in _ids(element))
+            mine = {key: loaded[key] for key in loaded.keys() if key.startswith(prefixes)}
+            if any(key not in held for key in mine):
+                return False
+            old = {key: value_array(held[key]) for key in mine}
+            if any(type(held[key]) is not type(value) or old[key].shape != value_array(value).shape
+                   for key, value in mine.items()):
+                return False  # another kind or size of value: the scene is made of something else
+            differ = {key: value for key, value in mine.items() if not np.array_equal(value_array(value), old[key])}
+            if not differ or not all(any(_names(key, name) for key in differ) for name in element_kinds):
+                return False  # a change mi.traverse does not show would be lost
+            new_values.update(differ)
+            # a mesh given new vertices without its normals gets normals Mitsuba sums anew (float atomics: other
+            # bits each run), smooth where its file's were not
+            new_values.update({key.replace("vertex_positions", "vertex_normals"):
+                               mine[key.replace("vertex_positions", "vertex_normals")]
+                               for key in differ if key.endswith("vertex_positions")
+                               and key.replace("vertex_positions", "vertex_normals") in mine})
+        setting = mi.traverse(self.scene)
+        setting.keep([re.escape(key) + "$" for key in new_values])
+        for key, value in new_values.items():
+            setting[key] = opaque_value(value)
+            setting.set_dirty(key)  # a value equal to the held one (a translated mesh's normals) is still set with it
+        setting.update()
+        return True
+
+
+def name_elements(root: ET.Element) -> None:
+    """Give each top-level element of :data:`SETTABLE_ELEMENTS` without an id one (:data:`ID_PREFIX` and its place)."""
+    for index, element in enumerate(root):
+        if element.tag in SETTABLE_ELEMENTS and not element.get("id"):
+            element.set("id", f"{ID_PREFIX}{index}")
+
+
+def value_array(value) -> np.ndarray:
+    """A ``mi.traverse`` value as an array to compare: a transform's matrix, else its values."""
+    return np.array(value.matrix if is_transform(value) else value)
+
+
+def is_transform(value) -> bool:
+    """Whether a ``mi.traverse`` value is a transform (other Dr.Jit arrays, a colour too, have a ``matrix``)."""
+    return "Transform" in type(value).__name__
+
+
+def opaque_value(value):
+    """A ``mi.traverse`` value made again from its numbers (a transform through its scalar type), opaque: a copy
+    of another loaded scene's value had the frozen kernels record again at every frame (a camera that turned: 80-150
+    ms a 256x256 frame; docs/experiments.md, sixty-seventh session). A buffer (a mesh's vertices) is copied: a moved
+    mesh has the kernels run plain anyway."""
+    import drjit as dr
+
+    if is_transform(value):
+        matrix = np.array(value.matrix, np.float64)
+        value = type(value)(getattr(mi, "Scalar" + type(value).__name__)(matrix.reshape(matrix.shape[:2])))
+    elif dr.width(value) == 1:
+        value = type(value)(*np.array(value).ravel().tolist())
+    else:
+        value = type(value)(value)
+    dr.make_opaque(value)
+    return value
+
+
+def _attribute_text(element: ET.Element) -> str:
+    """The attribute values of ``element`` and the elements in it, one per line: Mitsuba replaces ``$name`` in
+    them wherever it occurs, so an element reads the parameter ``name`` where ``$name`` is in this text."""
+    return "\n".join(text for node in element.iter() for text in node.attrib.values())
+
+
+def _resolved(element: ET.Element, values: dict[str, str]) -> ET.Element:
+    """A copy of ``element`` with the ``$name`` of its attributes replaced by ``values`` (longest names first), to
+    compare two frames' elements."""
+    names = sorted(values, key=len, reverse=True)
+    resolved = copy.deepcopy(element)
+    for node in resolved.iter():
+        for attribute, text in node.attrib.items():
+            for name in names:
+                text = text.replace(f"${name}", values[name])
+            node.set(attribute, text)
+    return resolved
+
+
+def _changes(element: ET.Element, before: dict[str, str], after: dict[str, str]) -> list[str] | None:
+    """The XML property names whose values change between ``element`` with the parameters ``before`` and
+    ``after`` (a transform's or a mesh file's change is checked as any changed parameter); None where a change is
+    not one a frame may set."""
+    if element.tag not in SETTABLE_ELEMENTS:
+        return None
+    names: list[str] = []
+
+    def walk(old: ET.Element, new: ET.Element, parents: tuple[ET.Element, ...]) -> bool:
+        if old.tag != new.tag or old.keys() != new.keys() or len(old) != len(new):
+            return False
+        for attribute in old.keys():
+            if old.get(attribute) == new.get(attribute):
+                continue
+            if any(parent.tag == "transform" for parent in parents):
+                continue
+            if old.tag in VALUE_TAGS and attribute == "value":
+                names.append(old.get("name", ""))
+                continue
+            mesh = parents and parents[-1].tag == "shape" and parents[-1].get("type") in MESH_TYPES
+            if not (old.tag == "string" and old.get("name") == "filename" and attribute == "value" and mesh):
+                return False
+        return all(walk(a, b, (*parents, old)) for a, b in zip(old, new))
+
+    return names if walk(_resolved(element, before), _resolved(element, after), ()) else None
+
+
+def _names(key: str, name: str) -> bool:
+    """Whether the ``mi.traverse`` parameter ``key`` is the XML property ``name``'s."""
+    name = TRAVERSE_NAMES.get(name, name)
+    return key.endswith(f".{name}") or key.endswith(f".{name}.value")
+
+
+def _ids(element: ET.Element) -> list[str]:
+    """The ids ``element`` defines (its own and its children's; a ``<ref>`` defines none)."""
+    return [node.get("id") for node in element.iter() if node.get("id") and node.tag != "ref"]
+
+
+def _part(root: ET.Element, elements: list[ET.Element]) -> ET.Element:
+    """A ``<scene>`` of ``elements``, the top-level elements they refer to (``<ref id>``, in turn) and the defaults,
+    in the file's order."""
+    by_id = {element.get("id"): element for element in root if element.get("id")}
+    wanted, queue = {id(element) for element in elements}, list(elements)
+    while queue:
+        for ref in queue.pop().iter("ref"):
+            target = by_id.get(ref.get("id"))
+            if target is not None and id(target) not in wanted:
+                wanted.add(id(target))
+                queue.append(target)
+    part = ET.Element("scene", root.attrib)
+    part.extend(element for element in root if element.tag == "default" or id(element) in wanted)
+    return part

@@ -1,0 +1,74 @@
+"""A scene file's frames as one held scene (gmcpt.render.frames): what a frame changes is set, and the images are those
+of the frame's scene loaded whole."""
+import numpy as np
+import pytest
+
+from conftest import CORNELL, write_blob
+
+SIZE = (40, 32)
+
+
+def _render(mi, scene, seed):
+    return np.asarray(mi.render(scene, spp=1, seed=seed))  # one sample a pixel: more are summed by atomics
+
+
+def _sequence(frames_of, count):
+    """A sequence renderer's images of ``count`` frames, each scene from ``frames_of(frame)``."""
+    from gmcpt.temporal.sequence import SequenceRenderer, SequenceSettings
+
+    renderer = SequenceRenderer(SequenceSettings(budget=2.0, seed=3, history=4))
+    return [np.asarray(renderer.render(frames_of(frame), frame)[0]) for frame in range(count)]
+
+
+def test_a_turning_camera_and_sphere_are_set_not_loaded_and_render_the_loaded_frames_bits(mi):
+    from gmcpt.render.frames import SceneFrames
+
+    frames = SceneFrames(CORNELL, SIZE)
+    held = _sequence(lambda frame: frames.at({"frame": str(frame)}), 5)
+    assert frames.loads == 1 and frames.scene is frames.at({"frame": "4"})
+    # each frame loaded whole: a camera loaded derives its transforms from the file's doubles, one set from the
+    # scene's floats; without settling the loaded ones, the history carried the difference into other images
+    whole = _sequence(lambda frame: SceneFrames(CORNELL, SIZE).at({"frame": str(frame)}), 5)
+    for mine, theirs in zip(held, whole):
+        np.testing.assert_array_equal(mine, theirs)
+
+
+def _scene(path, body, depth="3"):
+    path.write_text(f"""<scene version="3.0.0">
+    <default name="frame" value="0"/>
+    <integrator type="path"><integer name="max_depth" value="{depth}"/></integrator>
+    <sensor type="perspective">
+        <transform name="to_world"><lookat origin="0, 0, 6" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/></film>
+    </sensor>
+    <emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>
+    <bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.6"/></bsdf>
+    {body}
+</scene>""")
+    return path
+
+
+BLOB = '<shape type="obj"><string name="filename" value="blob.obj"/><ref id="grey"/>{}</shape>'
+
+
+@pytest.mark.parametrize("body, depth, loads", [
+    # a mesh moved by its transform: its vertices and its file's normals are set
+    (BLOB.format('<transform name="to_world"><translate x="0.1$frame"/></transform>'), "3", 1),
+    # a light's colour
+    ('<shape type="sphere"><float name="radius" value="0.5"/><emitter type="area">'
+     '<rgb name="radiance" value="$frame"/></emitter></shape>', "3", 1),
+    # the path's depth: no parameter of mi.traverse, so every new frame loads whole
+    (BLOB.format(""), "$frame", 3),
+    # a sphere's radius: mi.traverse shows it only inside its transform, not as a parameter of its name
+    ('<shape type="sphere"><float name="radius" value="0.$frame"/><ref id="grey"/></shape>', "3", 3),
+])
+def test_a_frame_sets_what_mi_traverse_can_and_loads_the_rest_whole(mi, tmp_path, body, depth, loads):
+    from gmcpt.render.frames import SceneFrames
+
+    write_blob(tmp_path / "blob.obj", side=30)
+    path = _scene(tmp_path / "scene.xml", body, depth)
+    frames = SceneFrames(path)
+    for frame in (1, 2, 3):
+        image = _render(mi, frames.at({"frame": str(frame)}), frame)
+        np.testing.assert_array_equal(image, _render(mi, SceneFrames(path).at({"frame": str(frame)}), frame))
+    assert frames.loads == loads
