@@ -54,6 +54,8 @@ BLOB = '<shape type="obj"><string name="filename" value="blob.obj"/><ref id="gre
 @pytest.mark.parametrize("body, depth, loads", [
     # a mesh moved by its transform: its vertices and its file's normals are set
     (BLOB.format('<transform name="to_world"><translate x="0.1$frame"/></transform>'), "3", 1),
+    # a mesh's file: another of the same size each frame
+    ('<shape type="obj"><string name="filename" value="blob$frame.obj"/><ref id="grey"/></shape>', "3", 1),
     # a light's colour
     ('<shape type="sphere"><float name="radius" value="0.5"/><emitter type="area">'
      '<rgb name="radiance" value="$frame"/></emitter></shape>', "3", 1),
@@ -66,6 +68,10 @@ def test_a_frame_sets_what_mi_traverse_can_and_loads_the_rest_whole(mi, tmp_path
     from gmcpt.render.frames import SceneFrames
 
     write_blob(tmp_path / "blob.obj", side=30)
+    for frame in (1, 2, 3):  # the blob grown by a tenth a frame
+        (tmp_path / f"blob{frame}.obj").write_text("".join(
+            "v " + " ".join(f"{float(x) * (1 + frame / 10):.6f}" for x in line.split()[1:]) + "\n"
+            if line.startswith("v ") else line + "\n" for line in (tmp_path / "blob.obj").read_text().splitlines()))
     path = _scene(tmp_path / "scene.xml", body, depth)
     frames = SceneFrames(path)
     for frame in (1, 2, 3):
