@@ -51,20 +51,21 @@ def _scene(path, body, depth="3"):
 BLOB = '<shape type="obj"><string name="filename" value="blob.obj"/><ref id="grey"/>{}</shape>'
 
 
-@pytest.mark.parametrize("body, depth, loads", [
+@pytest.mark.parametrize("body, depth, loads, reason", [
     # a mesh moved by its transform: its vertices and its file's normals are set
-    (BLOB.format('<transform name="to_world"><translate x="0.1$frame"/></transform>'), "3", 1),
+    (BLOB.format('<transform name="to_world"><translate x="0.1$frame"/></transform>'), "3", 1, ""),
     # a mesh's file: another of the same size each frame
-    ('<shape type="obj"><string name="filename" value="blob$frame.obj"/><ref id="grey"/></shape>', "3", 1),
+    ('<shape type="obj"><string name="filename" value="blob$frame.obj"/><ref id="grey"/></shape>', "3", 1, ""),
     # a light's colour
     ('<shape type="sphere"><float name="radius" value="0.5"/><emitter type="area">'
-     '<rgb name="radiance" value="$frame"/></emitter></shape>', "3", 1),
+     '<rgb name="radiance" value="$frame"/></emitter></shape>', "3", 1, ""),
     # the path's depth: no parameter of mi.traverse, so every new frame loads whole
-    (BLOB.format(""), "$frame", 3),
+    (BLOB.format(""), "$frame", 3, "its <integrator> reads a parameter that changed"),
     # a sphere's radius: mi.traverse shows it only inside its transform, not as a parameter of its name
-    ('<shape type="sphere"><float name="radius" value="0.$frame"/><ref id="grey"/></shape>', "3", 3),
+    ('<shape type="sphere"><float name="radius" value="0.$frame"/><ref id="grey"/></shape>', "3", 3,
+     "no parameter of its <shape> shows the change of 'radius'"),
 ])
-def test_a_frame_sets_what_mi_traverse_can_and_loads_the_rest_whole(mi, tmp_path, body, depth, loads):
+def test_a_frame_sets_what_mi_traverse_can_and_loads_the_rest_whole(mi, tmp_path, body, depth, loads, reason):
     from gmcpt.render.frames import SceneFrames
 
     write_blob(tmp_path / "blob.obj", side=30)
@@ -77,4 +78,4 @@ def test_a_frame_sets_what_mi_traverse_can_and_loads_the_rest_whole(mi, tmp_path
     for frame in (1, 2, 3):
         image = _render(mi, frames.at({"frame": str(frame)}), frame)
         np.testing.assert_array_equal(image, _render(mi, SceneFrames(path).at({"frame": str(frame)}), frame))
-    assert frames.loads == loads
+    assert (frames.loads, frames.whole_reason) == (loads, reason)

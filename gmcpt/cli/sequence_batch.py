@@ -204,10 +204,12 @@ def run(args, jobs: list[dict], say, bar) -> dict:
         if int(frame_parameters(job)["frame"]) <= newest:
             rows[job["name"]] = frame_row(job, "skipped")
             continue
+        loads = frames.loads
         scene, parameters, scene_seconds = loaded or frame_scene(frames, job)
+        whole = f"; its scene loaded whole: {frames.whole_reason}" if frames.loads > max(loads, 1) else ""
         say(f"frame {parameters['frame']}: " + (f"{renderer.settings.time:g} s" if renderer.settings.time else
                                                 f"{renderer.settings.budget:g} samples a pixel")
-            + f", {len(renderer.past)} past frames")
+            + f", {len(renderer.past)} past frames{whole}")
         image, record = render_frame(args, renderer, job, scene, parameters, scene_seconds)
         write_frame(job, image, record)
         _save_state(args, renderer)

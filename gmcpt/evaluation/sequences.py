@@ -282,9 +282,8 @@ class XmlFrames:
         from ..errors import GmcptError
 
         if self.frames.at({"frame": str(frame)}) is not self.scene:
-            raise GmcptError(f"frame {frame} of {self.frames.path} changes what the scene is made of, or a value "
-                             f"mi.traverse cannot set (an integer, a film, a mesh of another size), not only values "
-                             f"one scene can take")
+            raise GmcptError(f"frame {frame} of {self.frames.path} is another scene, not values mi.traverse can set "
+                             f"on one: {self.frames.whole_reason}")
 
 
 @dataclass(frozen=True)

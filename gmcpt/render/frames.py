@@ -38,7 +38,8 @@ ID_PREFIX = "gmcpt-element-"
 class SceneFrames:
     """The frames of the scene file ``path`` at ``resolution`` ((width, height), None: the file's): :meth:`at` gives
     the scene with a frame's ``$`` parameters, the same :class:`mitsuba.Scene` from frame to frame wherever the change
-    can be set. ``loads`` counts the frames loaded whole."""
+    can be set. ``loads`` counts the frames loaded whole, ``whole_reason`` says why the last one after the first
+    was."""
 
     def __init__(self, path: str | Path, resolution: tuple[int, int] | None = None):
         self.path = check_scene_file(path)
@@ -47,16 +48,20 @@ class SceneFrames:
         self.texts = [(element, _attribute_text(element)) for element in self.root if element.tag != "default"]
         self.scene: mi.Scene | None = None
         self.values: dict[str, str] = {}
-        self.loads = 0
+        self.loads, self.whole_reason = 0, ""
 
     def at(self, parameters: dict[str, str]) -> mi.Scene:
         """The scene with ``parameters`` (``$name`` values; the file's ``<default>`` s for the others)."""
         values = {**self.defaults, **parameters}
         if self.scene is not None:
             changed = {name for name in values.keys() | self.values.keys() if values.get(name) != self.values.get(name)}
-            if not changed or self._set(changed, values, parameters):
+            try:
+                if changed:
+                    self._set(changed, values, parameters)
                 self.values = values
                 return self.scene
+            except _Whole as whole:
+                self.whole_reason = str(whole)
         self.scene, self.values = load_tree(self.root, self.path, parameters), values
         self.loads += 1
         self._settle([element for element, text in self.texts if "$" in text])
@@ -83,13 +88,11 @@ class SceneFrames:
         if keys:
             parameters.update()
 
-    def _set(self, changed: set[str], values: dict[str, str], parameters: dict[str, str]) -> bool:
-        """Set on the held scene the elements that read a ``changed`` parameter; False (nothing set) where one of
-        their changes is not one ``mi.traverse`` can set."""
+    def _set(self, changed: set[str], values: dict[str, str], parameters: dict[str, str]) -> None:
+        """Set on the held scene the elements that read a ``changed`` parameter; :class:`_Whole` (nothing set) where
+        one of their changes is not one ``mi.traverse`` can set."""
         elements = [element for element, text in self.texts if any(f"${name}" in text for name in changed)]
         kinds = [_changes(element, self.values, values) for element in elements]
-        if any(kind is None for kind in kinds):
-            return False
         part = _part(self.root, elements)
         text = _attribute_text(part)
         loaded = mi.traverse(load_tree(part, self.path, {name: value for name, value in parameters.items()
@@ -100,14 +103,16 @@ class SceneFrames:
             prefixes = tuple(f"{name}." for name in _ids(element))
             mine = {key: loaded[key] for key in loaded.keys() if key.startswith(prefixes)}
             if any(key not in held for key in mine):
-                return False
+                raise _Whole(f"its <{element.tag}> gains a parameter")
             old = {key: value_array(held[key]) for key in mine}
             if any(type(held[key]) is not type(value) or old[key].shape != value_array(value).shape
                    for key, value in mine.items()):
-                return False  # another kind or size of value: the scene is made of something else
+                raise _Whole(f"a parameter of its <{element.tag}> changes kind or size")
             differ = {key: value for key, value in mine.items() if not np.array_equal(value_array(value), old[key])}
-            if not differ or not all(any(_names(key, name) for key in differ) for name in element_kinds):
-                return False  # a change mi.traverse does not show would be lost
+            hidden = [name for name in element_kinds if not any(_names(key, name) for key in differ)]
+            if not differ or hidden:  # a change mi.traverse does not show would be lost
+                raise _Whole(f"no parameter of its <{element.tag}> shows the change of "
+                             + (f"'{hidden[0]}'" if hidden else "its XML"))
             new_values.update(differ)
             # a mesh given new vertices without its normals gets normals Mitsuba sums anew (float atomics: other
             # bits each run), smooth where its file's were not
@@ -121,7 +126,10 @@ class SceneFrames:
             setting[key] = opaque_value(value)
             setting.set_dirty(key)  # a value equal to the held one (a translated mesh's normals) is still set with it
         setting.update()
-        return True
+
+
+class _Whole(Exception):
+    """A frame's change that cannot be set on the held scene: the frame is loaded whole; the message says why."""
 
 
 def name_elements(root: ET.Element) -> None:
@@ -178,17 +186,17 @@ def _resolved(element: ET.Element, values: dict[str, str]) -> ET.Element:
     return resolved
 
 
-def _changes(element: ET.Element, before: dict[str, str], after: dict[str, str]) -> list[str] | None:
+def _changes(element: ET.Element, before: dict[str, str], after: dict[str, str]) -> list[str]:
     """The XML property names whose values change between ``element`` with the parameters ``before`` and
-    ``after`` (a transform's or a mesh file's change is checked as any changed parameter); None where a change is
-    not one a frame may set."""
+    ``after`` (a transform's or a mesh file's change is checked as any changed parameter); :class:`_Whole` where a
+    change is not one a frame may set."""
     if element.tag not in SETTABLE_ELEMENTS:
-        return None
+        raise _Whole(f"its <{element.tag}> reads a parameter that changed")
     names: list[str] = []
 
-    def walk(old: ET.Element, new: ET.Element, parents: tuple[ET.Element, ...]) -> bool:
+    def walk(old: ET.Element, new: ET.Element, parents: tuple[ET.Element, ...]) -> None:
         if old.tag != new.tag or old.keys() != new.keys() or len(old) != len(new):
-            return False
+            raise _Whole(f"its <{element.tag}> changes structure")
         for attribute in old.keys():
             if old.get(attribute) == new.get(attribute):
                 continue
@@ -199,10 +207,13 @@ def _changes(element: ET.Element, before: dict[str, str], after: dict[str, str])
                 continue
             mesh = parents and parents[-1].tag == "shape" and parents[-1].get("type") in MESH_TYPES
             if not (old.tag == "string" and old.get("name") == "filename" and attribute == "value" and mesh):
-                return False
-        return all(walk(a, b, (*parents, old)) for a, b in zip(old, new))
+                label = f"<{old.tag} name=\"{old.get('name')}\">" if old.get("name") else f"<{old.tag}>"
+                raise _Whole(f"{label} of its <{element.tag}> changes")
+        for a, b in zip(old, new):
+            walk(a, b, (*parents, old))
 
-    return names if walk(_resolved(element, before), _resolved(element, after), ()) else None
+    walk(_resolved(element, before), _resolved(element, after), ())
+    return names
 
 
 def _names(key: str, name: str) -> bool:
