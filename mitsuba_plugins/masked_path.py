@@ -15,7 +15,7 @@ from gmcpt.pipeline import Rendered, render_and_complete
 from gmcpt.runtime.plugins import constructor
 from gmcpt.render.kernels import DEFAULT_FEATURE_SPP
 from gmcpt.sampling.strategies import RenderSettings, check_one_sample_count
-from gmcpt.render.scene import scene_sensor, settle_normals
+from gmcpt.render.scene import DEFAULT_PATH, scene_sensor, settle_normals
 from gmcpt.temporal.sequence import RenderLoop
 
 
@@ -140,9 +140,7 @@ class MaskedPathIntegrator(mi.SamplingIntegrator):
             raise GmcptError("set max_depth/rr_depth on the nested integrator, not on masked_path")
         if nested and not isinstance(nested[0], mi.SamplingIntegrator):
             raise GmcptError(f"the nested integrator must be a sampling integrator, got {nested[0].class_name()}")
-        self.integrator = nested[0] if nested else mi.load_dict(
-            {"type": "path", "max_depth": depth_settings.get("max_depth", 8),
-             "rr_depth": depth_settings.get("rr_depth", 5)})
+        self.integrator = nested[0] if nested else mi.load_dict({**DEFAULT_PATH, **depth_settings})
         self.last_frame = None
         self.last_timings = {}
         self.history = int(props.get("history", 0))

@@ -50,6 +50,23 @@ def test_a_frame_that_fails_is_one_line_naming_it(tmp_path):
     assert "frame 0 (flat_frame-0000)" in result.stderr and "pinhole" in result.stderr
 
 
+def test_a_scene_without_an_integrator_is_a_sequence_until_a_frames_mesh_is_missing(tmp_path):
+    """A scene without an <integrator> traces with the default path (once an internal error); a frame whose mesh
+    file is missing is one line naming it, after the frames before it."""
+    from conftest import write_blob
+
+    for frame in (0, 1):
+        write_blob(tmp_path / f"blob{frame}.obj", side=12)
+    (tmp_path / "anim.xml").write_text("""<scene version="3.0.0"><default name="frame" value="0"/>
+        <sensor type="perspective"><transform name="to_world"><lookat origin="0, 0, 6" target="0, 0, 0" up="0, 1, 0"/>
+        </transform></sensor><emitter type="constant"/>
+        <shape type="obj"><string name="filename" value="blob$frame.obj"/></shape></scene>""")
+    result = gmcpt("batch", tmp_path / "anim.xml", "--frames", "0:3", *SEQUENCE, "--out", tmp_path / "out", check=False)
+    assert result.returncode == 2 and result.stderr.strip().count("\n") == 0, result.stderr
+    assert "frame 2 (anim_frame-0002)" in result.stderr and "blob2.obj" in result.stderr
+    assert sorted(path.name for path in (tmp_path / "out").glob("*.exr")) == ["anim_frame-0000.exr", "anim_frame-0001.exr"]
+
+
 def test_frames_of_one_scene_are_a_sequence_unless_history_is_0(tmp_path):
     gmcpt("batch", CORNELL, "--frames", "0:2", "--res", "16", "16", "--budget", "1", "-q", "--out", tmp_path / "seq")
     record = json.loads((tmp_path / "seq" / "cornell-box_frame-0001.json").read_text())

@@ -88,7 +88,10 @@ def frame_scene(frames, job: dict) -> tuple:
     (:func:`scene_frames`)."""
     parameters = frame_parameters(job)
     start = time.perf_counter()
-    scene = frames.at(parameters)
+    try:
+        scene = frames.at(parameters)
+    except GmcptError as error:  # the frame's name on the one line: the frames before it are written
+        raise GmcptError(f"frame {parameters['frame']} ({job['name']}): {error}") from None
     return scene, parameters, time.perf_counter() - start
 
 

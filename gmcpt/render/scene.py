@@ -108,9 +108,22 @@ def scene_sensor(scene: mi.Scene, index: int = 0, path: str | Path | None = None
     return sensors[index]
 
 
+#: The path tracer of a scene without an integrator (``masked_path`` nests it where it is given none).
+DEFAULT_PATH = {"type": "path", "max_depth": 8, "rr_depth": 5}
+
+
 def path_integrator(scene: mi.Scene) -> mi.SamplingIntegrator:
-    """The scene's own integrator, or the one ``masked_path`` wraps: the path tracer every pass traces with."""
+    """The scene's own integrator, or the one ``masked_path`` wraps: the path tracer every pass traces with;
+    :data:`DEFAULT_PATH` for a scene without one (the same object on every call: frozen kernels record once an
+    integrator)."""
+    from .held import scene_state
+
     integrator = scene.integrator()
+    if integrator is None:
+        state = scene_state(scene)
+        if "default integrator" not in state:
+            state["default integrator"] = mi.load_dict(DEFAULT_PATH)
+        return state["default integrator"]
     return getattr(integrator, "integrator", integrator)
 
 
