@@ -140,38 +140,35 @@ def write_frame(job: dict, image: np.ndarray, record: dict) -> None:
 
 
 def _save_state(args, renderer) -> None:
-    """The renderer's :meth:`~gmcpt.temporal.sequence.SequenceRenderer.state`, split: each past frame's arrays (its
-    keys ``SLOT_NAME``) to a file of its own, written once; the rest, with the past frames' indices in order, to
-    :data:`STATE_REST`, written after them; then the files of frames that left the history go."""
+    """The renderer's state in parts: each past frame's arrays (:meth:`~gmcpt.temporal.history.PastFrame.arrays`) to
+    a file of its own, written once; the rest (:meth:`~gmcpt.temporal.sequence.SequenceRenderer.rest_state`), with
+    the past frames' indices in order, to :data:`STATE_REST`, written after them; then the files of frames that left
+    the history go."""
     folder = _state_path(args)
     try:
         folder.mkdir(exist_ok=True)
     except OSError as error:
         raise GmcptError(f"cannot write the sequence's state in {folder}: {error.strerror or error}") from None
-    state, slots = renderer.state(), {}
-    for key in [key for key in state if key.split("_", 1)[0].isdigit()]:
-        slot, name = key.split("_", 1)
-        slots.setdefault(int(slot), {})[name] = state.pop(key)
-    indices = [int(slots[slot]["index"]) for slot in sorted(slots)]
-    for slot, index in zip(sorted(slots), indices):
+    indices = [past.index for past in renderer.past]
+    for past in renderer.past:
         # the newest always: a file a stopped run left of it may hold another render (a timed frame's)
-        if index == indices[-1] or not (folder / _frame_file(index)).exists():
-            _save_arrays(folder / _frame_file(index), slots[slot])
-    _save_arrays(folder / STATE_REST, {**state, "frames": np.array(indices, np.int64)})
+        if past.index == indices[-1] or not (folder / _frame_file(past.index)).exists():
+            _save_arrays(folder / _frame_file(past.index), past.arrays())
+    _save_arrays(folder / STATE_REST, {**renderer.rest_state(), "frames": np.array(indices, np.int64)})
     for stale in set(folder.glob("frame-*.npz")) - {folder / _frame_file(index) for index in indices}:
         stale.unlink(missing_ok=True)
 
 
-def _load_state(args) -> dict:
-    """What :func:`_save_state` wrote, as one :meth:`~gmcpt.temporal.sequence.SequenceRenderer.state` again."""
+def _restore_state(args, renderer) -> None:
+    """Give ``renderer`` back what :func:`_save_state` wrote."""
     folder = _state_path(args)
-    with np.load(folder / STATE_REST) as rest:
-        state = {key: rest[key] for key in rest.files if key != "frames"}
-        indices = [int(index) for index in rest["frames"]]
-    for slot, index in enumerate(indices):
-        with np.load(folder / _frame_file(index)) as frame:
-            state.update({f"{slot}_{name}": frame[name] for name in frame.files})
-    return state
+    with np.load(folder / STATE_REST) as saved:
+        rest = {key: saved[key] for key in saved.files}
+    pasts = []
+    for index in rest.pop("frames"):
+        with np.load(folder / _frame_file(int(index))) as arrays:
+            pasts.append({name: arrays[name] for name in arrays.files})
+    renderer.restore_parts(pasts, rest)
 
 
 def _frame_file(index: int) -> str:
@@ -198,7 +195,7 @@ def run(args, jobs: list[dict], say, bar) -> dict:
             renderer = SequenceRenderer(sequence_settings(args, loaded[0]))
             if (_state_path(args) / STATE_REST).exists():
                 try:
-                    renderer.restore(_load_state(args))
+                    _restore_state(args, renderer)
                 except (OSError, ValueError, KeyError) as error:
                     raise GmcptError(f"cannot read {_state_path(args)}: {error}; delete it to start again") from None
                 except GmcptError as error:  # another budget, seed or history: its frames would not match

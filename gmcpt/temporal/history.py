@@ -116,6 +116,29 @@ class PastFrame:
     #: the poses of the meshes that had moved by this frame (:class:`~gmcpt.temporal.motion.ShapePoses`), or None
     poses: "dict | None" = None
 
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The frame as plain arrays (for :func:`numpy.savez`): what :meth:`from_arrays` takes back."""
+        arrays = {"index": np.array(self.index), "total": self.total, "count": self.count,
+                  "positions": self.positions, "normals": self.normals,
+                  "lighting": self.signature.lighting, "albedo": self.signature.albedo,
+                  "matrix": self.projection.matrix, "size": np.array([self.projection.width, self.projection.height])}
+        if self.quarters is not None:
+            arrays["quarters"] = self.quarters
+        if self.poses:
+            arrays["pose_shapes"] = np.array(sorted(self.poses))
+            arrays["poses"] = np.stack([self.poses[key] for key in sorted(self.poses)])
+        return arrays
+
+    @classmethod
+    def from_arrays(cls, arrays) -> "PastFrame":
+        """The frame :meth:`arrays` gave (a dict, or an open ``.npz``)."""
+        width, height = (int(value) for value in arrays["size"])
+        poses = dict(zip((int(key) for key in arrays["pose_shapes"]), arrays["poses"])) if "poses" in arrays else None
+        return cls(int(arrays["index"]), arrays["total"], arrays["count"], arrays["positions"], arrays["normals"],
+                   Projection(arrays["matrix"], width, height),
+                   signature(arrays["lighting"], arrays["albedo"], width, height),
+                   arrays["quarters"] if "quarters" in arrays else None, poses)
+
 
 @dataclass(frozen=True)
 class Surfaces:

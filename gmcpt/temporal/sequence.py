@@ -522,20 +522,16 @@ class SequenceRenderer:
         return flat.reshape(denoised.shape), float(where.mean())
 
     def state(self) -> dict:
-        """The history as plain arrays (for :func:`numpy.savez`): what :meth:`restore` takes back."""
-        state = {"settings": np.array(repr(sorted(asdict(self.settings).items())))}
+        """The history as plain arrays (for :func:`numpy.savez`): what :meth:`restore` takes back. Each past frame's
+        arrays (:meth:`PastFrame.arrays`) are named ``SLOT_NAME``, the rest's (:meth:`rest_state`) as they are."""
+        state = self.rest_state()
         for slot, past in enumerate(self.past):
-            for name in ("total", "count", "positions", "normals"):
-                state[f"{slot}_{name}"] = getattr(past, name)
-            state[f"{slot}_lighting"], state[f"{slot}_albedo"] = past.signature.lighting, past.signature.albedo
-            state[f"{slot}_index"] = np.array(past.index)
-            state[f"{slot}_matrix"] = past.projection.matrix
-            state[f"{slot}_size"] = np.array([past.projection.width, past.projection.height])
-            if past.quarters is not None:
-                state[f"{slot}_quarters"] = past.quarters
-            if past.poses:
-                state[f"{slot}_pose_shapes"] = np.array(sorted(past.poses))
-                state[f"{slot}_poses"] = np.stack([past.poses[key] for key in sorted(past.poses)])
+            state.update({f"{slot}_{name}": value for name, value in past.arrays().items()})
+        return state
+
+    def rest_state(self) -> dict:
+        """The state but the past frames: the settings, the frame shown, the probe, the moving meshes' poses."""
+        state = {"settings": np.array(repr(sorted(asdict(self.settings).items())))}
         if self.shown is not None:
             state["shown_index"], state["shown"] = np.array(self.shown[0]), self.shown[1]
         state["light_changed"] = np.array(self.light_changed)
@@ -552,28 +548,28 @@ class SequenceRenderer:
 
     def restore(self, state) -> None:
         """Take back a :meth:`state` of a run with the same settings; one-line error otherwise."""
-        if str(state["settings"]) != repr(sorted(asdict(self.settings).items())):
+        pasts, slot = [], 0
+        while f"{slot}_index" in state:
+            prefix = f"{slot}_"
+            pasts.append({key[len(prefix):]: value for key, value in state.items() if key.startswith(prefix)})
+            slot += 1
+        self.restore_parts(pasts, state)
+
+    def restore_parts(self, pasts: list, rest) -> None:
+        """Take back the past frames' :meth:`PastFrame.arrays` (oldest first) and a :meth:`rest_state` of a run with
+        the same settings; one-line error otherwise."""
+        if str(rest["settings"]) != repr(sorted(asdict(self.settings).items())):
             raise GmcptError("the saved sequence state was made with other settings; start the sequence again")
         self.past.clear()
-        slot = 0
-        while f"{slot}_index" in state:
-            width, height = (int(value) for value in state[f"{slot}_size"])
-            self.past.append(PastFrame(int(state[f"{slot}_index"]), state[f"{slot}_total"], state[f"{slot}_count"],
-                                       state[f"{slot}_positions"], state[f"{slot}_normals"],
-                                       Projection(state[f"{slot}_matrix"], width, height),
-                                       signature(state[f"{slot}_lighting"], state[f"{slot}_albedo"], width, height),
-                                       state[f"{slot}_quarters"] if f"{slot}_quarters" in state else None,
-                                       dict(zip((int(key) for key in state[f"{slot}_pose_shapes"]),
-                                                state[f"{slot}_poses"])) if f"{slot}_poses" in state else None))
-            slot += 1
-        self.poses.restore(state, (self.past[-1].poses or {}) if self.past else {})
-        self.shown = (int(state["shown_index"]), state["shown"]) if "shown_index" in state else None
-        self.light_changed = float(state["light_changed"]) if "light_changed" in state else 0.0
-        self.placing = state["placing"] if "placing" in state else None
-        self.probe = Probe(int(state["probe_index"]), int(state["probe_seed"]), state["probe_pixels"],
-                           state["probe_values"], state["probe_matrix"],
-                           tuple(int(value) for value in state["probe_shape"]),
-                           int(state["probe_slot"])) if "probe_index" in state else None
+        self.past.extend(PastFrame.from_arrays(arrays) for arrays in pasts)
+        self.poses.restore(rest, (self.past[-1].poses or {}) if self.past else {})
+        self.shown = (int(rest["shown_index"]), rest["shown"]) if "shown_index" in rest else None
+        self.light_changed = float(rest["light_changed"]) if "light_changed" in rest else 0.0
+        self.placing = rest["placing"] if "placing" in rest else None
+        self.probe = Probe(int(rest["probe_index"]), int(rest["probe_seed"]), rest["probe_pixels"],
+                           rest["probe_values"], rest["probe_matrix"],
+                           tuple(int(value) for value in rest["probe_shape"]),
+                           int(rest["probe_slot"])) if "probe_index" in rest else None
 
 
 def _moved_lanes(scene: mi.Scene, registry: np.ndarray, poses: dict) -> dict[int, np.ndarray]:
