@@ -15,6 +15,7 @@ from __future__ import annotations
 import copy
 import re
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 
 import mitsuba as mi
@@ -35,36 +36,58 @@ TRAVERSE_NAMES = {"fov": "x_fov"}
 ID_PREFIX = "gmcpt-element-"
 
 
+@dataclass(frozen=True)
+class _File:
+    """A scene file as :class:`SceneFrames` reads it: its ``<scene>`` (top-level elements named, the size set), its
+    defaults, and its other top-level elements with their attributes' text (what they read)."""
+
+    path: Path
+    root: ET.Element
+    defaults: dict
+    texts: list
+
+    @classmethod
+    def read(cls, path: str | Path, resolution: tuple[int, int] | None) -> "_File":
+        path = check_scene_file(path)
+        root = scene_tree(path, resolution, edit=name_elements)
+        return cls(path, root, {element.get("name"): element.get("value") for element in root.findall("default")},
+                   [(element, _attribute_text(element)) for element in root if element.tag != "default"])
+
+
 class SceneFrames:
     """The frames of the scene file ``path`` at ``resolution`` ((width, height), None: the file's): :meth:`at` gives
-    the scene with a frame's ``$`` parameters, the same :class:`mitsuba.Scene` from frame to frame wherever the change
-    can be set. ``loads`` counts the frames loaded whole, ``whole_reason`` says why the last one after the first
-    was."""
+    the scene with a frame's ``$`` parameters (or another file of the animation), the same :class:`mitsuba.Scene`
+    from frame to frame wherever the change can be set. ``loads`` counts the frames loaded whole, ``whole_reason``
+    says why the last one after the first was."""
 
     def __init__(self, path: str | Path, resolution: tuple[int, int] | None = None):
-        self.path = check_scene_file(path)
-        self.root = scene_tree(self.path, resolution, edit=name_elements)
-        self.defaults = {element.get("name"): element.get("value") for element in self.root.findall("default")}
-        self.texts = [(element, _attribute_text(element)) for element in self.root if element.tag != "default"]
+        self.resolution = resolution
+        self.file = _File.read(path, resolution)
         self.scene: mi.Scene | None = None
         self.values: dict[str, str] = {}
         self.loads, self.whole_reason = 0, ""
 
-    def at(self, parameters: dict[str, str]) -> mi.Scene:
-        """The scene with ``parameters`` (``$name`` values; the file's ``<default>`` s for the others)."""
-        values = {**self.defaults, **parameters}
+    @property
+    def path(self) -> Path:
+        return self.file.path
+
+    def at(self, parameters: dict[str, str], path: str | Path | None = None) -> mi.Scene:
+        """The scene with ``parameters`` (``$name`` values; the file's ``<default>`` s for the others), of the file
+        ``path`` where given: a frame of an animation written as one file a frame, whose elements are compared with
+        the held file's (the same elements in the same order, else it is loaded whole)."""
+        file = self.file if path is None or check_scene_file(path).resolve() == self.path.resolve() \
+            else _File.read(path, self.resolution)
+        values = {**file.defaults, **parameters}
         if self.scene is not None:
-            changed = {name for name in values.keys() | self.values.keys() if values.get(name) != self.values.get(name)}
             try:
-                if changed:
-                    self._set(changed, values, parameters)
-                self.values = values
+                self._set(file, values, parameters)
+                self.file, self.values = file, values
                 return self.scene
             except _Whole as whole:
                 self.whole_reason = str(whole)
-        self.scene, self.values = load_tree(self.root, self.path, parameters), values
+        self.scene, self.file, self.values = load_tree(file.root, file.path, parameters), file, values
         self.loads += 1
-        self._settle([element for element, text in self.texts if "$" in text])
+        self._settle([element for element, text in file.texts if "$" in text])
         return self.scene
 
     def _settle(self, elements: list[ET.Element]) -> None:
@@ -88,14 +111,22 @@ class SceneFrames:
         if keys:
             parameters.update()
 
-    def _set(self, changed: set[str], values: dict[str, str], parameters: dict[str, str]) -> None:
-        """Set on the held scene the elements that read a ``changed`` parameter; :class:`_Whole` (nothing set) where
-        one of their changes is not one ``mi.traverse`` can set."""
-        elements = [element for element, text in self.texts if any(f"${name}" in text for name in changed)]
-        kinds = [_changes(element, self.values, values) for element in elements]
-        part = _part(self.root, elements)
+    def _set(self, file: _File, values: dict[str, str], parameters: dict[str, str]) -> None:
+        """Set on the held scene the elements of ``file`` with ``values`` that differ from the held ones: those that
+        read a changed parameter (the held file), or whose XML differs (another file); :class:`_Whole` (nothing set)
+        where one of their changes is not one ``mi.traverse`` can set."""
+        if [(e.tag, e.get("id")) for e, _ in self.file.texts] != [(e.tag, e.get("id")) for e, _ in file.texts]:
+            raise _Whole(f"{file.path.name} is made of other elements than {self.path.name}")
+        changed = {name for name in values.keys() | self.values.keys() if values.get(name) != self.values.get(name)}
+        pairs = [(old, new) for (old, old_text), (new, new_text) in zip(self.file.texts, file.texts)
+                 if old_text != new_text or any(f"${name}" in new_text for name in changed)]
+        if not pairs:
+            return
+        kinds = [_changes(old, new, self.values, values) for old, new in pairs]
+        elements = [new for _, new in pairs]
+        part = _part(file.root, elements)
         text = _attribute_text(part)
-        loaded = mi.traverse(load_tree(part, self.path, {name: value for name, value in parameters.items()
+        loaded = mi.traverse(load_tree(part, file.path, {name: value for name, value in parameters.items()
                                                           if f"${name}" in text}, whole=False))
         held = mi.traverse(self.scene)  # read here; set through another (reading marks a value for the update)
         new_values = {}
@@ -110,9 +141,8 @@ class SceneFrames:
                 raise _Whole(f"a parameter of its <{element.tag}> changes kind or size")
             differ = {key: value for key, value in mine.items() if not np.array_equal(value_array(value), old[key])}
             hidden = [name for name in element_kinds if not any(_names(key, name) for key in differ)]
-            if not differ or hidden:  # a change mi.traverse does not show would be lost
-                raise _Whole(f"no parameter of its <{element.tag}> shows the change of "
-                             + (f"'{hidden[0]}'" if hidden else "its XML"))
+            if hidden:  # a change mi.traverse does not show would be lost
+                raise _Whole(f"no parameter of its <{element.tag}> shows the change of '{hidden[0]}'")
             new_values.update(differ)
             # a mesh given new vertices without its normals gets normals Mitsuba sums anew (float atomics: other
             # bits each run), smooth where its file's were not
@@ -186,9 +216,10 @@ def _resolved(element: ET.Element, values: dict[str, str]) -> ET.Element:
     return resolved
 
 
-def _changes(element: ET.Element, before: dict[str, str], after: dict[str, str]) -> list[str]:
-    """The XML property names whose values change between ``element`` with the parameters ``before`` and
-    ``after`` (a transform's or a mesh file's change is checked as any changed parameter); :class:`_Whole` where a
+def _changes(element: ET.Element, new_element: ET.Element, before: dict[str, str], after: dict[str, str]) -> list[str]:
+    """The XML property names whose values change from ``element`` with the parameters ``before`` to
+    ``new_element`` with ``after`` (a transform's or a mesh file's change shows in its parameters wherever it changes
+    anything: a translation by 0 written anew, a file of the same mesh, are no change); :class:`_Whole` where a
     change is not one a frame may set."""
     if element.tag not in SETTABLE_ELEMENTS:
         raise _Whole(f"its <{element.tag}> reads a parameter that changed")
@@ -212,7 +243,7 @@ def _changes(element: ET.Element, before: dict[str, str], after: dict[str, str])
         for a, b in zip(old, new):
             walk(a, b, (*parents, old))
 
-    walk(_resolved(element, before), _resolved(element, after), ())
+    walk(_resolved(element, before), _resolved(new_element, after), ())
     return names
 
 
