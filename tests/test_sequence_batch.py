@@ -1,6 +1,8 @@
 """``gmcpt batch --frames A:B --history N``: a sequence written frame by frame, resumed to the same images."""
 import json
 
+import numpy as np
+
 import pytest
 
 from conftest import CORNELL
@@ -33,8 +35,31 @@ def test_a_stopped_sequence_resumes_with_the_images_of_an_uninterrupted_run(tmp_
     assert "sequence-state" in broken.stderr and "delete it" in broken.stderr
 
 
-@pytest.mark.parametrize("options, message", [((), "give --frames"), (("--frames", "0:2", "--rate", "0.3"), "drop --rate"),
-                                              (("--frames", "0:2", "--chunk", "3"), "give --ray")])
+def test_an_animation_written_one_file_a_frame_is_the_frames_sequence(tmp_path):
+    """The Cornell box's frames 0-3 written as four scene files (its $frame replaced) and given in order with
+    --history: the images of its --frames sequence, to the bit (each file's elements compared with the held one's,
+    the camera's and the sphere's change set)."""
+    from gmcpt.io.exr import read_rgb_exr
+
+    files = []
+    for frame in range(4):
+        files.append(tmp_path / f"shot-{frame}.xml")
+        files[-1].write_text(CORNELL.read_text().replace("$frame", str(frame)))
+    assert SEQUENCE[-1] == "-q"
+    log = gmcpt("batch", *files, *SEQUENCE[:-1], "--out", tmp_path / "files").stderr
+    assert "frame 3: 2 samples a pixel, 3 past frames\n" in log and "loaded whole" not in log
+    gmcpt("batch", CORNELL, "--frames", "0:4", *SEQUENCE, "--out", tmp_path / "frames")
+    for frame in range(4):
+        record = json.loads((tmp_path / "files" / f"shot-{frame}.json").read_text())
+        assert record["parameters"]["sequence"] and record["history_frames"] == min(frame, 4)
+        np.testing.assert_array_equal(read_rgb_exr(tmp_path / "files" / f"shot-{frame}.exr"),
+                                      read_rgb_exr(tmp_path / "frames" / f"cornell-box_frame-000{frame}.exr"))
+
+
+@pytest.mark.parametrize("options, message", [
+    ((), "give --frames A:B, or the animation's scene files"), (("--frames", "0:2", "--rate", "0.3"), "drop --rate"),
+    (("--frames", "0:2", "--chunk", "3"), "give --ray"), (("--frames", "0:2", "--sweep", "seed=1,2"), "no --sweep"),
+    ((CORNELL, "--frames", "0:2"), "not both")])
 def test_a_sequence_the_options_cannot_make_gets_one_line(tmp_path, options, message):
     result = gmcpt("batch", CORNELL, *options, *SEQUENCE, "--out", tmp_path / "out", check=False)
     assert result.returncode == 2 and result.stderr.strip().count("\n") == 0 and message in result.stderr

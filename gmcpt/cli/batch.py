@@ -129,9 +129,11 @@ def plan(args) -> list[dict]:
                                  f"give the scene files distinct names")
             seen[name] = scene
             frame_options = {**options, "defines": options["defines"] + [f"{k}={v}" for k, v in point]}
+            # a sequence's frame number: its $frame, else its place (an animation given as one scene file a frame)
+            frame = int(dict(point).get("frame", len(jobs)))
             jobs.append({"name": name, "scene": str(path.resolve()), "out": str(Path(args.out).resolve() / f"{name}.exr"),
                          "options": frame_options, "key": request_key(path, frame_options), "threads": args.threads,
-                         "render_threads": args.threads if args.ray else 0})
+                         "render_threads": args.threads if args.ray else 0, "frame": frame})
     return jobs
 
 

@@ -42,11 +42,16 @@ def single_frame_options(args) -> list[str]:
 
 
 def check(args) -> None:
-    """One line for a sequence the options cannot make."""
-    if not args.frames:
-        raise GmcptError("--history reuses earlier frames: give --frames A:B")
-    if args.sweep or len(args.scenes) != 1:
-        raise GmcptError("--history renders one scene's frames in order: no --sweep or second scene")
+    """One line for a sequence the options cannot make: one scene's ``--frames``, or an animation's scene files (one
+    a frame, in the order given)."""
+    if args.sweep:
+        raise GmcptError("--history renders an animation's frames in order: no --sweep")
+    if args.frames and len(args.scenes) != 1:
+        raise GmcptError("--history renders one scene's --frames, or the scene files of one animation (a file a frame) "
+                         "without --frames: not both")
+    if not args.frames and len(args.scenes) < 2:
+        raise GmcptError("--history reuses earlier frames: give --frames A:B, or the animation's scene files, one a "
+                         "frame")
     given = single_frame_options(args)
     if given:
         raise GmcptError(f"--history spends --budget (or --time) on every pixel, then OIDN: drop {', '.join(given)}, "
@@ -84,14 +89,14 @@ def scene_frames(args, job: dict):
 
 
 def frame_scene(frames, job: dict) -> tuple:
-    """(scene, its ``$`` parameters, the seconds it took to set or load) of ``job`` from ``frames``
-    (:func:`scene_frames`)."""
+    """(scene, its ``$`` parameters, the seconds it took to set or load) of ``job`` (its scene file, its parameters)
+    from ``frames`` (:func:`scene_frames`)."""
     parameters = frame_parameters(job)
     start = time.perf_counter()
     try:
-        scene = frames.at(parameters)
+        scene = frames.at(parameters, job["scene"])
     except GmcptError as error:  # the frame's name on the one line: the frames before it are written
-        raise GmcptError(f"frame {parameters['frame']} ({job['name']}): {error}") from None
+        raise GmcptError(f"frame {job['frame']} ({job['name']}): {error}") from None
     return scene, parameters, time.perf_counter() - start
 
 
@@ -102,7 +107,7 @@ def render_frame(args, renderer, job: dict, scene, parameters: dict, scene_secon
     from ..io.outputs import library_versions
     from .render import check_nonfinite
 
-    frame = int(parameters["frame"])
+    frame = job["frame"]
     try:
         image, info, timings = renderer.render(scene, frame)
         check_nonfinite(info.nonfinite_samples, args.allow_nonfinite)
@@ -201,13 +206,13 @@ def run(args, jobs: list[dict], say, bar) -> dict:
                 except GmcptError as error:  # another budget, seed or history: its frames would not match
                     raise GmcptError(f"{_state_path(args)}: {error}: delete it, or give another --out") from None
                 newest = max((past.index for past in renderer.past), default=-1)
-        if int(frame_parameters(job)["frame"]) <= newest:
+        if job["frame"] <= newest:
             rows[job["name"]] = frame_row(job, "skipped")
             continue
         loads = frames.loads
         scene, parameters, scene_seconds = loaded or frame_scene(frames, job)
         whole = f"; its scene loaded whole: {frames.whole_reason}" if frames.loads > max(loads, 1) else ""
-        say(f"frame {parameters['frame']}: " + (f"{renderer.settings.time:g} s" if renderer.settings.time else
+        say(f"frame {job['frame']}: " + (f"{renderer.settings.time:g} s" if renderer.settings.time else
                                                 f"{renderer.settings.budget:g} samples a pixel")
             + f", {len(renderer.past)} past frames{whole}")
         image, record = render_frame(args, renderer, job, scene, parameters, scene_seconds)

@@ -87,12 +87,12 @@ class SceneFrames:
                 self.whole_reason = str(whole)
         self.scene, self.file, self.values = load_tree(file.root, file.path, parameters), file, values
         self.loads += 1
-        self._settle([element for element, text in file.texts if "$" in text])
+        self._settle([element for element, _ in file.texts if element.tag in SETTABLE_ELEMENTS])
         return self.scene
 
     def _settle(self, elements: list[ET.Element]) -> None:
-        """Set the transforms and single Dr.Jit values (a field of view, a colour) of ``elements`` (those that read
-        parameters) to themselves, opaque.
+        """Set the transforms and single Dr.Jit values (a field of view, a colour) of ``elements`` (all that a later
+        frame may set: which ones will change, another file of the animation tells only then) to themselves, opaque.
         Loaded, a camera derives its inner transforms from the file's double-precision ``to_world``; set, from the
         scene's single-precision one: a few ulps apart, which a sequence's history carried into other images from
         the third frame on (docs/experiments.md, sixty-eighth session). Settled, a loaded frame is a set frame to
@@ -102,7 +102,8 @@ class SceneFrames:
         prefixes = tuple(f"{name}." for element in elements for name in _ids(element))
         parameters = mi.traverse(self.scene)
         keys = [key for key in parameters.keys() if key.startswith(prefixes)
-                and (is_transform(parameters[key]) or dr.is_jit_v(parameters[key]) and dr.width(parameters[key]) == 1)]
+                and (is_transform(parameters[key]) and not _scalar(parameters[key])
+                     or dr.is_jit_v(parameters[key]) and dr.width(parameters[key]) == 1)]
         parameters = mi.traverse(self.scene)
         parameters.keep([re.escape(key) + "$" for key in keys])
         for key in keys:
@@ -186,6 +187,8 @@ def opaque_value(value):
     mesh has the kernels run plain anyway."""
     import drjit as dr
 
+    if _scalar(value):  # a scalar value (a texture's to_uv) is a literal anyway
+        return type(value)(value)
     if is_transform(value):
         matrix = np.array(value.matrix, np.float64)
         value = type(value)(getattr(mi, "Scalar" + type(value).__name__)(matrix.reshape(matrix.shape[:2])))
@@ -195,6 +198,11 @@ def opaque_value(value):
         value = type(value)(value)
     dr.make_opaque(value)
     return value
+
+
+def _scalar(value) -> bool:
+    """Whether a ``mi.traverse`` value is of a scalar type (``ScalarAffineTransform3f``...), not a Dr.Jit one."""
+    return type(value).__name__.startswith("Scalar")
 
 
 def _attribute_text(element: ET.Element) -> str:
