@@ -1,7 +1,8 @@
 """A scene file's frames as one held scene: a frame sets, through ``mi.traverse``, what its ``$`` parameters change.
 
 A frame of an animation (``gmcpt batch SCENE --frames A:B``) differs from the frame before only in the elements of
-the file that read a parameter whose value changed (``$frame``). :class:`SceneFrames` loads those top-level elements
+the file that read a parameter whose value changed (``$frame``), or, written one file a frame, in the elements whose
+XML differs from the file before's. :class:`SceneFrames` loads those top-level elements
 alone (a camera, a few meshes, a light: milliseconds, where loading a room of 180 meshes takes 0.4-0.7 s) and sets
 their parameters on the scene it holds, made opaque, so that the kernels compiled and recorded for the first frame
 serve the next ones. Where a change is not one ``mi.traverse`` can set, the frame's scene is loaded whole, as it was
@@ -101,16 +102,9 @@ class SceneFrames:
 
         prefixes = tuple(f"{name}." for element in elements for name in _ids(element))
         parameters = mi.traverse(self.scene)
-        keys = [key for key in parameters.keys() if key.startswith(prefixes)
-                and (is_transform(parameters[key]) and not _scalar(parameters[key])
-                     or dr.is_jit_v(parameters[key]) and dr.width(parameters[key]) == 1)]
-        parameters = mi.traverse(self.scene)
-        parameters.keep([re.escape(key) + "$" for key in keys])
-        for key in keys:
-            parameters[key] = opaque_value(parameters[key])
-            parameters.set_dirty(key)
-        if keys:
-            parameters.update()
+        self._apply({key: parameters[key] for key in parameters.keys() if key.startswith(prefixes)
+                     and (is_transform(parameters[key]) and not _scalar(parameters[key])
+                          or dr.is_jit_v(parameters[key]) and dr.width(parameters[key]) == 1)})
 
     def _set(self, file: _File, values: dict[str, str], parameters: dict[str, str]) -> None:
         """Set on the held scene the elements of ``file`` with ``values`` that differ from the held ones: those that
@@ -123,7 +117,7 @@ class SceneFrames:
                  if old_text != new_text or any(f"${name}" in new_text for name in changed)]
         if not pairs:
             return
-        kinds = [_changes(old, new, self.values, values) for old, new in pairs]
+        names = [_changes(old, new, self.values, values) for old, new in pairs]
         elements = [new for _, new in pairs]
         part = _part(file.root, elements)
         text = _attribute_text(part)
@@ -131,32 +125,43 @@ class SceneFrames:
                                                           if f"${name}" in text}, whole=False))
         held = mi.traverse(self.scene)  # read here; set through another (reading marks a value for the update)
         new_values = {}
-        for element, element_kinds in zip(elements, kinds):
-            prefixes = tuple(f"{name}." for name in _ids(element))
-            mine = {key: loaded[key] for key in loaded.keys() if key.startswith(prefixes)}
-            if any(key not in held for key in mine):
-                raise _Whole(f"its <{element.tag}> gains a parameter")
-            old = {key: value_array(held[key]) for key in mine}
-            if any(type(held[key]) is not type(value) or old[key].shape != value_array(value).shape
-                   for key, value in mine.items()):
-                raise _Whole(f"a parameter of its <{element.tag}> changes kind or size")
-            differ = {key: value for key, value in mine.items() if not np.array_equal(value_array(value), old[key])}
-            hidden = [name for name in element_kinds if not any(_names(key, name) for key in differ)]
-            if hidden:  # a change mi.traverse does not show would be lost
-                raise _Whole(f"no parameter of its <{element.tag}> shows the change of '{hidden[0]}'")
-            new_values.update(differ)
-            # a mesh given new vertices without its normals gets normals Mitsuba sums anew (float atomics: other
-            # bits each run), smooth where its file's were not
-            new_values.update({key.replace("vertex_positions", "vertex_normals"):
-                               mine[key.replace("vertex_positions", "vertex_normals")]
-                               for key in differ if key.endswith("vertex_positions")
-                               and key.replace("vertex_positions", "vertex_normals") in mine})
+        for element, element_names in zip(elements, names):
+            new_values.update(_element_values(element, element_names, loaded, held))
+        self._apply(new_values)
+
+    def _apply(self, values: dict) -> None:
+        """Set ``values`` (``mi.traverse`` keys) on the held scene, opaque, in one update; a value equal to the held
+        one (a translated mesh's normals) is set all the same."""
+        if not values:
+            return
         setting = mi.traverse(self.scene)
-        setting.keep([re.escape(key) + "$" for key in new_values])
-        for key, value in new_values.items():
+        setting.keep([re.escape(key) + "$" for key in values])
+        for key, value in values.items():
             setting[key] = opaque_value(value)
-            setting.set_dirty(key)  # a value equal to the held one (a translated mesh's normals) is still set with it
+            setting.set_dirty(key)
         setting.update()
+
+
+def _element_values(element: ET.Element, names: list[str], loaded, held) -> dict:
+    """The parameters of ``element`` (its ids' keys) in ``loaded`` (its part, loaded alone) that differ from the held
+    scene's (``held``), with a moved mesh's normals; :class:`_Whole` where they are not the held ones' kind and size,
+    or a changed property among ``names`` shows in none of them."""
+    prefixes = tuple(f"{name}." for name in _ids(element))
+    mine = {key: loaded[key] for key in loaded.keys() if key.startswith(prefixes)}
+    if any(key not in held for key in mine):
+        raise _Whole(f"its <{element.tag}> gains a parameter")
+    old = {key: value_array(held[key]) for key in mine}
+    if any(type(held[key]) is not type(value) or old[key].shape != value_array(value).shape
+           for key, value in mine.items()):
+        raise _Whole(f"a parameter of its <{element.tag}> changes kind or size")
+    differ = {key: value for key, value in mine.items() if not np.array_equal(value_array(value), old[key])}
+    hidden = [name for name in names if not any(_names(key, name) for key in differ)]
+    if hidden:  # a change mi.traverse does not show would be lost
+        raise _Whole(f"no parameter of its <{element.tag}> shows the change of '{hidden[0]}'")
+    # a mesh given new vertices without its normals gets normals Mitsuba sums anew (float atomics: other bits each
+    # run), smooth where its file's were not
+    normals = {key.replace("vertex_positions", "vertex_normals") for key in differ if key.endswith("vertex_positions")}
+    return {**differ, **{key: mine[key] for key in normals if key in mine}}
 
 
 class _Whole(Exception):
