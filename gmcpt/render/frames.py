@@ -2,14 +2,14 @@
 
 A frame of an animation (``gmcpt batch SCENE --frames A:B``) differs from the frame before only in the elements of
 the file that read a parameter whose value changed (``$frame``), or, written one file a frame, in the elements whose
-XML differs from the file before's. :class:`SceneFrames` loads those top-level elements
-alone (a camera, a few meshes, a light: milliseconds, where loading a room of 180 meshes takes 0.4-0.7 s) and sets
-their parameters on the scene it holds, made opaque, so that the kernels compiled and recorded for the first frame
-serve the next ones. Where a change is not one ``mi.traverse`` can set, the frame's scene is loaded whole, as it was
-before: a parameter read by an ``<integer>``, a ``<boolean>`` or a ``<string>`` other than a mesh's file, by an
-element other than a sensor, shape, emitter, BSDF or texture (an integrator, a film, a shape group), a change of
-structure, a mesh whose file has another number of vertices, or a changed property whose parameter ``mi.traverse``
-does not list. The frames are the images loading each one whole gives (``tests/test_sequence_batch.py``).
+XML differs from the file before's. :class:`SceneFrames` loads those top-level elements alone (a camera, a few
+meshes, a light: milliseconds, where loading a room of 180 meshes takes 0.4-0.7 s) and sets their parameters on the
+scene it holds, made opaque, so that the kernels compiled and recorded for the first frame serve the next ones.
+Where a change is not one ``mi.traverse`` can set, the frame's scene is loaded whole, as it was before: a parameter
+read by an ``<integer>``, a ``<boolean>`` or a ``<string>`` other than a mesh's file, by an element other than a
+sensor, shape, emitter, BSDF or texture (an integrator, a film, a shape group), a change of structure, a mesh whose
+file has another number of vertices, or a changed property whose parameter ``mi.traverse`` does not list. The
+frames are the images loading each one whole gives (``tests/test_sequence_batch.py``).
 """
 from __future__ import annotations
 
