@@ -47,13 +47,20 @@ def test_an_animation_written_one_file_a_frame_is_the_frames_sequence(tmp_path):
         files[-1].write_text(CORNELL.read_text().replace("$frame", str(frame)))
     assert SEQUENCE[-1] == "-q"
     log = gmcpt("batch", *files, *SEQUENCE[:-1], "--out", tmp_path / "files").stderr
-    assert "frame 3: 2 samples a pixel, 3 past frames\n" in log and "loaded whole" not in log
+    assert "frame 3: 2 samples a pixel, 3 past frames\n" in log and "loaded whole" not in log and "warning" not in log
     gmcpt("batch", CORNELL, "--frames", "0:4", *SEQUENCE, "--out", tmp_path / "frames")
     for frame in range(4):
         record = json.loads((tmp_path / "files" / f"shot-{frame}.json").read_text())
         assert record["parameters"]["sequence"] and record["history_frames"] == min(frame, 4)
         np.testing.assert_array_equal(read_rgb_exr(tmp_path / "files" / f"shot-{frame}.exr"),
                                       read_rgb_exr(tmp_path / "frames" / f"cornell-box_frame-000{frame}.exr"))
+
+
+def test_files_whose_numbers_a_shell_misorders_are_named():
+    from gmcpt.cli.sequence_batch import out_of_order
+
+    assert out_of_order(["s/shot-1.xml", "s/shot-10.xml", "s/shot-2.xml"]) == ("s/shot-10.xml", "s/shot-2.xml")
+    assert out_of_order(["shot-9.xml", "shot-10.xml"]) is None and out_of_order(["b.xml", "a.xml"]) == ("b.xml", "a.xml")
 
 
 @pytest.mark.parametrize("options, message", [

@@ -244,7 +244,12 @@ def batch(args, say=lambda message: None, committed: Callable[[], None] | None =
     if args.history is not None:
         from . import sequence_batch, sequence_ray
 
-        say(f"{len(jobs)} frames as a sequence, each reusing up to {args.history} earlier frames")
+        say(f"{len(jobs)} frames as a sequence" + ("" if args.frames else " (a scene file a frame, in the order given)")
+            + f", each reusing up to {args.history} earlier frames")
+        swapped = None if args.frames else sequence_batch.out_of_order(args.scenes)
+        if swapped:
+            print(f"warning: {swapped[0]} comes before {swapped[1]}: the frames are rendered in the order given "
+                  f"(number the files with leading zeros, or list them in order)", file=sys.stderr)
         with Progress(len(jobs), "sequence", unit="frame", say=say, quiet=args.quiet) as bar:
             rows = (sequence_batch.run if args.ray is None else sequence_ray.run)(args, jobs, say, bar)
         return _summary(args, jobs, rows, started, committed)

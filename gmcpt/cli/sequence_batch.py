@@ -11,6 +11,7 @@ chunks, one Ray task each (:mod:`gmcpt.cli.sequence_ray`), with these files and 
 """
 from __future__ import annotations
 
+import re
 import time
 from pathlib import Path
 
@@ -59,6 +60,15 @@ def check(args) -> None:
     from ..temporal.sequence import SequenceSettings
 
     SequenceSettings(history=args.history)  # its one rule of the history's length
+
+
+def out_of_order(scenes: list[str]) -> tuple[str, str] | None:
+    """The first two of an animation's scene files (one a frame) whose order, as given, is not their names' order
+    with numbers read as numbers (a shell's ``shot-*.xml`` puts shot-10 before shot-2); None where it is."""
+    def key(name: str) -> list:
+        return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", Path(name).name)]
+
+    return next(((a, b) for a, b in zip(scenes, scenes[1:]) if key(b) < key(a)), None)
 
 
 def sequence_settings(args, scene):
