@@ -301,8 +301,10 @@ def test_reference_rendered_once_then_cached(tmp_path):
     (["box.xml", "--reference", "small.exr"], "small.exr is 8x8, the film is 32x32"),
     (["box.xml", "--seed", "-1"], "--seed must be"),
     (["box.xml", "--frames", "0:3"], "box.xml has no animation for --frames: nothing in it reads $frame"),
-    (["anim.xml", "--frames", "0:3", "--reference", "small.exr"], "--frames renders a reference of each frame: drop "
-                                                                  "--reference"),
+    (["anim.xml", "--frames", "0:3", "--reference", "small.exr"], "an animation renders a reference of each frame: "
+                                                                  "drop --reference"),
+    (["anim.xml", "box.xml", "--frames", "0:3"], "several files are an animation already (one a frame): not both"),
+    (["anim.xml", "missing.xml"], "scene file not found: missing.xml"),
     (["anim.xml", "--frames", "2:3"], "--frames 2:3 is one frame"),
     (["anim.xml", "--frames", "3:1"], "--frames expects START:STOP with START < STOP"),
     (["anim.xml", "--frames", "0:3", "--budgets", "0.5"], "--budgets must each be in [1, 32]"),
@@ -356,6 +358,15 @@ def test_compare_frames_writes_the_movie_the_table_the_plot_and_the_verdict(tmp_
     # the same figures: to the last bits only where a kernel was recorded in one run and replayed in the other
     again_psnr = json.loads((tmp_path / "b" / "compare.json").read_text())["rows"][0]["psnr"]
     assert again_psnr == pytest.approx(record["rows"][0]["psnr"], rel=1e-6)
+    # the same animation written one file a frame: the same frames, their references cached by file
+    files = [f"shot-{frame}.xml" for frame in range(4)]
+    for frame, name in enumerate(files):
+        (tmp_path / name).write_text(ANIMATED_BOX.replace("$frame", str(frame)))
+    shots = _compare(tmp_path, *files, "--budgets", "1", "--reference-spp", "8", "--out", "c")
+    assert shots.returncode == 0, shots.stderr[-3000:]
+    written = json.loads((tmp_path / "c" / "compare.json").read_text())
+    assert written["frames"] == [0, 4] and [Path(file).name for file in written["files"]] == files
+    assert [row["psnr"] for row in written["rows"]] == pytest.approx([row["psnr"] for row in record["rows"]], rel=1e-6)
 
 
 def _frame_rows(sequence_seconds, flicker=(2.0, 2.0, 2.0)):
@@ -482,5 +493,5 @@ def test_an_animation_that_one_scene_cannot_take_is_one_line(mi, tmp_path):
 
     (tmp_path / "anim.xml").write_text(ANIMATED_BOX.replace('<integer name="max_depth" value="4"/>',
                                                             '<integer name="max_depth" value="$frame"/>'))
-    with pytest.raises(GmcptError, match="frame 3 of .*anim.xml is another scene.*its <integrator> reads a parameter"):
+    with pytest.raises(GmcptError, match=r"frame 3 \(.*anim.xml\) is another scene.*its <integrator> reads a parameter"):
         XmlFrames(tmp_path / "anim.xml", (8, 8), range(2, 5))

@@ -2,6 +2,7 @@
 
     gmcpt compare SCENE.xml [--reference REF.exr] [--budgets 2 4 8] [--res W H] [--out DIR] [--seed N]
     gmcpt compare SCENE.xml --frames A:B [--budgets 1 2 4] [--res W H] [--out DIR]
+    gmcpt compare FRAME0.xml FRAME1.xml ... [--budgets 1 2 4] [--res W H] [--out DIR]
 
 The scene's own integrator (the nested one, for a scene that names ``masked_path``) traces every contender:
 the default (``gan_oidn`` through the budget chooser) at each budget, path tracing + OIDN and adaptive path
@@ -15,7 +16,8 @@ and the timing rounds (:func:`gmcpt.evaluation.compare_report.verdict_noise`); w
 verdict says "a wash (within the run's noise)", and where the default went dense at every budget it says so first
 (it traced every pixel: path tracing + OIDN with its own guides).
 
-**An animation** (``--frames A:B``, a scene that reads ``$frame``: :func:`gmcpt.render.scene.check_animated`): the
+**An animation** (``--frames A:B``, a scene that reads ``$frame``: :func:`gmcpt.render.scene.check_animated`; or
+an animation's scene files, one a frame, in the order given): the
 default for animations, the sequence mode (:class:`gmcpt.temporal.sequence.SequenceRenderer`, its default history) at
 each budget, against per-frame path tracing + OIDN at powers of two up to past 7.6x the largest budget
 (:func:`gmcpt.evaluation.sequences.frame_ladder`), as ``benchmarks/sequence.py`` measures them
@@ -77,7 +79,9 @@ def build_parser() -> argparse.ArgumentParser:
                     "path tracing + OIDN,\nat equal samples and at equal warm time, measured as `gmcpt eval` does. "
                     "With --frames, on the scene's $frame animation:\nthe sequence mode against per-frame path tracing "
                     "+ OIDN at equal time, with a side-by-side movie.")
-    parser.add_argument("scene", help="Mitsuba 3 scene XML (any integrator; masked_path's nested one is used)")
+    parser.add_argument("scenes", nargs="+", metavar="scene",
+                        help="Mitsuba 3 scene XML (any integrator; masked_path's nested one is used); several: an "
+                        "animation written one file a frame, in the order given, compared as --frames is")
     parser.add_argument("--reference", metavar="REF.exr",
                         help="reference EXR at the film size (default: render one at --reference-spp, cached)")
     parser.add_argument("--reference-spp", type=int, metavar="N",
@@ -110,16 +114,22 @@ def _validate(args) -> Path:
     from ..io.files import check_output
     from ..limits import check_resolution, check_seed, check_spp
 
-    if Path(args.scene).is_dir():
-        raise GmcptError(f"{args.scene} is a folder: give the scene XML in it")
-    if not Path(args.scene).is_file():
-        raise GmcptError(f"scene file not found: {args.scene}")
-    if args.frames is not None:
+    for scene in args.scenes:
+        if Path(scene).is_dir():
+            raise GmcptError(f"{scene} is a folder: give the scene XML in it")
+        if not Path(scene).is_file():
+            raise GmcptError(f"scene file not found: {scene}")
+    args.scene, args.files = args.scenes[0], (args.scenes if len(args.scenes) > 1 else None)
+    if args.files and args.frames is not None:
+        raise GmcptError("--frames animates one scene file; several files are an animation already (one a frame): "
+                         "not both")
+    animated = args.frames is not None or args.files
+    if animated:
         _validate_frames(args)
     if args.budgets is None:
-        args.budgets = list(FRAME_BUDGETS if args.frames is not None else DEFAULT_BUDGETS)
+        args.budgets = list(FRAME_BUDGETS if animated else DEFAULT_BUDGETS)
     if args.reference_spp is None:
-        args.reference_spp = FRAME_REFERENCE_SPP if args.frames is not None else REFERENCE_SPP
+        args.reference_spp = FRAME_REFERENCE_SPP if animated else REFERENCE_SPP
     for budget in args.budgets:
         if not MIN_BUDGET <= budget <= MAX_BUDGET:  # NaN fails both
             raise GmcptError(f"--budgets must each be in [{MIN_BUDGET:g}, {MAX_BUDGET:g}] samples a pixel (the "
@@ -133,7 +143,7 @@ def _validate(args) -> Path:
     out = Path(args.out or f"compare-{scene_name(args.scene)}")
     if out.exists() and not out.is_dir():
         raise GmcptError(f"--out {out} is not a folder")
-    for name in (JSON, PLOT, IMAGES if args.frames is None else MOVIE):
+    for name in (JSON, PLOT, MOVIE if animated else IMAGES):
         check_output(out / name)  # its folder is made when writing, if its parent exists
     return out
 
@@ -147,11 +157,13 @@ def frame_range(frames: str) -> range:
 
 
 def _validate_frames(args) -> None:
-    """``--frames``: an animated scene, two frames or more, and no option it cannot take."""
+    """``--frames`` (or several files): an animated scene, two frames or more, and no option it cannot take."""
     from ..render.scene import check_animated
 
     if args.reference:
-        raise GmcptError("--frames renders a reference of each frame: drop --reference")
+        raise GmcptError("an animation renders a reference of each frame: drop --reference")
+    if args.files:
+        return
     if len(frame_range(args.frames)) < 2:
         raise GmcptError(f"--frames {args.frames} is one frame: an animation needs two or more (flicker is "
                          f"read between frames); without --frames compare takes one frame")
@@ -229,7 +241,7 @@ def compare(args, say) -> dict:
 
     start = time.perf_counter()
     out = _validate(args)
-    if args.frames is not None:
+    if args.frames is not None or args.files:
         return compare_frames(args, say, out, start)
     scene = load_scene(args.scene, tuple(args.res) if args.res else None)
     size = tuple(int(side) for side in scene_sensor(scene, path=args.scene).film().crop_size())
@@ -283,7 +295,8 @@ def _frame_truth(args, animation, frames: range, size: tuple[int, int], say):
             animation.at(frame)
             for found, first_seed in zip(figures, SEQUENCE_REFERENCE_SEEDS):
                 seed = first_seed + COMPARE_FRAME_STEP * frame  # each pass of a reference takes the next seed
-                key = reference_key(args.scene, size, half, seed, {"frame": str(frame)})
+                key = reference_key(args.files[frame], size, half, seed, {}) if args.files else \
+                    reference_key(args.scene, size, half, seed, {"frame": str(frame)})
                 found.append(cached_reference(key, lambda: animation.scene, half, seed, label=scene_name(args.scene)))
             figures[2].append(FrameGeometry(*geometry(animation.scene, animation.scene.sensors()[0])))
             bar.update()
@@ -327,9 +340,9 @@ def compare_frames(args, say, out: Path, start: float) -> dict:
                                         frames_verdict_line, path_oidn_run, sequence_figures, sequence_run,
                                         sequence_verdict, take_turns, verdict_noise)
 
-    frames = frame_range(args.frames)
-    say(f"{args.scene}: loading frames {frames.start}-{frames.stop - 1}")
-    animation = XmlFrames(args.scene, tuple(args.res) if args.res else None, frames)
+    frames = range(len(args.files)) if args.files else frame_range(args.frames)
+    say(f"{args.scene}: loading frames {frames.start}-{frames.stop - 1}" + (" (a file each)" if args.files else ""))
+    animation = XmlFrames(args.scene, tuple(args.res) if args.res else None, frames, args.files)
     scene = animation.scene
     size = tuple(int(side) for side in scene.sensors()[0].film().crop_size())
     truth = _frame_truth(args, animation, frames, size, say)
@@ -364,6 +377,7 @@ def compare_frames(args, say, out: Path, start: float) -> dict:
     noise = verdict_noise(rows, seed=args.seed) if verdict else {}
     line = frames_verdict_line(verdict, noise)
     record = {"command": "gmcpt compare " + " ".join(args.argv), "scene": str(Path(args.scene).resolve()),
+              "files": [str(Path(file).resolve()) for file in args.files] if args.files else None,
               "size": list(size), "frames": [frames.start, frames.stop], "reference_spp": args.reference_spp,
               "budgets": budgets, "path_spp": list(ladder), "seed": args.seed, "rows": rows, "verdict": verdict,
               "noise": noise, "verdict_line": line,

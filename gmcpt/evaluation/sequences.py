@@ -269,21 +269,25 @@ class XmlFrames:
     another size, an integer) would be another scene: one line.
     """
 
-    def __init__(self, path, resolution: tuple[int, int] | None, frames: range):
+    def __init__(self, path, resolution: tuple[int, int] | None, frames: range, files: list | None = None):
         from ..render.frames import SceneFrames
 
+        self.files = files  # an animation written one file a frame: frame i is files[i]
         self.frames = SceneFrames(path, resolution)
-        self.scene = self.frames.at({"frame": str(frames[0])})
+        self.scene = self._at(frames[0])
         for frame in (*frames[1:], frames[0]):
             self.at(frame)
+
+    def _at(self, frame: int):
+        return self.frames.at({}, self.files[frame]) if self.files else self.frames.at({"frame": str(frame)})
 
     def at(self, frame: int) -> None:
         """Set the scene as it is at ``frame``."""
         from ..errors import GmcptError
 
-        if self.frames.at({"frame": str(frame)}) is not self.scene:
-            raise GmcptError(f"frame {frame} of {self.frames.path} is another scene, not values mi.traverse can set "
-                             f"on one: {self.frames.whole_reason}")
+        if self._at(frame) is not self.scene:
+            raise GmcptError(f"frame {frame} ({self.files[frame] if self.files else self.frames.path}) is another "
+                             f"scene, not values mi.traverse can set on one: {self.frames.whole_reason}")
 
 
 @dataclass(frozen=True)
