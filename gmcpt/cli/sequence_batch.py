@@ -199,7 +199,8 @@ def _save_arrays(path: Path, arrays: dict) -> None:
 
 
 def run(args, jobs: list[dict], say, bar) -> dict:
-    """Render ``jobs`` (one scene's frames, in order) as a sequence; returns the summary rows by name."""
+    """Render ``jobs`` (an animation's frames, in order: one scene's ``--frames``, or its files) as a sequence;
+    returns the summary rows by name."""
     from ..temporal.sequence import SequenceRenderer
 
     rows, renderer, newest, frames = {}, None, -1, scene_frames(args, jobs[0])
@@ -222,9 +223,9 @@ def run(args, jobs: list[dict], say, bar) -> dict:
         loads = frames.loads
         scene, parameters, scene_seconds = loaded or frame_scene(frames, job)
         whole = f"; its scene loaded whole: {frames.whole_reason}" if frames.loads > max(loads, 1) else ""
-        say(f"frame {job['frame']}: " + (f"{renderer.settings.time:g} s" if renderer.settings.time else
-                                                f"{renderer.settings.budget:g} samples a pixel")
-            + f", {len(renderer.past)} past frames{whole}")
+        settings = renderer.settings
+        spends = f"{settings.time:g} s" if settings.time else f"{settings.budget:g} samples a pixel"
+        say(f"frame {job['frame']}: {spends}, {len(renderer.past)} past frames{whole}")
         image, record = render_frame(args, renderer, job, scene, parameters, scene_seconds)
         write_frame(job, image, record)
         _save_state(args, renderer)
