@@ -27,9 +27,10 @@ each budget, against per-frame path tracing + OIDN at powers of two up to past 7
   Mitsuba's ``aov`` integrator for OIDN's guides and OIDN; the sequence mode pays all of
   ``SequenceRenderer.render`` (its survey, the traced samples, the gather of its history, OIDN). The contenders
   take turns frame by frame, so a machine whose pace drifts slows them alike.
-- *Not charged*: loading the scene and setting its frame. Each frame's XML is loaded once, up front, with
-  ``frame=i``; what changes is set on one scene through ``mi.traverse``, made opaque
-  (:class:`gmcpt.evaluation.sequences.XmlFrames`), as the benchmark moves its scenes. A scene loaded anew each
+- *Not charged*: loading the scene and setting its frame. What each frame changes (its elements that read
+  ``$frame``, or that differ from the file before's) is loaded alone and set on one scene through ``mi.traverse``,
+  made opaque (:class:`gmcpt.evaluation.sequences.XmlFrames`, every frame once up front to check it can be), as the
+  benchmark moves its scenes. A scene loaded anew each
   frame would compile every kernel again each frame (its camera is a literal in them), a second and more on two
   cores, on both sides alike; a user's ``mi.render`` loop that moves the scene through ``mi.traverse`` with
   ``dr.make_opaque`` pays it once. Then every run renders the first three frames once, untimed and thrown away (a
