@@ -154,6 +154,24 @@ def _pixel_sums_arguments(mi, scene, path, pixels, seed):
                     [kernels.dr.opaque(mi.Float, 0.0, pixels.size) for _ in range(5)])
 
 
+def test_a_recording_serves_only_its_own_integrator_even_at_a_freed_ones_address(mi):
+    """Integrators made one a call on one scene (a loop that loads one a frame): the recording keyed by the first
+    one's id was replayed for the next one, another max_depth, made at the freed one's address."""
+    from gmcpt.render.kernels import trace_film_pixels
+    from gmcpt.render.scene import load_scene
+
+    pixels = np.repeat(np.arange(16 * 16), 2)
+
+    def traced(scene, depth):
+        integrator = mi.load_dict({"type": "path", "max_depth": depth})
+        return trace_film_pixels(scene, scene.sensors()[0], integrator, pixels, 0)[0]
+
+    alone = {depth: traced(load_scene(CORNELL, resolution=(16, 16)), depth) for depth in (2, 8)}
+    held = load_scene(CORNELL, resolution=(16, 16))
+    for depth in (2, 8, 2, 8):
+        np.testing.assert_allclose(traced(held, depth), alone[depth], rtol=1e-5, atol=1e-6)
+
+
 def test_a_recording_serves_only_its_own_scene_and_goes_with_it(mi):
     """A scene loaded again (a batch does it for every frame) gets its own recording: replaying another
     scene's read that scene's freed objects. A scene nobody else holds is let go at the next call, with

@@ -11,6 +11,13 @@ from __future__ import annotations
 
 import sys
 
+#: Integrators a scene's state keeps for each frozen kernel's recordings and for the guided twins (a frame uses two
+#: to four: the path tracer, its guided twins); the oldest goes first. Both are keyed by the integrator's id, so the
+#: integrator is held beside them (else a new integrator at a freed one's address replayed the other's recording:
+#: another max_depth traced as the first); the bound keeps a loop that makes an integrator a frame from holding them
+#: all.
+INTEGRATORS_KEPT = 8
+
 #: id -> (the scene, its state)
 _HELD: dict[int, tuple[object, dict]] = {}
 

@@ -41,7 +41,7 @@ from ..frame import DEFAULT_FEATURE_SPP
 from ..limits import SEED_LIMIT
 from ..seeds import FEATURE_SEED_OFFSET
 from .guided_path import FEATURE_PLANES, first_hit_features
-from .held import scene_state
+from .held import INTEGRATORS_KEPT, scene_state
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
 # samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
@@ -65,7 +65,6 @@ ANIMATED_MOVES = 2
 #: light's, ran its light frames plain (about 50 ms of a 256x256 frame; docs/experiments.md, sixty-fifth session);
 #: the sequence benchmark's three renderers of one scene make 2 still calls between a frame's moves.
 STILL_CALLS = 8
-
 
 class FrozenKernel:
     """``function(scene, ...)`` recorded by ``dr.freeze`` once per scene and settings, then replayed.
@@ -103,7 +102,12 @@ class FrozenKernel:
             return self._plain(scene, arguments)
         key = self.key(integrator)
         if key not in recordings:
-            recordings[key] = dr.freeze(self.function, **FREEZE_OPTIONS)
+            held = state.setdefault("recorded integrators", {})
+            mine = [other for other in held if other[0] is self]
+            for old in mine[:max(0, len(mine) - INTEGRATORS_KEPT + 1)]:
+                del held[old]
+                recordings.pop(old, None)
+            recordings[key], held[key] = dr.freeze(self.function, **FREEZE_OPTIONS), integrator
         if recordings[key] is not None:
             try:
                 return recordings[key](scene, *arguments())
@@ -114,7 +118,9 @@ class FrozenKernel:
     def key(self, integrator: object = None) -> tuple:
         """The key of this kernel's recording for ``integrator`` among a scene's recordings: one for each integrator,
         since Dr.Jit replays a recording for any integrator of the same layout (two
-        :class:`~gmcpt.render.guided_path.GuidedPath` with other light samples traced the first one's paths)."""
+        :class:`~gmcpt.render.guided_path.GuidedPath` with other light samples traced the first one's paths); the
+        integrator is held while its recording is kept (:data:`~gmcpt.render.held.INTEGRATORS_KEPT`), so that no
+        other takes its id."""
         return self, id(integrator)
 
     def _plain(self, scene: mi.Scene, arguments: Callable[[], tuple]):
