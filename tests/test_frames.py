@@ -61,6 +61,9 @@ BLOB = '<shape type="obj"><string name="filename" value="blob.obj"/><ref id="gre
      '<rgb name="radiance" value="$frame"/></emitter></shape>', "3", 1, ""),
     # the path's depth: no parameter of mi.traverse, so every new frame loads whole
     (BLOB.format(""), "$frame", 3, "its <integrator> reads a parameter that changed"),
+    # a shape in a group, set through the group: rendered as the group loaded
+    ('<shape type="shapegroup" id="group"><shape type="sphere"><transform name="to_world"><translate x="0.$frame"/>'
+     '</transform><ref id="grey"/></shape></shape><shape type="instance"><ref id="group"/></shape>', "3", 1, ""),
     # a sphere's radius: mi.traverse shows it only inside its transform, not as a parameter of its name
     ('<shape type="sphere"><float name="radius" value="0.$frame"/><ref id="grey"/></shape>', "3", 3,
      "no parameter of its <shape> shows the change of 'radius'"),
