@@ -7,9 +7,9 @@ meshes, a light: milliseconds, where loading a room of 180 meshes takes 0.4-0.7 
 scene it holds, made opaque, so that the kernels compiled and recorded for the first frame serve the next ones.
 Where a change is not one ``mi.traverse`` can set, the frame's scene is loaded whole, as it was before: a parameter
 read by an ``<integer>``, a ``<boolean>`` or a ``<string>`` other than a mesh's file, by an element other than a
-sensor, shape, emitter, BSDF or texture (an integrator, a film, a shape group), a change of structure, a mesh whose
-file has another number of vertices, or a changed property whose parameter ``mi.traverse`` does not list. The
-frames are the images loading each one whole gives (``tests/test_sequence_batch.py``).
+sensor, shape, emitter, BSDF or texture (an integrator, a medium), a change of structure, a mesh whose file has
+another number of vertices, or a changed property whose parameter ``mi.traverse`` does not list. The frames are the
+images loading each one whole gives (``tests/test_sequence_batch.py``).
 """
 from __future__ import annotations
 
