@@ -86,3 +86,27 @@ def test_a_frame_sets_what_mi_traverse_can_and_loads_the_rest_whole(mi, tmp_path
         whole = _render(mi, SceneFrames(path).at({"frame": str(frame)}), frame)
         np.testing.assert_allclose(image, whole, rtol=1e-6, atol=1e-7)
     assert (frames.loads, frames.whole_reason) == (loads, reason)
+
+
+def test_a_turning_environment_map_is_set_from_a_proxys_transform_checked_once(mi, tmp_path):
+    """An element that only moves (its to_world) reads its transform from a rectangle's, checked against its own load
+    at its first move: an environment map then turns without its image read again; a sphere with a centre and a
+    radius, whose transform Mitsuba composes with them, fails the check and is loaded as before."""
+    from gmcpt.io.exr import write_exr
+    from gmcpt.render.frames import SceneFrames
+
+    rows = np.linspace(0.2, 2.0, 8 * 16, dtype=np.float32).reshape(8, 16)
+    write_exr(tmp_path / "sky.exr", {"R": rows, "G": rows[::-1], "B": rows.T.reshape(8, 16)})
+    path = _scene(tmp_path / "scene.xml", '<shape type="sphere" id="ball"><point name="center" x="0.4" y="0" z="0"/>'
+                  '<float name="radius" value="0.5"/><transform name="to_world"><rotate y="1" angle="3$frame"/>'
+                  '</transform><ref id="grey"/></shape>')
+    path.write_text(path.read_text().replace(  # the sky instead of the constant emitter: one environment a scene
+        '<emitter type="constant"><rgb name="radiance" value="0.5"/></emitter>',
+        '<emitter type="envmap" id="sky"><string name="filename" value="sky.exr"/>'
+        '<transform name="to_world"><rotate y="1" angle="1$frame"/></transform></emitter>'))
+    frames = SceneFrames(path)
+    for frame in (1, 2, 3):
+        image = _render(mi, frames.at({"frame": str(frame)}), frame)
+        np.testing.assert_allclose(image, _render(mi, SceneFrames(path).at({"frame": str(frame)}), frame),
+                                   rtol=1e-6, atol=1e-7)
+    assert frames.loads == 1 and frames.proxies == {"sky": True, "ball": False}

@@ -67,6 +67,8 @@ class SceneFrames:
         self.scene: mi.Scene | None = None
         self.values: dict[str, str] = {}
         self.loads, self.whole_reason = 0, ""
+        #: element id -> whether its moves are read from a proxy's transform (checked at its first move: _loaded)
+        self.proxies: dict[str, bool] = {}
 
     @property
     def path(self) -> Path:
@@ -119,15 +121,41 @@ class SceneFrames:
             return
         names = [_changes(old, new, self.values, values) for old, new in pairs]
         elements = [new for _, new in pairs]
-        part = _part(file.root, elements)
-        text = _attribute_text(part)
-        loaded = mi.traverse(load_tree(part, file.path, {name: value for name, value in parameters.items()
-                                                          if f"${name}" in text}, whole=False))
+        moved = [new for (old, new), element_names in zip(pairs, names)
+                 if not element_names and _moved_only(old, new, self.values, values)]
+        loaded = self._loaded(file, elements, moved, parameters)
         held = mi.traverse(self.scene)  # read here; set through another (reading marks a value for the update)
         new_values = {}
         for element, element_names in zip(elements, names):
             new_values.update(_element_values(element, element_names, loaded, held))
         self._apply(new_values)
+
+    def _loaded(self, file: _File, elements: list[ET.Element], moved: list[ET.Element],
+                parameters: dict[str, str]) -> dict:
+        """The ``mi.traverse`` values of ``elements`` of ``file``, by key. Each of those that only ``moved`` gets its
+        ``to_world`` from a rectangle's (:func:`_proxy`) where loading it (an environment map's image, a shape group's
+        meshes) costs more: checked against its own load the first time it moves (:attr:`proxies`), a sphere with a
+        centre failing it."""
+        trusted = [element for element in moved if self.proxies.get(element.get("id"))]
+        tried = [element for element in moved if self.proxies.get(element.get("id")) is not False]
+        rest = [element for element in elements if not any(element is other for other in trusted)]
+        loaded = self._load_part(file, rest, parameters) if rest else {}
+        by_proxy = self._load_part(file, [_proxy(element) for element in tried], parameters) if tried else {}
+        for element in tried:
+            key = f"{element.get('id')}.to_world"
+            if element.get("id") not in self.proxies:
+                self.proxies[element.get("id")] = key in loaded and key in by_proxy and \
+                    np.array_equal(value_array(loaded[key]), value_array(by_proxy[key]))
+        return {**{f"{element.get('id')}.to_world": by_proxy[f"{element.get('id')}.to_world"]
+                   for element in trusted}, **loaded}
+
+    def _load_part(self, file: _File, elements: list[ET.Element], parameters: dict[str, str]) -> dict:
+        """The ``mi.traverse`` values of ``elements`` of ``file``, loaded alone (with what they refer to), by key."""
+        part = _part(file.root, elements)
+        text = _attribute_text(part)
+        loaded = mi.traverse(load_tree(part, file.path, {name: value for name, value in parameters.items()
+                                                          if f"${name}" in text}, whole=False))
+        return {key: loaded[key] for key in loaded.keys()}
 
     def _apply(self, values: dict) -> None:
         """Set ``values`` (``mi.traverse`` keys) on the held scene, opaque, in one update; a value equal to the held
@@ -140,6 +168,26 @@ class SceneFrames:
             setting[key] = opaque_value(value)
             setting.set_dirty(key)
         setting.update()
+
+
+def _moved_only(old: ET.Element, new: ET.Element, before: dict[str, str], after: dict[str, str]) -> bool:
+    """Whether ``old`` with the parameters ``before`` and ``new`` with ``after`` differ in their ``to_world``
+    alone, and are not a mesh (whose vertices the transform moves)."""
+    if new.get("type") in MESH_TYPES:
+        return False
+    old, new = _resolved(old, before), _resolved(new, after)
+    for element in (old, new):
+        for transform in element.findall("transform[@name='to_world']"):
+            element.remove(transform)
+    return ET.tostring(old) == ET.tostring(new)
+
+
+def _proxy(element: ET.Element) -> ET.Element:
+    """A rectangle with ``element``'s id and ``to_world``: it loads in a millisecond, and its ``to_world`` is the
+    element's where the element keeps the file's transform as it is (checked: :meth:`SceneFrames._set`)."""
+    proxy = ET.Element("shape", {"type": "rectangle", "id": element.get("id")})
+    proxy.extend(copy.deepcopy(transform) for transform in element.findall("transform[@name='to_world']"))
+    return proxy
 
 
 def _element_values(element: ET.Element, names: list[str], loaded, held) -> dict:
@@ -273,7 +321,7 @@ def _ids(element: ET.Element) -> list[str]:
 
 def _part(root: ET.Element, elements: list[ET.Element]) -> ET.Element:
     """A ``<scene>`` of ``elements``, the top-level elements they refer to (``<ref id>``, in turn) and the defaults,
-    in the file's order."""
+    in the file's order; elements not of the file (:func:`_proxy`) last."""
     by_id = {element.get("id"): element for element in root if element.get("id")}
     wanted, queue = {id(element) for element in elements}, list(elements)
     while queue:
@@ -284,4 +332,5 @@ def _part(root: ET.Element, elements: list[ET.Element]) -> ET.Element:
                 queue.append(target)
     part = ET.Element("scene", root.attrib)
     part.extend(element for element in root if element.tag == "default" or id(element) in wanted)
+    part.extend(element for element in elements if not any(element is mine for mine in root))
     return part
