@@ -5,6 +5,8 @@ the file that read a parameter whose value changed (``$frame``), or, written one
 XML differs from the file before's. :class:`SceneFrames` loads those top-level elements alone (a camera, a few
 meshes, a light: milliseconds, where loading a room of 180 meshes takes 0.4-0.7 s) and sets their parameters on the
 scene it holds, made opaque, so that the kernels compiled and recorded for the first frame serve the next ones.
+An element that only moves (an environment map that turns) reads its ``to_world`` from a rectangle's, once that
+was checked to be its own.
 Where a change is not one ``mi.traverse`` can set, the frame's scene is loaded whole, as it was before: a parameter
 read by an ``<integer>``, a ``<boolean>`` or a ``<string>`` other than a mesh's file, by an element other than a
 sensor, shape, emitter, BSDF or texture (an integrator, a medium), a change of structure, a mesh whose file has
