@@ -38,7 +38,7 @@ import drjit as dr
 import mitsuba as mi
 
 from ..image.domain import ALBEDO_MIN
-from .held import INTEGRATORS_KEPT, scene_state
+from .held import making_room, scene_state
 
 #: The AOVs, in the order of :class:`gmcpt.render.kernels.FeatureMeans`'s planes.
 FEATURE_PLANES = ("albedo.R", "albedo.G", "albedo.B", "normal.X", "normal.Y", "normal.Z", "distance", "hit",
@@ -210,7 +210,7 @@ def twin_of(scene: mi.Scene, integrator: mi.SamplingIntegrator, light_samples: i
     twins = scene_state(scene).setdefault("guided_twins", {})
     key = (id(integrator), light_samples, features)
     if key not in twins:  # the integrator held: its id stays its own
-        for old in list(twins)[:max(0, len(twins) - INTEGRATORS_KEPT + 1)]:  # a loop that makes one a frame
+        for old in making_room(list(twins)):  # a loop that makes an integrator a frame
             del twins[old]
         twins[key] = (integrator, guided_twin(integrator, light_samples, features))
     return twins[key][1]

@@ -18,6 +18,12 @@ import sys
 #: all.
 INTEGRATORS_KEPT = 8
 
+
+def making_room(keys: list) -> list:
+    """The oldest of ``keys`` (a state's entries for integrators, oldest first) to let go so that one more fits within
+    :data:`INTEGRATORS_KEPT`."""
+    return keys[:max(0, len(keys) - INTEGRATORS_KEPT + 1)]
+
 #: id -> (the scene, its state)
 _HELD: dict[int, tuple[object, dict]] = {}
 

@@ -41,7 +41,7 @@ from ..frame import DEFAULT_FEATURE_SPP
 from ..limits import SEED_LIMIT
 from ..seeds import FEATURE_SEED_OFFSET
 from .guided_path import FEATURE_PLANES, first_hit_features
-from .held import INTEGRATORS_KEPT, scene_state
+from .held import making_room, scene_state
 
 MAX_LANES = 1 << 24  # split the radiance pass into several when larger
 # samples of a pixel are consecutive lanes: pre-reduce them within a SIMD packet, one atomic per packet
@@ -66,6 +66,7 @@ ANIMATED_MOVES = 2
 #: the sequence benchmark's three renderers of one scene make 2 still calls between a frame's moves.
 STILL_CALLS = 8
 
+
 class FrozenKernel:
     """``function(scene, ...)`` recorded by ``dr.freeze`` once per scene and settings, then replayed.
 
@@ -84,8 +85,7 @@ class FrozenKernel:
         self.function = function
 
     def __call__(self, scene: mi.Scene, arguments: Callable[[], tuple], integrator: object = None):
-        state = scene_state(scene)
-        shapes = geometry_key(scene)
+        state, shapes = scene_state(scene), geometry_key(scene)
         recordings, seen = state.setdefault("recordings", {}), state.setdefault("geometry", {})
         moves, still = state.setdefault("moves", {}), state.setdefault("still", {})
         moved, seen[self] = self in seen and seen[self] != shapes, shapes
@@ -103,8 +103,7 @@ class FrozenKernel:
         key = self.key(integrator)
         if key not in recordings:
             held = state.setdefault("recorded integrators", {})
-            mine = [other for other in held if other[0] is self]
-            for old in mine[:max(0, len(mine) - INTEGRATORS_KEPT + 1)]:
+            for old in making_room([other for other in held if other[0] is self]):
                 del held[old]
                 recordings.pop(old, None)
             recordings[key], held[key] = dr.freeze(self.function, **FREEZE_OPTIONS), integrator
