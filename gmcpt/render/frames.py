@@ -121,10 +121,11 @@ class SceneFrames:
                  if old_text != new_text or any(f"${name}" in new_text for name in changed)]
         if not pairs:
             return
-        names = [_changes(old, new, self.values, values) for old, new in pairs]
+        resolved = [(_resolved(old, self.values), _resolved(new, values)) for old, new in pairs]
+        names = [_changes(old, new) for old, new in resolved]
         elements = [new for _, new in pairs]
-        moved = [new for (old, new), element_names in zip(pairs, names)
-                 if not element_names and _moved_only(old, new, self.values, values)]
+        moved = [new for (_, new), (old_resolved, new_resolved), element_names in zip(pairs, resolved, names)
+                 if not element_names and _moved_only(old_resolved, new_resolved)]
         loaded = self._loaded(file, elements, moved, parameters)
         held = mi.traverse(self.scene)  # read here; set through another (reading marks a value for the update)
         new_values = {}
@@ -172,21 +173,19 @@ class SceneFrames:
         setting.update()
 
 
-def _moved_only(old: ET.Element, new: ET.Element, before: dict[str, str], after: dict[str, str]) -> bool:
-    """Whether ``old`` with the parameters ``before`` and ``new`` with ``after`` differ in their ``to_world``
-    alone, and are not a mesh (whose vertices the transform moves)."""
-    if new.get("type") in MESH_TYPES:
-        return False
-    old, new = _resolved(old, before), _resolved(new, after)
-    for element in (old, new):
-        for transform in element.findall("transform[@name='to_world']"):
-            element.remove(transform)
-    return ET.tostring(old) == ET.tostring(new)
+def _moved_only(old: ET.Element, new: ET.Element) -> bool:
+    """Whether the resolved elements ``old`` and ``new`` (:func:`_resolved`) differ in their ``to_world`` alone, and are
+    not a mesh (whose vertices the transform moves)."""
+    def rest(element: ET.Element) -> tuple:
+        kept = [child for child in element if not (child.tag == "transform" and child.get("name") == "to_world")]
+        return element.tag, element.attrib, element.text, [ET.tostring(child) for child in kept]
+
+    return new.get("type") not in MESH_TYPES and rest(old) == rest(new)
 
 
 def _proxy(element: ET.Element) -> ET.Element:
     """A rectangle with ``element``'s id and ``to_world``: it loads in a millisecond, and its ``to_world`` is the
-    element's where the element keeps the file's transform as it is (checked: :meth:`SceneFrames._set`)."""
+    element's where the element keeps the file's transform as it is (checked: :meth:`SceneFrames._loaded`)."""
     proxy = ET.Element("shape", {"type": "rectangle", "id": element.get("id")})
     proxy.extend(copy.deepcopy(transform) for transform in element.findall("transform[@name='to_world']"))
     return proxy
@@ -279,11 +278,11 @@ def _resolved(element: ET.Element, values: dict[str, str]) -> ET.Element:
     return resolved
 
 
-def _changes(element: ET.Element, new_element: ET.Element, before: dict[str, str], after: dict[str, str]) -> list[str]:
-    """The XML property names whose values change from ``element`` with the parameters ``before`` to
-    ``new_element`` with ``after`` (a transform's or a mesh file's change shows in its parameters wherever it changes
-    anything: a translation by 0 written anew, a file of the same mesh, are no change); :class:`_Whole` where a
-    change is not one a frame may set."""
+def _changes(element: ET.Element, new_element: ET.Element) -> list[str]:
+    """The XML property names whose values change from ``element`` to ``new_element``, both resolved
+    (:func:`_resolved`) (a transform's or a mesh file's change shows in its parameters wherever it changes anything: a
+    translation by 0 written anew, a file of the same mesh, are no change); :class:`_Whole` where a change is not one
+    a frame may set."""
     if element.tag not in SETTABLE_ELEMENTS:
         raise _Whole(f"its <{element.tag}> reads a parameter that changed")
     names: list[str] = []
@@ -306,7 +305,7 @@ def _changes(element: ET.Element, new_element: ET.Element, before: dict[str, str
         for a, b in zip(old, new):
             walk(a, b, (*parents, old))
 
-    walk(_resolved(element, before), _resolved(new_element, after), ())
+    walk(element, new_element, ())
     return names
 
 
